@@ -1,0 +1,1 @@
+"""The FMU adapters: the shared framework (base) and one pythonfmu script per FMU (slaves/)."""

@@ -1,0 +1,210 @@
+"""The shared framework of the tribofmu FMUs: a thin layer over pythonfmu's ``Fmi2Slave``.
+
+Each FMU script declares its variables with :meth:`TriboSlave.declare` and implements
+:meth:`TriboSlave.advance`. This module is the one place that
+
+- writes what pythonfmu 0.7 leaves out of ``modelDescription.xml``: units, ``initial``
+  attributes, ``InitialUnknowns`` and the output dependencies of ``ModelStructure``;
+- turns bad values into FMI statuses a host can act on. pythonfmu maps any Python
+  exception to ``fmi2Fatal`` (the instance is lost) and ``do_step`` returning False to
+  ``fmi2Discard``. So setters never raise: a NaN input or an out-of-range parameter is
+  recorded, ``do_step`` logs it with category ``logStatusError`` naming the variable and
+  value, and returns ``fmi2Discard``; the host can set a valid value and step again;
+- saves and restores the complete state (variables plus the model's internal state), so
+  get/set and serialize/deserialize FMU state continue bit-identically.
+
+No physics here: the models live in :mod:`tribofmu.physics`.
+"""
+from __future__ import annotations
+
+import copy
+import math
+from typing import Any, Callable, Iterable
+from xml.etree.ElementTree import Element, SubElement
+
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu.enums import Fmi2Initial, Fmi2Status
+
+AUTHOR = "tribofmu developers"
+LICENSE = "MIT"
+VERSION = "0.1.0"
+
+_KINDS = {float: Real, int: Integer, bool: Boolean}
+
+
+class TriboSlave(Fmi2Slave):
+    """Base of every tribofmu FMU: declare variables, implement :meth:`advance`."""
+
+    author = AUTHOR
+    license = LICENSE
+    version = VERSION
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self._units: dict[str, str] = {}
+        self._depends_on: dict[str, tuple[str, ...]] = {}
+        self._checks: dict[str, Callable[[Any], str | None]] = {}
+        self._bad: dict[str, str] = {}  # variable name -> why its value was refused
+        self.time = 0.0
+
+    # -- declaring variables ------------------------------------------------------
+    def declare(self, name: str, start: Any, causality: Fmi2Causality, unit: str,
+                description: str, depends_on: Iterable[str] = (),
+                check: Callable[[Any], str | None] | None = None,
+                getter: Callable[[], Any] | None = None) -> None:
+        """Register a variable.
+
+        start: initial value (its Python type picks Real, Integer or Boolean);
+        unit: SI unit symbol ("1" for dimensionless); depends_on: for outputs, the inputs
+        they depend on directly; check: for parameters and inputs, returns why a value is
+        out of range (None if fine); getter: for outputs computed on demand.
+        """
+        kind = _KINDS[type(start)]
+        kwargs: dict[str, Any] = dict(causality=causality, description=description)
+        if causality == Fmi2Causality.parameter:
+            kwargs["variability"] = Fmi2Variability.fixed
+        elif causality == Fmi2Causality.input:
+            kwargs["variability"] = Fmi2Variability.continuous if kind is Real else Fmi2Variability.discrete
+        elif causality == Fmi2Causality.output:
+            kwargs["variability"] = Fmi2Variability.continuous if kind is Real else Fmi2Variability.discrete
+            kwargs["initial"] = Fmi2Initial.calculated
+        if causality in (Fmi2Causality.parameter, Fmi2Causality.input):
+            setattr(self, name, start)
+            kwargs["setter"] = self._setter(name, type(start))
+        if getter is not None:
+            kwargs["getter"] = getter
+        elif causality == Fmi2Causality.output:
+            setattr(self, name, start)
+        self.register_variable(kind(name, **kwargs))
+        if kind is Real:
+            self._units[name] = unit
+        self._depends_on[name] = tuple(depends_on)
+        if check is not None:
+            self._checks[name] = check
+
+    def _setter(self, name: str, kind: type) -> Callable[[Any], None]:
+        def setter(value: Any) -> None:
+            value = kind(value)
+            if kind is float and not math.isfinite(value):
+                why = f"must be finite, got {value}"
+            else:
+                check = self._checks.get(name)
+                why = check(value) if check else None
+            if why:
+                self._bad[name] = f"{name} {why}"
+            else:
+                self._bad.pop(name, None)
+            setattr(self, name, value)
+            self.changed(name)
+        return setter
+
+    # -- stepping ---------------------------------------------------------------------
+    def setup_experiment(self, start_time: float, stop_time=None, tolerance=None) -> None:
+        self.time = start_time
+
+    def exit_initialization_mode(self) -> None:
+        problems = self.problems()
+        for problem in problems:
+            self.log(f"{self.instance_name}: {problem}", Fmi2Status.error)
+        if not problems:
+            self.initialize()
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        problems = self.problems()
+        if not (math.isfinite(step_size) and step_size > 0):
+            problems.append(f"communication step size must be > 0, got {step_size}")
+        if problems:
+            for problem in problems:
+                self.log(f"{self.instance_name}: {problem}; step refused", Fmi2Status.error)
+            return False
+        try:
+            why = self.advance(current_time, step_size)
+        except (ArithmeticError, ValueError) as exc:  # numerical failure: report, keep the instance
+            why = f"numerical failure: {exc}"
+        if why:
+            self.log(f"{self.instance_name}: {why}; step refused", Fmi2Status.error)
+            return False
+        self.time = current_time + step_size
+        return True
+
+    def problems(self) -> list[str]:
+        """Every refused value and every parameter combination the model rejects."""
+        return list(self._bad.values()) + self.model_problems()
+
+    # -- what each model provides ---------------------------------------------------
+    def model_problems(self) -> list[str]:
+        """Parameter problems the per-variable checks cannot see (combinations)."""
+        return []
+
+    def initialize(self) -> None:
+        """Set the internal state from the parameters (after initialization mode)."""
+
+    def changed(self, name: str) -> None:
+        """Called after a parameter or input was set (e.g. to drop a cached model)."""
+
+    def advance(self, t: float, h: float) -> str | None:
+        """Advance the model from t to t + h [s]; return a reason to refuse the step, or None."""
+        raise NotImplementedError
+
+    # -- FMU state ----------------------------------------------------------------------
+    def _get_fmu_state(self) -> dict[str, Any]:
+        state = {name: copy.copy(getattr(self, name)) for name in self._state_names()}
+        state["_bad"] = dict(self._bad)
+        return state
+
+    def _set_fmu_state(self, state: dict[str, Any]) -> None:
+        for name, value in state.items():
+            if name == "_bad":
+                self._bad = dict(value)
+            else:
+                setattr(self, name, value)
+
+    def _state_names(self) -> list[str]:
+        names = [v.name for v in self.vars.values() if v.causality != Fmi2Causality.output]
+        names += [v.name for v in self.vars.values()
+                  if v.causality == Fmi2Causality.output and hasattr(self, v.name)]
+        return names + ["time"] + list(self.internal_state_names)
+
+    internal_state_names: tuple[str, ...] = ()
+
+    # -- modelDescription.xml ---------------------------------------------------------
+    def to_xml(self, model_options: dict[str, str] = dict()) -> Element:
+        root = super().to_xml(model_options)
+        index = {v.name: i + 1 for i, v in enumerate(self.vars.values())}
+        units = sorted(set(self._units.values()))
+        unit_defs = Element("UnitDefinitions")
+        for unit in units:
+            SubElement(unit_defs, "Unit", name=unit)
+        # UnitDefinitions precede LogCategories in the FMI 2.0 schema order.
+        position = list(root).index(root.find("CoSimulation")) + 1
+        root.insert(position, unit_defs)
+        for node in root.find("ModelVariables"):
+            name = node.get("name")
+            real = node.find("Real")
+            if real is not None and name in self._units:
+                real.set("unit", self._units[name])
+            var = next(v for v in self.vars.values() if v.name == name)
+            if var.causality == Fmi2Causality.output:
+                for child in node:
+                    child.attrib.pop("start", None)  # initial="calculated" forbids a start
+        structure = root.find("ModelStructure")
+        for child in list(structure):
+            structure.remove(child)
+        outputs = [v for v in self.vars.values() if v.causality == Fmi2Causality.output]
+        if outputs:
+            out_node = SubElement(structure, "Outputs")
+            init_node = SubElement(structure, "InitialUnknowns")
+            for v in outputs:
+                deps = " ".join(str(index[d]) for d in self._depends_on[v.name])
+                SubElement(out_node, "Unknown", index=str(index[v.name]), dependencies=deps)
+                # No dependencies attribute: initially an output may depend on anything.
+                SubElement(init_node, "Unknown", index=str(index[v.name]))
+        return root
+
+
+def positive(value: float) -> str | None:
+    return None if value > 0 else f"must be > 0, got {value}"
+
+
+def non_negative(value: float) -> str | None:
+    return None if value >= 0 else f"must be >= 0, got {value}"

@@ -1,0 +1,28 @@
+"""Drive FMU: the upper block moved as X = A cos(omega t), V = -A omega sin(omega t) (eqs. 1-2)."""
+from pythonfmu import Fmi2Causality
+from pythonfmu.default_experiment import DefaultExperiment
+
+# pythonfmu finds the model class by the literal text "(Fmi2Slave)" in this file.
+from tribofmu.fmu.base import TriboSlave as Fmi2Slave, positive
+from tribofmu.physics.drive import drive
+
+PARAMETER, OUTPUT = Fmi2Causality.parameter, Fmi2Causality.output
+
+
+class Drive(Fmi2Slave):
+    description = "Harmonic drive of the upper block"
+    default_experiment = DefaultExperiment(start_time=0.0, stop_time=1.0, step_size=1e-4)
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.declare("A", 2e-3, PARAMETER, "m", "drive amplitude")
+        self.declare("omega", 30.0, PARAMETER, "rad/s", "drive angular frequency", check=positive)
+        self.declare("X", 0.0, OUTPUT, "m", "upper block position",
+                     getter=lambda: drive(self.time, self.A, self.omega)[0])
+        self.declare("V", 0.0, OUTPUT, "m/s", "upper block velocity",
+                     getter=lambda: drive(self.time, self.A, self.omega)[1])
+        self.declare("a", 0.0, OUTPUT, "m/s2", "upper block acceleration",
+                     getter=lambda: drive(self.time, self.A, self.omega)[2])
+
+    def advance(self, t, h):
+        return None

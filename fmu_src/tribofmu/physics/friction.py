@@ -1,0 +1,242 @@
+"""Friction laws of the seed paper: dry (Amontons), fluid (power law) and boundary (Landau).
+
+Pure physics, no FMI. Units are SI throughout:
+dv [m/s] relative velocity ``V - v``; n [Pa] normal stress (negative in compression);
+T [K] lubricant temperature; F [N] friction force on the lower block; f [1] excess volume.
+
+Equation numbers refer to the seed paper (see ``shared/MODEL.md``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+
+DRY, FLUID, BOUNDARY = 0, 1, 2
+REGIMES = {"dry": DRY, "fluid": FLUID, "boundary": BOUNDARY}
+REGIME_NAMES = {code: name for name, code in REGIMES.items()}
+
+
+def illinois(fun, lo: float, hi: float, xtol: float = 1e-15, rtol: float = 1e-14) -> float:
+    """Root of fun in [lo, hi] (fun(lo) < 0 <= fun(hi)) by the Illinois regula falsi.
+
+    Hand-written rather than scipy's brentq so that the Friction FMU runs in any host
+    Python that has only the standard library; tests check it against brentq.
+    """
+    f_lo, f_hi = fun(lo), fun(hi)
+    if f_hi == 0.0:
+        return hi
+    side = 0
+    for _ in range(200):
+        x = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        fx = fun(x)
+        if fx < 0.0:
+            lo, f_lo = x, fx
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+        else:
+            hi, f_hi = x, fx
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        if fx == 0.0 or abs(hi - lo) <= xtol + rtol * abs(x):
+            return x
+    return 0.5 * (lo + hi)
+
+
+def sign(x: float) -> float:
+    """sgn(x) with sgn(0) = 0: the single-valued choice; the set-valued stick force is the
+    coupling algorithm's business, not the law's."""
+    return (x > 0.0) - (x < 0.0)
+
+
+@dataclass(frozen=True)
+class LubricantConstants:
+    """Landau boundary-lubricant constants (paper ref. [19]); SI units."""
+
+    phi0_star: float = 5.0  # J/m^3
+    lam: float = 2e11  # Pa, lambda
+    lam_bar: float = 1e8  # Pa, lambda-bar
+    mu_shear: float = 4.1e11  # Pa, shear modulus mu (not the friction coefficient)
+    mu_shear_bar: float = 4e11  # Pa, mu-bar
+    phi1: float = 1100.0  # J/m^3
+    phi2: float = 2700.0  # J/m^3
+    phi3: float = 2070.0  # J/m^3
+    alpha: float = 0.45  # J/(K m^3)
+    h: float = 1e-9  # m, lubricant thickness
+    tau_f: float = 0.01  # Pa s, relaxation time of f
+    tau_e: float = 1e-8  # s, Maxwell time
+
+
+@dataclass(frozen=True)
+class Effects:
+    """Which terms of the boundary model are simulated (all on = the paper's model)."""
+
+    melting: bool = True  # f evolves by eq. (21); off: f stays at its start value
+    pressure: bool = True  # the normal-stress terms (e_ii in eq. 15, last term of eq. 21)
+    temperature: bool = True  # alpha T in eq. (15)
+    viscous: bool = True  # m sgn(dv)|dv|^(gamma+1) in eq. (23)
+    elastic: bool = True  # tau S in eq. (23)
+
+
+@dataclass(frozen=True)
+class FrictionLaw:
+    """One friction pair: the regime, its parameters, and (boundary) the lubricant.
+
+    mu_friction [1] dry friction coefficient; S [m^2] contact area (dry load ``L = -n S``);
+    m [Pa s^(gamma+1) m^(1-gamma)] and gamma [1] the power-law fluid, eq. (11)-(12).
+    """
+
+    regime: int = DRY
+    mu_friction: float = 0.5
+    S: float = 1.0
+    m: float = 25.0
+    gamma: float = 0.0
+    lubricant: LubricantConstants = field(default_factory=LubricantConstants)
+    effects: Effects = field(default_factory=Effects)
+
+    # -- validation -------------------------------------------------------------------
+    def problems(self) -> list[str]:
+        """Every parameter that is out of range, as ``name must be ..., got value``."""
+        out = []
+        if self.regime not in REGIME_NAMES:
+            out.append(f"regime must be one of {sorted(REGIME_NAMES)} "
+                       f"({', '.join(f'{k}={v}' for k, v in REGIME_NAMES.items())}), got {self.regime}")
+        for name in ("mu_friction", "S", "m", "gamma"):
+            if not math.isfinite(getattr(self, name)):
+                out.append(f"{name} must be finite, got {getattr(self, name)}")
+        if self.mu_friction < 0:
+            out.append(f"mu_friction must be >= 0, got {self.mu_friction}")
+        if not self.S > 0:
+            out.append(f"S must be > 0, got {self.S}")
+        if self.m < 0:
+            out.append(f"m must be >= 0, got {self.m}")
+        if not self.gamma > -1:
+            out.append(f"gamma must be > -1 (force must vanish at rest), got {self.gamma}")
+        lub = self.lubricant
+        for f in fields(lub):
+            value = getattr(lub, f.name)
+            if not math.isfinite(value):
+                out.append(f"{f.name} must be finite, got {value}")
+        for name in ("lam", "mu_shear", "h", "tau_f", "tau_e", "phi3"):
+            if not getattr(lub, name) > 0:
+                out.append(f"{name} must be > 0, got {getattr(lub, name)}")
+        for name in ("lam_bar", "mu_shear_bar"):
+            if getattr(lub, name) < 0:
+                out.append(f"{name} must be >= 0, got {getattr(lub, name)}")
+        return out
+
+    def input_problems(self, dv: float, n: float, T: float) -> list[str]:
+        """Out-of-range inputs for this regime."""
+        out = [f"{name} must be finite, got {value}"
+               for name, value in (("dv", dv), ("n", n), ("T", T)) if not math.isfinite(value)]
+        if self.regime == DRY and n > 0:
+            out.append(f"n must be <= 0 (compression) for dry friction, got {n}")
+        if self.regime == BOUNDARY and T < 0:
+            out.append(f"T must be >= 0 K, got {T}")
+        return out
+
+    # -- force ----------------------------------------------------------------------
+    def viscous_force(self, dv: float) -> float:
+        """Power-law fluid force ``m sgn(dv) |dv|^(gamma+1)`` [N], eq. (11)."""
+        return self.m * sign(dv) * abs(dv) ** (self.gamma + 1.0)
+
+    def mu_eff(self, f: float) -> float:
+        """Effective shear modulus [Pa], eq. (19) floored at 0 (paper's note 2)."""
+        lub = self.lubricant
+        return max(0.0, lub.mu_shear - lub.mu_shear_bar * f)
+
+    def shear_strain(self, dv: float) -> float:
+        """Stationary elastic shear strain eps [1], eq. (22)."""
+        return dv * self.lubricant.tau_e / self.lubricant.h
+
+    def force(self, dv: float, n: float, f: float = 0.0) -> float:
+        """Friction force F [N] on the lower block at relative velocity dv.
+
+        Dry: ``mu L sgn(dv)`` with ``L = -n S``; fluid: eq. (11); boundary: eq. (23), the
+        elastic term ``tau S = 2 mu_eff eps S`` carrying its own sign.
+        """
+        if self.regime == DRY:
+            return self.mu_friction * (-n * self.S) * sign(dv)
+        if self.regime == FLUID:
+            return self.viscous_force(dv)
+        F = 0.0
+        if self.effects.elastic:
+            F += 2.0 * self.mu_eff(f) * self.shear_strain(dv) * self.S
+        if self.effects.viscous:
+            F += self.viscous_force(dv)
+        return F
+
+    # -- boundary kinetics ----------------------------------------------------------
+    def kinetics_rate(self, f: float, dv: float, n: float, T: float) -> float:
+        """df/dt [1/s] of the Landau-Khalatnikov equation (21)."""
+        lub = self.lubricant
+        lam_eff = max(0.0, lub.lam - lub.lam_bar * f)
+        # The floor keeps the pressure terms finite past both melting thresholds.
+        moduli = max(lam_eff + self.mu_eff(f), 1e-12 * (lub.lam + lub.mu_shear))
+        eps = self.shear_strain(dv)
+        e_ii = n / moduli if self.effects.pressure else 0.0
+        e_ij_sq = 0.5 * ((2.0 * eps) ** 2 + e_ii ** 2)  # eq. (17), note 1
+        phi0 = lub.phi0_star + 0.5 * lub.lam_bar * e_ii ** 2 + lub.mu_shear_bar * e_ij_sq
+        if self.effects.temperature:
+            phi0 += lub.alpha * T
+        rhs = phi0 - lub.phi1 * f + lub.phi2 * f * f - lub.phi3 * f ** 3
+        if self.effects.pressure:
+            rhs -= n * n * (lub.lam_bar + lub.mu_shear_bar) / moduli ** 2
+        return rhs / lub.tau_f
+
+    def advance_f(self, f: float, dv: float, n: float, T: float, h: float,
+                  rtol: float = 1e-6, atol: float = 1e-6) -> float:
+        """Advance the excess volume f over a step h [s] with dv, n, T held; returns f(t+h).
+
+        Eq. (21) is stiff (rates 1e5 to 1e7 1/s) and, with inputs held, scalar and
+        autonomous: its solution moves monotonically toward the nearest equilibrium and
+        never crosses it. Backward Euler keeps that property when its root is taken as the
+        first sign change of the residual in the direction of motion (a bracket exists
+        between f and the equilibrium), so it cannot jump branches or blow up at any step.
+        Step doubling controls the error; sub-steps grow where f sits near equilibrium.
+        """
+        if not self.effects.melting or h <= 0.0:
+            return f
+        t_left, sub = h, h
+        while t_left > 0.0:
+            sub = min(sub, t_left)
+            full = self._backward_euler(f, dv, n, T, sub)
+            half = self._backward_euler(f, dv, n, T, 0.5 * sub)
+            two_halves = self._backward_euler(half, dv, n, T, 0.5 * sub)
+            err = abs(two_halves - full)
+            tol = atol + rtol * abs(two_halves)
+            if err <= tol or sub <= 1e-12 * h:
+                # Local extrapolation makes the pair second order; it is kept only where it
+                # does not step past the equilibrium the exact solution cannot cross.
+                extrapolated = 2.0 * two_halves - full
+                rate_before = self.kinetics_rate(f, dv, n, T)
+                if rate_before * self.kinetics_rate(extrapolated, dv, n, T) > 0.0:
+                    two_halves = extrapolated
+                f = two_halves
+                t_left -= sub
+                sub *= min(5.0, 0.9 * (tol / max(err, 1e-300)) ** 0.5)
+            else:
+                sub *= max(0.1, 0.9 * (tol / err) ** 0.5)
+        return f
+
+    def _backward_euler(self, f0: float, dv: float, n: float, T: float, h: float) -> float:
+        rate0 = self.kinetics_rate(f0, dv, n, T)
+        if rate0 == 0.0:
+            return f0
+        direction = 1.0 if rate0 > 0 else -1.0
+
+        def residual(y: float) -> float:  # signed so it starts < 0 and rises through the root
+            return direction * (y - f0 - h * self.kinetics_rate(y, dv, n, T))
+
+        lo, width = f0, min(abs(h * rate0), 1e-3 * (1.0 + abs(f0)))
+        hi = f0 + direction * width
+        for _ in range(400):
+            if residual(hi) >= 0.0:
+                break
+            lo, width = hi, 2.0 * width
+            hi = f0 + direction * width
+        else:  # the cubic term guarantees an equilibrium; only non-finite inputs get here
+            raise ArithmeticError(f"no equilibrium of eq. (21) found from f={f0}")
+        return illinois(residual, lo, hi)
