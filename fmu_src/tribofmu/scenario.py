@@ -1,0 +1,285 @@
+"""Scenarios: a TOML file parsed into frozen dataclasses (SI units), with ``--set`` overrides.
+
+A scenario names the FMUs it uses, their parameters, the constant conditions ``n`` and ``T``,
+the time span (in drive periods, so ``--set drive.omega=80`` still covers the same number of
+periods) and its figures. Every error is a :class:`ScenarioError` whose one-line message names
+the file, the key and the value.
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from .physics.block import block_problems
+from .physics.drive import drive_problems
+from .physics.friction import REGIMES, Effects, FrictionLaw, LubricantConstants
+
+KNOWN_FMUS = ("Drive", "BlockSpring", "Friction")
+
+
+class ScenarioError(ValueError):
+    """A scenario file or override is wrong; the message is one line naming file, key, value."""
+
+
+@dataclass(frozen=True)
+class DriveParams:
+    A: float = 2e-3  # m, amplitude
+    omega: float = 30.0  # rad/s
+
+    @property
+    def period(self) -> float:
+        """Drive period T = 2 pi / omega [s]."""
+        return 2.0 * math.pi / self.omega
+
+
+@dataclass(frozen=True)
+class BlockParams:
+    M: float = 0.6  # kg
+    K: float = 7000.0  # N/m, each of the two springs
+    x0: float = 0.0  # m
+    v0: float = 0.0  # m/s
+
+
+@dataclass(frozen=True)
+class FrictionParams:
+    regime: str = "dry"  # dry | fluid | boundary
+    mu_friction: float = 0.5  # 1
+    S: float = 1.0  # m^2
+    m: float = 25.0  # N (s/m)^(gamma+1)
+    gamma: float = 0.0  # 1
+    f0: float = 0.0  # 1, excess volume at t = 0
+    lubricant: LubricantConstants = field(default_factory=LubricantConstants)
+    effects: Effects = field(default_factory=Effects)
+
+    def law(self) -> FrictionLaw:
+        return FrictionLaw(regime=REGIMES[self.regime], mu_friction=self.mu_friction, S=self.S,
+                           m=self.m, gamma=self.gamma, lubricant=self.lubricant, effects=self.effects)
+
+
+@dataclass(frozen=True)
+class Conditions:
+    n: float = -20.0  # Pa, normal stress (negative in compression)
+    T: float = 290.0  # K
+
+
+@dataclass(frozen=True)
+class TimeSpan:
+    periods: float = 6.5  # simulate from 0 to this many drive periods
+    window: tuple[float, float] = (5.0, 6.5)  # shown window, in periods
+
+
+@dataclass(frozen=True)
+class SimulationSettings:
+    algorithm: str = "adaptive"
+    step: float | None = None  # s; None: the algorithm's default
+    tol: float | None = None  # nRMS-like tolerance for adaptive coupling
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    title: str = ""
+    fmus: tuple[str, ...] = KNOWN_FMUS
+    drive: DriveParams = field(default_factory=DriveParams)
+    block: BlockParams = field(default_factory=BlockParams)
+    friction: FrictionParams = field(default_factory=FrictionParams)
+    conditions: Conditions = field(default_factory=Conditions)
+    time: TimeSpan = field(default_factory=TimeSpan)
+    simulation: SimulationSettings = field(default_factory=SimulationSettings)
+    source: str = "<scenario>"
+
+    @property
+    def stop_time(self) -> float:
+        """End of the simulated span [s]."""
+        return self.time.periods * self.drive.period
+
+    @property
+    def window(self) -> tuple[float, float]:
+        """The shown window [s]."""
+        return self.time.window[0] * self.drive.period, self.time.window[1] * self.drive.period
+
+    @property
+    def load(self) -> float:
+        """Dry load L = -n S [N]."""
+        return -self.conditions.n * self.friction.S
+
+    def with_overrides(self, overrides: dict[str, Any] | list[str]) -> "Scenario":
+        """A copy with ``{"drive.omega": 80}`` (or ``["drive.omega=80"]``) applied and validated."""
+        if isinstance(overrides, (list, tuple)):
+            overrides = dict(_split_assignment(item, self.source) for item in overrides)
+        data = to_dict(self)
+        for key, value in overrides.items():
+            _assign(data, key, value, self.source)
+        return from_dict(data, self.source)
+
+
+# -- the TOML layout: table -> dataclass ------------------------------------------------
+_TABLES = {"drive": DriveParams, "block": BlockParams, "conditions": Conditions,
+           "time": TimeSpan, "simulation": SimulationSettings}
+_FRICTION_KEYS = ({f.name for f in fields(FrictionParams)} - {"lubricant", "effects"}
+                  | {f.name for f in fields(LubricantConstants)})
+_EFFECT_KEYS = {f.name for f in fields(Effects)}
+_SCENARIO_KEYS = {"name", "title", "fmus"}
+
+
+def load_scenario(path: str | Path, overrides: dict[str, Any] | list[str] | None = None) -> Scenario:
+    """Read a scenario file, apply overrides and validate; raises :class:`ScenarioError`."""
+    path = Path(path)
+    source = path.name
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read scenario file ({exc.strerror or exc})") from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{source}: not valid TOML: {exc}") from None
+    data = {"scenario": {"name": path.stem}}
+    for table, content in raw.items():
+        if not isinstance(content, dict):
+            raise ScenarioError(f"{source}: top-level key {table!r} must be a table, got {content!r}")
+        if table not in data:
+            data[table] = {}
+        data[table].update(content)
+    scenario = from_dict(data, source)
+    return scenario.with_overrides(overrides) if overrides else scenario
+
+
+def to_dict(scenario: Scenario) -> dict[str, dict[str, Any]]:
+    """The scenario as the TOML tables it is written in."""
+    fr = scenario.friction
+    friction = {k: getattr(fr, k) for k in _FRICTION_KEYS if hasattr(fr, k)}
+    friction.update({f.name: getattr(fr.lubricant, f.name) for f in fields(LubricantConstants)})
+    out = {"scenario": {"name": scenario.name, "title": scenario.title, "fmus": list(scenario.fmus)},
+           "friction": friction,
+           "effects": {f.name: getattr(fr.effects, f.name) for f in fields(Effects)}}
+    for table, cls in _TABLES.items():
+        obj = getattr(scenario, table)
+        out[table] = {f.name: getattr(obj, f.name) for f in fields(cls) if getattr(obj, f.name) is not None}
+    out["time"]["window"] = list(scenario.time.window)
+    return out
+
+
+def from_dict(data: dict[str, dict[str, Any]], source: str) -> Scenario:
+    known = {"scenario": _SCENARIO_KEYS, "friction": _FRICTION_KEYS, "effects": _EFFECT_KEYS,
+             **{t: {f.name for f in fields(c)} for t, c in _TABLES.items()}}
+    for table, content in data.items():
+        if table not in known:
+            raise ScenarioError(f"{source}: unknown table [{table}] (known: {', '.join(sorted(known))})")
+        for key in content:
+            if key not in known[table]:
+                raise ScenarioError(f"{source}: unknown key {table}.{key} "
+                                    f"(known: {', '.join(sorted(known[table]))})")
+
+    def typed(table: str, cls: type, values: dict[str, Any]) -> Any:
+        defaults = cls()
+        kwargs = {}
+        for f in fields(cls):
+            if f.name not in values:
+                continue
+            kwargs[f.name] = _coerce(values[f.name], getattr(defaults, f.name), f"{table}.{f.name}", source)
+        return cls(**kwargs)
+
+    sc = data.get("scenario", {})
+    fr = dict(data.get("friction", {}))
+    lubricant = typed("friction", LubricantConstants,
+                      {k: fr.pop(k) for k in list(fr) if k in {f.name for f in fields(LubricantConstants)}})
+    effects = typed("effects", Effects, data.get("effects", {}))
+    friction = replace(typed("friction", FrictionParams, fr), lubricant=lubricant, effects=effects)
+    time_values = dict(data.get("time", {}))
+    window = time_values.pop("window", None)
+    time = typed("time", TimeSpan, time_values)
+    if window is not None:
+        if not (isinstance(window, (list, tuple)) and len(window) == 2
+                and all(isinstance(w, (int, float)) and not isinstance(w, bool) for w in window)):
+            raise ScenarioError(f"{source}: time.window must be two numbers [start, end] in periods, got {window!r}")
+        time = replace(time, window=(float(window[0]), float(window[1])))
+    fmus = sc.get("fmus", list(KNOWN_FMUS))
+    if not (isinstance(fmus, (list, tuple)) and all(isinstance(f, str) for f in fmus)):
+        raise ScenarioError(f"{source}: scenario.fmus must be a list of FMU names, got {fmus!r}")
+    scenario = Scenario(
+        name=str(sc.get("name", "scenario")), title=str(sc.get("title", "")), fmus=tuple(fmus),
+        drive=typed("drive", DriveParams, data.get("drive", {})),
+        block=typed("block", BlockParams, data.get("block", {})),
+        friction=friction,
+        conditions=typed("conditions", Conditions, data.get("conditions", {})),
+        time=time,
+        simulation=typed("simulation", SimulationSettings, data.get("simulation", {})),
+        source=source)
+    problems = validate(scenario)
+    if problems:
+        raise ScenarioError(f"{source}: {problems[0]}")
+    return scenario
+
+
+def validate(scenario: Scenario) -> list[str]:
+    """Every problem with the scenario, each as ``table.key must be ..., got value``."""
+    out = []
+    for name in scenario.fmus:
+        if name not in KNOWN_FMUS:
+            out.append(f"scenario.fmus names an unknown FMU {name!r} (known: {', '.join(KNOWN_FMUS)})")
+    if "BlockSpring" not in scenario.fmus:
+        out.append(f"scenario.fmus must include 'BlockSpring', got {list(scenario.fmus)}")
+    if "Friction" in scenario.fmus and "Drive" not in scenario.fmus:
+        out.append(f"scenario.fmus must include 'Drive' when it includes 'Friction', got {list(scenario.fmus)}")
+    out += [f"drive.{p}" for p in drive_problems(scenario.drive.A, scenario.drive.omega)]
+    out += [f"block.{p}" for p in block_problems(scenario.block.M, scenario.block.K)]
+    fr = scenario.friction
+    if fr.regime not in REGIMES:
+        out.append(f"friction.regime must be one of {', '.join(REGIMES)}, got {fr.regime!r}")
+    else:
+        law = fr.law()
+        out += [f"friction.{p}" for p in law.problems()]
+        cond = scenario.conditions
+        out += [f"conditions.{p}" for p in law.input_problems(0.0, cond.n, cond.T)]
+    if not math.isfinite(fr.f0):
+        out.append(f"friction.f0 must be finite, got {fr.f0}")
+    ts = scenario.time
+    if not (math.isfinite(ts.periods) and ts.periods > 0):
+        out.append(f"time.periods must be > 0, got {ts.periods}")
+    elif not (0 <= ts.window[0] < ts.window[1] <= ts.periods):
+        out.append(f"time.window must satisfy 0 <= start < end <= time.periods ({ts.periods}), got {list(ts.window)}")
+    sim = scenario.simulation
+    if sim.step is not None and not (math.isfinite(sim.step) and sim.step > 0):
+        out.append(f"simulation.step must be > 0, got {sim.step}")
+    if sim.tol is not None and not (math.isfinite(sim.tol) and sim.tol > 0):
+        out.append(f"simulation.tol must be > 0, got {sim.tol}")
+    return out
+
+
+def _coerce(value: Any, default: Any, key: str, source: str) -> Any:
+    if isinstance(default, bool):
+        if isinstance(value, bool):
+            return value
+        raise ScenarioError(f"{source}: {key} must be true or false, got {value!r}")
+    if isinstance(default, float) or (default is None and key in ("simulation.step", "simulation.tol")):
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return float(value)
+        raise ScenarioError(f"{source}: {key} must be a number, got {value!r}")
+    if isinstance(default, str):
+        if isinstance(value, str):
+            return value
+        raise ScenarioError(f"{source}: {key} must be a string, got {value!r}")
+    return value
+
+
+def _split_assignment(item: str, source: str) -> tuple[str, Any]:
+    if "=" not in item:
+        raise ScenarioError(f"{source}: --set expects KEY=VALUE, got {item!r}")
+    key, text = item.split("=", 1)
+    key, text = key.strip(), text.strip()
+    try:
+        value = tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = text  # a bare word, e.g. friction.regime=boundary
+    return key, value
+
+
+def _assign(data: dict[str, dict[str, Any]], key: str, value: Any, source: str) -> None:
+    table, _, name = key.partition(".")
+    if not name:
+        raise ScenarioError(f"{source}: override key must be TABLE.KEY (e.g. drive.omega), got {key!r}")
+    data.setdefault(table, {})[name] = value
