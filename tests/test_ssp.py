@@ -19,6 +19,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
+import os
 import subprocess
 import sys
 import time
@@ -128,7 +129,12 @@ def run_master(master: str, ssp: Path, h: float, n: int, parameter_set: str, var
     out = workdir / f"{master}_{ssp.stem}.npz"
     cmd = [sys.executable, str(Path(__file__).resolve()), master, str(ssp.resolve()), repr(h), str(n),
            parameter_set, str(out), *variables]
-    proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=900)
+    # The masters unpack the archive and the FMUs under TMPDIR; Ecos leaves its copies behind,
+    # so point TMPDIR into the test's own directory.
+    tmp = workdir / f"tmp_{master}_{ssp.stem}"
+    tmp.mkdir(exist_ok=True)
+    env = {**os.environ, "TMPDIR": str(tmp)}
+    proc = subprocess.run(cmd, cwd=workdir, env=env, capture_output=True, text=True, timeout=900)
     if proc.returncode != 0:
         raise AssertionError(f"{master} failed on {ssp.name} (exit {proc.returncode}):\n"
                              f"{proc.stderr[-3000:]}\n{proc.stdout[-1000:]}")
