@@ -1,0 +1,8 @@
+"""The fmpy-based co-simulation master: slaves, coupled system, coupling algorithms, run loop."""
+from .algorithms import ALGORITHMS, CouplingAlgorithm, Scales, make_algorithm
+from .run import RunOutcome, run, sample
+from .slave import FMUCallError, FMUFileError, Slave
+from .system import CoupledSystem, Point
+
+__all__ = ["ALGORITHMS", "CouplingAlgorithm", "Scales", "make_algorithm", "RunOutcome", "run",
+           "sample", "FMUCallError", "FMUFileError", "Slave", "CoupledSystem", "Point"]

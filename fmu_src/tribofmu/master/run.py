@@ -1,0 +1,83 @@
+"""Run a coupling algorithm over a time span and sample the result on a uniform grid."""
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .algorithms import NS, CouplingAlgorithm, Scales
+from .slave import FMUCallError
+from .system import CoupledSystem, Point
+
+COLUMNS = ("X", "V", "x", "v", "F", "f")
+
+
+@dataclass
+class RunOutcome:
+    """Communication points of a run, how it ended, and what it cost."""
+
+    points: list[Point]
+    ok: bool
+    message: str
+    wall_time: float  # s
+    counters: dict = field(default_factory=dict)
+    calls: dict = field(default_factory=dict)
+
+
+def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, scales: Scales,
+        progress=None) -> RunOutcome:
+    """Advance from t = 0 to stop_time [s] in integer nanoseconds.
+
+    A numerical failure (an FMU discarding a step that no smaller step fixes, a NaN) ends
+    the run with ok=False and a message naming the instance; the points so far are kept.
+    """
+    stop_ns = int(round(stop_time * NS))
+    algorithm.prepare(system, scales)
+    begin = _time.perf_counter()
+    points = [system.start_point()]
+    ok, message = True, "completed"
+    try:
+        while points[-1].t_ns < stop_ns:
+            new = algorithm.advance(system, points[-1], stop_ns)
+            for p in new:
+                if not all(np.isfinite((p.x, p.v, p.F, p.f))):
+                    raise FloatingPointError(f"non-finite state at t = {p.t_ns / NS:.9g} s: "
+                                             f"x={p.x}, v={p.v}, F={p.F}, f={p.f}")
+            points.extend(new)
+            if progress is not None and new:
+                progress(new[-1].t_ns / stop_ns)
+    except FMUCallError as exc:
+        ok, message = False, f"stopped at t = {points[-1].t_ns / NS:.9g} s: {exc}"
+    except FloatingPointError as exc:
+        ok, message = False, str(exc)
+    wall = _time.perf_counter() - begin
+    c = algorithm.counters
+    return RunOutcome(points, ok, message, wall,
+                      counters=dict(steps=c.steps, rejected=c.rejected, iterations=c.iterations,
+                                    forced=c.forced, stick_steps=c.stick_steps),
+                      calls=system.calls)
+
+
+def sample(points: list[Point], grid: np.ndarray) -> dict[str, np.ndarray]:
+    """The run's signals on the time grid [s].
+
+    Positions and velocities are cubic Hermite interpolants between communication points
+    (each has its derivative at both ends: V for X, v for x, the accelerations for V and v);
+    F and f, which may jump, are interpolated linearly.
+    """
+    t = np.array([p.t_ns for p in points], dtype=np.int64) / NS
+    get = lambda name: np.array([getattr(p, name) for p in points])
+    X, V, aX, x, v, a = (get(k) for k in ("X", "V", "aX", "x", "v", "a"))
+    return {"X": _hermite(t, X, V, grid), "V": _hermite(t, V, aX, grid),
+            "x": _hermite(t, x, v, grid), "v": _hermite(t, v, a, grid),
+            "F": np.interp(grid, t, get("F")), "f": np.interp(grid, t, get("f"))}
+
+
+def _hermite(t: np.ndarray, y: np.ndarray, dy: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    i = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, len(t) - 2)
+    h = t[i + 1] - t[i]
+    s = (grid - t[i]) / h
+    h00, h10 = 2 * s ** 3 - 3 * s ** 2 + 1, s ** 3 - 2 * s ** 2 + s
+    h01, h11 = -2 * s ** 3 + 3 * s ** 2, s ** 3 - s ** 2
+    return h00 * y[i] + h10 * h * dy[i] + h01 * y[i + 1] + h11 * h * dy[i + 1]

@@ -1,0 +1,149 @@
+"""The one place that calls an FMU: fmpy's ``FMU2Slave`` wrapped with typed errors.
+
+Every call goes through :meth:`Slave.call`, which counts it and turns a bad status into an
+:class:`FMUCallError` naming the instance, the FMI function, the status, and the messages
+the FMU logged. Anything with the same methods (``set``, ``get``, ``do_step``, ``save``,
+``restore``, ``free_state``) can stand in for a slave: the tests use fakes.
+"""
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+from typing import Any, Sequence
+
+STATUS_NAMES = ("fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error", "fmi2Fatal", "fmi2Pending")
+
+
+class FMUCallError(RuntimeError):
+    """An FMU call returned a status worse than fmi2Warning."""
+
+    def __init__(self, instance: str, call: str, status: int, messages: Sequence[str] = ()):
+        self.instance, self.call, self.status, self.messages = instance, call, status, list(messages)
+        label = STATUS_NAMES[status] if 0 <= status < len(STATUS_NAMES) else f"status {status}"
+        detail = f": {'; '.join(self.messages)}" if self.messages else ""
+        super().__init__(f"{instance}: {call} returned {label}{detail}")
+
+    @property
+    def discarded(self) -> bool:
+        """True if the FMU refused the step but stays usable (a smaller step may work)."""
+        return self.status == 2
+
+
+class FMUFileError(FileNotFoundError):
+    """An FMU file is missing or unreadable."""
+
+
+class Slave:
+    """One instance of an FMU file, driven through fmpy.
+
+    path: the .fmu file; instance: its instance name; parameters: start values by name.
+    """
+
+    def __init__(self, path: str | Path, instance: str, parameters: dict[str, Any] | None = None,
+                 start_time: float = 0.0):
+        import fmpy
+        from fmpy.fmi2 import FMU2Slave
+
+        path = Path(path)
+        if not path.is_file():
+            raise FMUFileError(f"{instance}: FMU file not found: {path} (run 'tribofmu build' first)")
+        self.instance = instance
+        self.calls = 0
+        self.messages: list[str] = []
+        try:
+            md = fmpy.read_model_description(str(path))
+        except Exception as exc:  # a corrupt archive has many failure modes in fmpy
+            raise FMUFileError(f"{instance}: cannot read {path}: {exc}") from None
+        self.variables = {v.name: v for v in md.modelVariables}
+        self.refs = {name: v.valueReference for name, v in self.variables.items()}
+        self._unzipped = fmpy.extract(str(path))
+        self._fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._unzipped,
+                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance)
+        self._callbacks = self._make_callbacks()
+        self.call("instantiate", callbacks=self._callbacks, loggingOn=True)
+        self.call("setupExperiment", startTime=start_time)
+        self.call("enterInitializationMode")
+        if parameters:
+            self.set(parameters)
+        self.call("exitInitializationMode")
+
+    def _make_callbacks(self):
+        from fmpy import calloc, free
+        from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                               fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+
+        def log(_env, _name, status, _category, message):
+            text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
+            if status >= 2:  # keep only what explains a failure
+                self.messages.append(text)
+
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = fmi2CallbackLoggerTYPE(log)
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        try:  # formats printf-style messages before they reach Python
+            from fmpy.logging import addLoggerProxy
+            addLoggerProxy(ctypes.byref(callbacks))
+        except Exception:
+            pass
+        return callbacks
+
+    def call(self, function: str, *args, **kwargs):
+        """Call an fmpy FMU2Slave method; a bad status raises :class:`FMUCallError`."""
+        from fmpy.fmi1 import FMICallException
+
+        self.calls += 1
+        mark = len(self.messages)
+        try:
+            return getattr(self._fmu, function)(*args, **kwargs)
+        except FMICallException as exc:
+            raise FMUCallError(self.instance, "fmi2" + function[0].upper() + function[1:],
+                               exc.status, self.messages[mark:]) from None
+        except Exception as exc:
+            if function == "instantiate":
+                raise FMUCallError(self.instance, "fmi2Instantiate", 3,
+                                   self.messages[mark:] or [str(exc)]) from None
+            raise
+
+    # -- the operations the coupling algorithms use ------------------------------------
+    def set(self, values: dict[str, Any]) -> None:
+        """Set variables by name; the type comes from the model description."""
+        groups: dict[str, tuple[list[int], list[Any]]] = {}
+        for name, value in values.items():
+            var = self.variables.get(name)
+            if var is None:
+                raise KeyError(f"{self.instance}: no variable {name!r}")
+            refs, vals = groups.setdefault(var.type, ([], []))
+            refs.append(var.valueReference)
+            vals.append(value)
+        for kind, (refs, vals) in groups.items():
+            self.call(f"set{kind}", refs, vals)
+
+    def set_reals(self, refs: list[int], values: list[float]) -> None:
+        self.call("setReal", refs, values)
+
+    def get_reals(self, refs: list[int]) -> list[float]:
+        return self.call("getReal", refs)
+
+    def do_step(self, t: float, h: float) -> None:
+        self.call("doStep", currentCommunicationPoint=t, communicationStepSize=h)
+
+    def save(self):
+        return self.call("getFMUstate")
+
+    def restore(self, state) -> None:
+        self.call("setFMUstate", state)
+
+    def free_state(self, state) -> None:
+        self.call("freeFMUstate", state)
+
+    def close(self) -> None:
+        """Terminate and free the instance (errors here lose nothing: ignore them)."""
+        try:
+            self._fmu.terminate()
+        except Exception:
+            pass
+        try:
+            self._fmu.freeInstance()
+        except Exception:
+            pass
