@@ -98,6 +98,12 @@ class TriboSlave(Fmi2Slave):
             self.changed(name)
         return setter
 
+    def _log(self, msg: str, status: Fmi2Status) -> None:
+        # pythonfmu hands the text to the host's logger as its printf format string
+        # (FMI 2.0 says the message is one): an unescaped "%s", e.g. from a host-chosen
+        # instance name, makes a formatting host read arguments that are not there.
+        self.log(f"{self.instance_name}: {msg}".replace("%", "%%"), status)
+
     # -- stepping ---------------------------------------------------------------------
     def setup_experiment(self, start_time: float, stop_time=None, tolerance=None) -> None:
         self.time = start_time
@@ -105,7 +111,7 @@ class TriboSlave(Fmi2Slave):
     def exit_initialization_mode(self) -> None:
         problems = self.problems()
         for problem in problems:
-            self.log(f"{self.instance_name}: {problem}", Fmi2Status.error)
+            self._log(problem, Fmi2Status.error)
         if not problems:
             self.initialize()
 
@@ -115,14 +121,14 @@ class TriboSlave(Fmi2Slave):
             problems.append(f"communication step size must be > 0, got {step_size}")
         if problems:
             for problem in problems:
-                self.log(f"{self.instance_name}: {problem}; step refused", Fmi2Status.error)
+                self._log(f"{problem}; step refused", Fmi2Status.error)
             return False
         try:
             why = self.advance(current_time, step_size)
         except (ArithmeticError, ValueError) as exc:  # numerical failure: report, keep the instance
             why = f"numerical failure: {exc}"
         if why:
-            self.log(f"{self.instance_name}: {why}; step refused", Fmi2Status.error)
+            self._log(f"{why}; step refused", Fmi2Status.error)
             return False
         self.time = current_time + step_size
         return True
