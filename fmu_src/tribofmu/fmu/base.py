@@ -45,6 +45,7 @@ class TriboSlave(Fmi2Slave):
         self._depends_on: dict[str, tuple[str, ...]] = {}
         self._checks: dict[str, Callable[[Any], str | None]] = {}
         self._bad: dict[str, str] = {}  # variable name -> why its value was refused
+        self._getters: dict[str, Callable[[], Any]] = {}  # outputs computed on demand
         self.time = 0.0
 
     # -- declaring variables ------------------------------------------------------
@@ -72,7 +73,8 @@ class TriboSlave(Fmi2Slave):
             setattr(self, name, start)
             kwargs["setter"] = self._setter(name, type(start))
         if getter is not None:
-            kwargs["getter"] = getter
+            self._getters[name] = getter
+            kwargs["getter"] = self._safe_getter(name, getter)
         elif causality == Fmi2Causality.output:
             setattr(self, name, start)
         self.register_variable(kind(name, **kwargs))
@@ -98,11 +100,26 @@ class TriboSlave(Fmi2Slave):
             self.changed(name)
         return setter
 
+    def _safe_getter(self, name: str, getter: Callable[[], Any]) -> Callable[[], Any]:
+        # An exception escaping a getter would make fmi2GetReal return fmi2Fatal.
+        def get() -> Any:
+            try:
+                return getter()
+            except Exception as exc:
+                self._log(f"{name} cannot be evaluated ({type(exc).__name__}: {exc}) "
+                          f"at {self._inputs_text()}; reads as NaN", Fmi2Status.warning)
+                return math.nan
+        return get
+
     def _log(self, msg: str, status: Fmi2Status) -> None:
         # pythonfmu hands the text to the host's logger as its printf format string
         # (FMI 2.0 says the message is one): an unescaped "%s", e.g. from a host-chosen
         # instance name, makes a formatting host read arguments that are not there.
         self.log(f"{self.instance_name}: {msg}".replace("%", "%%"), status)
+
+    def _inputs_text(self) -> str:
+        names = [v.name for v in self.vars.values() if v.causality == Fmi2Causality.input]
+        return ", ".join(f"{n}={getattr(self, n)}" for n in names) or "no inputs"
 
     # -- stepping ---------------------------------------------------------------------
     def setup_experiment(self, start_time: float, stop_time=None, tolerance=None) -> None:
