@@ -9,7 +9,10 @@ Each FMU script declares its variables with :meth:`TriboSlave.declare` and imple
   exception to ``fmi2Fatal`` (the instance is lost) and ``do_step`` returning False to
   ``fmi2Discard``. So setters never raise: a NaN input or an out-of-range parameter is
   recorded, ``do_step`` logs it with category ``logStatusError`` naming the variable and
-  value, and returns ``fmi2Discard``; the host can set a valid value and step again;
+  value, and returns ``fmi2Discard``; the host can set a valid value and step again.
+  A step is all or nothing: a refused step (bad value, numerical failure, non-finite
+  outputs) leaves the state as it was. Getters never raise either (an output that cannot
+  be evaluated reads as NaN, with a warning);
 - saves and restores the complete state (variables plus the model's internal state), so
   get/set and serialize/deserialize FMU state continue bit-identically.
 
@@ -46,6 +49,9 @@ class TriboSlave(Fmi2Slave):
         self._checks: dict[str, Callable[[Any], str | None]] = {}
         self._bad: dict[str, str] = {}  # variable name -> why its value was refused
         self._getters: dict[str, Callable[[], Any]] = {}  # outputs computed on demand
+        self._initialized = False  # initialize() ran (it is skipped while values are bad)
+        self._real_output_names: list[str] | None = None  # caches: variables are declared once
+        self._dynamic_state_names: list[str] | None = None
         self.time = 0.0
 
     # -- declaring variables ------------------------------------------------------
@@ -126,33 +132,83 @@ class TriboSlave(Fmi2Slave):
         self.time = start_time
 
     def exit_initialization_mode(self) -> None:
-        problems = self.problems()
+        try:
+            problems = self.problems()
+            if not problems:
+                self.initialize()
+                self._initialized = True
+        except Exception as exc:  # would be fmi2Fatal; do_step reports it again and refuses
+            problems = [f"initialization failed ({type(exc).__name__}: {exc})"]
         for problem in problems:
             self._log(problem, Fmi2Status.error)
-        if not problems:
-            self.initialize()
 
     def do_step(self, current_time: float, step_size: float) -> bool:
+        """Advance from current_time by step_size [s]: True (fmi2OK) or, refused with the
+        reasons logged and the state untouched, False (fmi2Discard). Never raises: an
+        exception here would be fmi2Fatal."""
+        saved = None
+        try:
+            problems = self._step_problems(current_time, step_size)
+            if not problems:
+                # Only what a step can change: parameters and inputs change through setters.
+                saved = {name: getattr(self, name) for name in self._dynamic_names()}
+                saved.update({name: copy.copy(getattr(self, name)) for name in self.internal_state_names})
+                problems = self._step(current_time, step_size)
+        except Exception as exc:
+            problems = [f"numerical failure ({type(exc).__name__}: {exc}) at {self._inputs_text()}, "
+                        f"h={step_size}"]
+        if not problems:
+            return True
+        if saved is not None:
+            for name, value in saved.items():
+                setattr(self, name, value)
+        for problem in problems:
+            self._log(f"{problem}; step refused", Fmi2Status.error)
+        return False
+
+    def _step_problems(self, current_time: float, step_size: float) -> list[str]:
         problems = self.problems()
         if not (math.isfinite(step_size) and step_size > 0):
-            problems.append(f"communication step size must be > 0, got {step_size}")
-        if problems:
-            for problem in problems:
-                self._log(f"{problem}; step refused", Fmi2Status.error)
-            return False
-        try:
-            why = self.advance(current_time, step_size)
-        except (ArithmeticError, ValueError) as exc:  # numerical failure: report, keep the instance
-            why = f"numerical failure: {exc}"
+            problems.append(f"communication step size h must be > 0 and finite, got {step_size}")
+        elif not (math.isfinite(current_time) and math.isfinite(current_time + step_size)):
+            problems.append(f"communication point t must be finite, got t={current_time}, h={step_size}")
+        return problems
+
+    def _step(self, t: float, h: float) -> list[str]:
+        if not self._initialized:  # initialization was refused; the values are fine now
+            self.initialize()
+            self._initialized = True
+        why = self.advance(t, h)
         if why:
-            self._log(f"{why}; step refused", Fmi2Status.error)
-            return False
-        self.time = current_time + step_size
-        return True
+            return [why]
+        self.time = t + h
+        values = {name: self._getters[name]() if name in self._getters else getattr(self, name)
+                  for name in self._real_outputs()}
+        bad = [f"{name}={value}" for name, value in values.items() if not math.isfinite(value)]
+        if bad:
+            return [f"outputs would not be finite ({', '.join(bad)}) at {self._inputs_text()}, h={h}"]
+        return []
+
+    def _real_outputs(self) -> list[str]:
+        if self._real_output_names is None:
+            self._real_output_names = [v.name for v in self.vars.values()
+                                       if v.causality == Fmi2Causality.output and isinstance(v, Real)]
+        return self._real_output_names
+
+    def _dynamic_names(self) -> list[str]:
+        """Scalars advance() and initialize() may change: stored outputs, time (the internal
+        state, which may be mutable, is saved apart)."""
+        if self._dynamic_state_names is None:
+            self._dynamic_state_names = [
+                v.name for v in self.vars.values()
+                if v.causality == Fmi2Causality.output and v.name not in self._getters
+            ] + ["time", "_initialized"]
+        return self._dynamic_state_names
 
     def problems(self) -> list[str]:
         """Every refused value and every parameter combination the model rejects."""
-        return list(self._bad.values()) + self.model_problems()
+        # Per-variable checks and the model's own validation often say the same thing.
+        return list(dict.fromkeys(list(self._bad.values()) + self.model_problems()))
 
     # -- what each model provides ---------------------------------------------------
     def model_problems(self) -> list[str]:
@@ -173,12 +229,15 @@ class TriboSlave(Fmi2Slave):
     def _get_fmu_state(self) -> dict[str, Any]:
         state = {name: copy.copy(getattr(self, name)) for name in self._state_names()}
         state["_bad"] = dict(self._bad)
+        state["_initialized"] = self._initialized
         return state
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
         for name, value in state.items():
             if name == "_bad":
                 self._bad = dict(value)
+            elif name == "_initialized":
+                self._initialized = bool(value)
             else:
                 setattr(self, name, value)
 
