@@ -230,7 +230,9 @@ class FrictionLaw:
         def residual(y: float) -> float:  # signed so it starts < 0 and rises through the root
             return direction * (y - f0 - h * self.kinetics_rate(y, dv, n, T))
 
-        lo, width = f0, min(abs(h * rate0), 1e-3 * (1.0 + abs(f0)))
+        # At least a few ulps: below that f0 + width == f0 and the bracket never opens
+        # (a step of 1e-300 s moves f by less than one ulp).
+        lo, width = f0, max(min(abs(h * rate0), 1e-3 * (1.0 + abs(f0))), 4.0 * math.ulp(f0))
         hi = f0 + direction * width
         for _ in range(400):
             if residual(hi) >= 0.0:
