@@ -182,9 +182,16 @@ class TriboSlave(Fmi2Slave):
         if why:
             return [why]
         self.time = t + h
-        values = {name: self._getters[name]() if name in self._getters else getattr(self, name)
-                  for name in self._real_outputs()}
-        bad = [f"{name}={value}" for name, value in values.items() if not math.isfinite(value)]
+        bad = []
+        for name in self._real_outputs():
+            try:
+                value = self._getters[name]() if name in self._getters else getattr(self, name)
+            except Exception as exc:
+                value = f"<{type(exc).__name__}: {exc}>"
+            else:
+                if math.isfinite(value):
+                    continue
+            bad.append(f"{name}={value}")
         if bad:
             return [f"outputs would not be finite ({', '.join(bad)}) at {self._inputs_text()}, h={h}"]
         return []
