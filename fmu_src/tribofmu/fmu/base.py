@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import copy
 import math
+import uuid
 from typing import Any, Callable, Iterable
 from xml.etree.ElementTree import Element, SubElement
 
@@ -52,6 +53,12 @@ class TriboSlave(Fmi2Slave):
         self._initialized = False  # initialize() ran (it is skipped while values are bad)
         self._real_output_names: list[str] | None = None  # caches: variables are declared once
         self._dynamic_state_names: list[str] | None = None
+        self._parameter_names: list[str] = []
+        self._parameter_set: set[str] = set()
+        self._scalar_state_names: list[str] | None = None
+        self._model_problems: list[str] | None = None  # parameters are fixed: validate once
+        # Names the parameter values; a saved state whose token matches needs none restored.
+        self._parameter_token = f"{uuid.uuid4()}:0"
         self.time = 0.0
 
     # -- declaring variables ------------------------------------------------------
@@ -77,7 +84,10 @@ class TriboSlave(Fmi2Slave):
             kwargs["initial"] = Fmi2Initial.calculated
         if causality in (Fmi2Causality.parameter, Fmi2Causality.input):
             setattr(self, name, start)
-            kwargs["setter"] = self._setter(name, type(start))
+            kwargs["setter"] = self._setter(name, type(start), causality == Fmi2Causality.parameter)
+        if causality == Fmi2Causality.parameter:
+            self._parameter_names.append(name)
+            self._parameter_set.add(name)
         if getter is not None:
             self._getters[name] = getter
             kwargs["getter"] = self._safe_getter(name, getter)
@@ -90,7 +100,7 @@ class TriboSlave(Fmi2Slave):
         if check is not None:
             self._checks[name] = check
 
-    def _setter(self, name: str, kind: type) -> Callable[[Any], None]:
+    def _setter(self, name: str, kind: type, is_parameter: bool) -> Callable[[Any], None]:
         def setter(value: Any) -> None:
             value = kind(value)
             if kind is float and not math.isfinite(value):
@@ -103,8 +113,21 @@ class TriboSlave(Fmi2Slave):
             else:
                 self._bad.pop(name, None)
             setattr(self, name, value)
-            self.changed(name)
+            if is_parameter:
+                self._parameters_changed(name)
+            else:
+                self.changed(name)
         return setter
+
+    def _parameters_changed(self, name: str) -> None:
+        uid, count = self._parameter_token.rsplit(":", 1)
+        self._new_parameters(f"{uid}:{int(count) + 1}")
+        self.changed(name)
+
+    def _new_parameters(self, token: str) -> None:
+        """Parameter values changed: drop what was derived from them."""
+        self._model_problems = None
+        self._parameter_token = token
 
     def _safe_getter(self, name: str, getter: Callable[[], Any]) -> Callable[[], Any]:
         # An exception escaping a getter would make fmi2GetReal return fmi2Fatal.
@@ -215,7 +238,11 @@ class TriboSlave(Fmi2Slave):
     def problems(self) -> list[str]:
         """Every refused value and every parameter combination the model rejects."""
         # Per-variable checks and the model's own validation often say the same thing.
-        return list(dict.fromkeys(list(self._bad.values()) + self.model_problems()))
+        if self._model_problems is None:
+            self._model_problems = self.model_problems()
+        if not self._bad:
+            return list(self._model_problems)
+        return list(dict.fromkeys(list(self._bad.values()) + self._model_problems))
 
     # -- what each model provides ---------------------------------------------------
     def model_problems(self) -> list[str]:
@@ -226,7 +253,9 @@ class TriboSlave(Fmi2Slave):
         """Set the internal state from the parameters (after initialization mode)."""
 
     def changed(self, name: str) -> None:
-        """Called after a parameter or input was set (e.g. to drop a cached model)."""
+        """Called after the host set a parameter or input (not when a state is restored).
+
+        Caches derived from parameters should key on ``self._parameter_token`` instead."""
 
     def advance(self, t: float, h: float) -> str | None:
         """Advance the model from t to t + h [s]; return a reason to refuse the step, or None."""
@@ -234,25 +263,35 @@ class TriboSlave(Fmi2Slave):
 
     # -- FMU state ----------------------------------------------------------------------
     def _get_fmu_state(self) -> dict[str, Any]:
-        state = {name: copy.copy(getattr(self, name)) for name in self._state_names()}
+        state = {name: getattr(self, name) for name in self._scalar_names()}  # immutable values
+        state.update({name: copy.copy(getattr(self, name)) for name in self.internal_state_names})
         state["_bad"] = dict(self._bad)
         state["_initialized"] = self._initialized
+        state["_parameter_token"] = self._parameter_token
         return state
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
+        token = state.get("_parameter_token")
+        same_parameters = token == self._parameter_token
         for name, value in state.items():
             if name == "_bad":
                 self._bad = dict(value)
             elif name == "_initialized":
                 self._initialized = bool(value)
-            else:
+            elif name == "_parameter_token":
+                continue
+            elif not (same_parameters and name in self._parameter_set):
                 setattr(self, name, value)
+        if not same_parameters:  # a state of another instance (deserialized): its parameters
+            self._new_parameters(token or f"{uuid.uuid4()}:0")
 
-    def _state_names(self) -> list[str]:
-        names = [v.name for v in self.vars.values() if v.causality != Fmi2Causality.output]
-        names += [v.name for v in self.vars.values()
-                  if v.causality == Fmi2Causality.output and hasattr(self, v.name)]
-        return names + ["time"] + list(self.internal_state_names)
+    def _scalar_names(self) -> list[str]:
+        if self._scalar_state_names is None:
+            names = [v.name for v in self.vars.values() if v.causality != Fmi2Causality.output]
+            names += [v.name for v in self.vars.values()
+                      if v.causality == Fmi2Causality.output and v.name not in self._getters]
+            self._scalar_state_names = names + ["time"]
+        return self._scalar_state_names
 
     internal_state_names: tuple[str, ...] = ()
 

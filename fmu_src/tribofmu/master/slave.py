@@ -66,27 +66,54 @@ class Slave:
         if parameters:
             self.set(parameters)
         self.call("exitInitializationMode")
+        self._bind_hot_path()
 
     def _make_callbacks(self):
         from fmpy import calloc, free
         from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                                fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
+        # No fmpy logger proxy: it routes every instance's messages to the last one
+        # registered. pythonfmu passes the whole text as the format, with % escaped.
         def log(_env, _name, status, _category, message):
             text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
             if status >= 2:  # keep only what explains a failure
-                self.messages.append(text)
+                self.messages.append(text.replace("%%", "%"))
 
         callbacks = fmi2CallbackFunctions()
         callbacks.logger = fmi2CallbackLoggerTYPE(log)
         callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        try:  # formats printf-style messages before they reach Python
-            from fmpy.logging import addLoggerProxy
-            addLoggerProxy(ctypes.byref(callbacks))
-        except Exception:
-            pass
         return callbacks
+
+    def _bind_hot_path(self):
+        """The calls a coupling step makes thousands of times, straight to the C functions.
+
+        fmpy's wrappers rebuild ctypes arrays and dispatch through several Python layers
+        per call; here the arrays are built once per set of variables.
+        """
+        from fmpy.fmi2 import fmi2FMUstate, fmi2Real, fmi2ValueReference
+
+        functions = self._fmu._functions
+        self._component = self._fmu.component
+        self._c = {name: functions[name] for name in (
+            "fmi2SetReal", "fmi2GetReal", "fmi2DoStep", "fmi2GetFMUstate", "fmi2SetFMUstate",
+            "fmi2FreeFMUstate")}
+        self._state_type = fmi2FMUstate
+        self._buffers: dict[tuple[int, ...], tuple[Any, int, Any]] = {}
+        self._real, self._vr = fmi2Real, fmi2ValueReference
+
+    def _buffer(self, refs) -> tuple[Any, int, Any]:
+        key = tuple(refs)
+        buf = self._buffers.get(key)
+        if buf is None:
+            n = len(key)
+            buf = self._buffers[key] = ((self._vr * n)(*key), n, (self._real * n)())
+        return buf
+
+    def _check(self, function: str, status: int, mark: int) -> None:
+        if status > 1:
+            raise FMUCallError(self.instance, function, status, self.messages[mark:])
 
     def call(self, function: str, *args, **kwargs):
         """Call an fmpy FMU2Slave method; a bad status raises :class:`FMUCallError`."""
@@ -120,22 +147,37 @@ class Slave:
             self.call(f"set{kind}", refs, vals)
 
     def set_reals(self, refs: list[int], values: list[float]) -> None:
-        self.call("setReal", refs, values)
+        self.calls += 1
+        vr, n, buf = self._buffer(refs)
+        buf[:] = values
+        self._check("fmi2SetReal", self._c["fmi2SetReal"](self._component, vr, n, buf), len(self.messages))
 
     def get_reals(self, refs: list[int]) -> list[float]:
-        return self.call("getReal", refs)
+        self.calls += 1
+        vr, n, buf = self._buffer(refs)
+        self._check("fmi2GetReal", self._c["fmi2GetReal"](self._component, vr, n, buf), len(self.messages))
+        return buf[:]
 
     def do_step(self, t: float, h: float) -> None:
-        self.call("doStep", currentCommunicationPoint=t, communicationStepSize=h)
+        self.calls += 1
+        mark = len(self.messages)
+        self._check("fmi2DoStep", self._c["fmi2DoStep"](self._component, t, h, 1), mark)
 
     def save(self):
-        return self.call("getFMUstate")
+        self.calls += 1
+        state = self._state_type()
+        self._check("fmi2GetFMUstate", self._c["fmi2GetFMUstate"](self._component, ctypes.byref(state)),
+                    len(self.messages))
+        return state
 
     def restore(self, state) -> None:
-        self.call("setFMUstate", state)
+        self.calls += 1
+        self._check("fmi2SetFMUstate", self._c["fmi2SetFMUstate"](self._component, state), len(self.messages))
 
     def free_state(self, state) -> None:
-        self.call("freeFMUstate", state)
+        self.calls += 1
+        self._check("fmi2FreeFMUstate", self._c["fmi2FreeFMUstate"](self._component, ctypes.byref(state)),
+                    len(self.messages))
 
     def close(self) -> None:
         """Terminate and free the instance (errors here lose nothing: ignore them)."""

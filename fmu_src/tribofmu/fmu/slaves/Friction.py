@@ -83,18 +83,16 @@ class Friction(Fmi2Slave):
         self.declare("f", 0.0, OUTPUT, "1", "excess volume of the lubricant (0 = solid-like)")
 
     def law(self) -> FrictionLaw:
-        if self._law is None:
-            self._law = FrictionLaw(
+        if self._law is None or self._law[0] != self._parameter_token:
+            self._law = self._parameter_token, FrictionLaw(
                 regime=self.regime, mu_friction=self.mu_friction, S=self.S, m=self.m, gamma=self.gamma,
                 lubricant=LubricantConstants(**{f.name: getattr(self, f.name) for f in fields(LubricantConstants)}),
                 effects=Effects(**{field: getattr(self, name) for name, (field, _) in EFFECTS.items()}))
-        return self._law
+        return self._law[1]
 
     def changed(self, name):
-        if name not in ("dv", "n", "T"):
-            self._law = None
-            if name == "f0":
-                self.f = self.f0
+        if name == "f0":
+            self.f = self.f0
 
     def model_problems(self):
         return [] if "regime" in self._bad else self.law().problems()
@@ -110,7 +108,3 @@ class Friction(Fmi2Slave):
         if law.regime == BOUNDARY:  # dry and fluid laws have no state: nothing to integrate
             self.f = law.advance_f(self.f, self.dv, self.n, self.T, h)
         return None
-
-    def _set_fmu_state(self, state):
-        super()._set_fmu_state(state)
-        self._law = None

@@ -1,0 +1,136 @@
+"""Tier 1: the physics modules against exact solutions and invariants (no FMI)."""
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
+
+from tribofmu.physics import (BOUNDARY, DRY, FLUID, BlockState, Effects, FrictionLaw,
+                              advance_block, drive, energy)
+from tribofmu.physics.friction import illinois
+
+FIG6 = dict(regime=BOUNDARY, m=0.05, gamma=-2 / 3, S=3e-9)
+LAWS = [FrictionLaw(regime=DRY, mu_friction=0.5, S=1.0),
+        FrictionLaw(regime=FLUID, m=25.0, gamma=-2 / 3),
+        FrictionLaw(regime=FLUID, m=25.0, gamma=0.0),
+        FrictionLaw(regime=FLUID, m=25.0, gamma=2 / 3),
+        FrictionLaw(**FIG6)]
+DVS = [0.0, 1e-12, 3e-7, 1e-4, 0.05, 2.0]
+
+
+@pytest.mark.parametrize("law", LAWS, ids=lambda l: f"regime{l.regime}-g{l.gamma:.2f}")
+@pytest.mark.parametrize("f", [0.0, 0.2, 1.0, 5.0])
+def test_friction_never_adds_energy_and_is_odd(law, f):
+    for dv in DVS:
+        F = law.force(dv, -1e6, f)
+        assert F * dv >= 0.0
+        assert law.force(-dv, -1e6, f) == pytest.approx(-F, rel=1e-15, abs=0.0)
+
+
+def test_dry_friction_is_amontons():
+    law = FrictionLaw(regime=DRY, mu_friction=0.5, S=2.0)
+    assert law.force(0.3, -20.0) == 0.5 * 40.0
+    assert law.force(-1e-9, -20.0) == -20.0
+    assert law.force(0.0, -20.0) == 0.0  # the single-valued choice; stick is the master's job
+
+
+def test_power_law_exponents():
+    for gamma in (-2 / 3, 0.0, 2 / 3):
+        law = FrictionLaw(regime=FLUID, m=25.0, gamma=gamma)
+        assert law.force(0.01, 0.0) == pytest.approx(25.0 * 0.01 ** (gamma + 1))
+
+
+def test_parameter_problems_name_the_culprit():
+    assert FrictionLaw(gamma=-1.0).problems() == ["gamma must be > -1 (force must vanish at rest), got -1.0"]
+    assert "S must be > 0, got 0.0" in FrictionLaw(S=0.0).problems()
+    assert "regime must be" in FrictionLaw(regime=7).problems()[0]
+    assert FrictionLaw().problems() == []
+
+
+def test_illinois_agrees_with_brentq():
+    fun = lambda x: x ** 3 - 2 * x - 5
+    assert illinois(fun, 2.0, 3.0) == pytest.approx(brentq(fun, 2.0, 3.0, xtol=1e-15), abs=1e-13)
+
+
+def test_boundary_elastic_term_vanishes_when_melted():
+    law = FrictionLaw(**FIG6)
+    mu_over_mub = law.lubricant.mu_shear / law.lubricant.mu_shear_bar
+    assert law.mu_eff(mu_over_mub + 0.1) == 0.0
+    assert law.force(1e-5, -1e6, mu_over_mub + 0.1) == pytest.approx(law.viscous_force(1e-5))
+
+
+def test_boundary_effects_switch_terms_off():
+    only_elastic = FrictionLaw(**FIG6, effects=Effects(viscous=False))
+    assert only_elastic.force(1e-5, -1e6, 0.2) == pytest.approx(
+        2 * only_elastic.mu_eff(0.2) * only_elastic.shear_strain(1e-5) * 3e-9)
+    frozen = FrictionLaw(**FIG6, effects=Effects(melting=False))
+    assert frozen.advance_f(0.3, 1e-5, -1e6, 290.0, 1e-3) == 0.3
+
+
+def _equilibria(law, dv, n, T):
+    grid = np.linspace(-0.5, 10, 20001)
+    rate = np.array([law.kinetics_rate(f, dv, n, T) for f in grid])
+    idx = np.nonzero(np.sign(rate[:-1]) != np.sign(rate[1:]))[0]
+    return [brentq(law.kinetics_rate, grid[i], grid[i + 1], args=(dv, n, T)) for i in idx]
+
+
+def test_kinetics_fixed_points_and_bistability_at_rest():
+    law = FrictionLaw(**FIG6)
+    roots = _equilibria(law, 0.0, -1e6, 290.0)
+    # phi0 - phi1 f + phi2 f^2 - phi3 f^3 - pressure: three roots, the outer two stable
+    assert len(roots) == 3
+    solid = roots[0]
+    assert 0.2 < solid < law.lubricant.mu_shear / law.lubricant.mu_shear_bar
+    for f_start in (0.0, solid - 0.05, solid + 0.05):
+        assert law.advance_f(f_start, 0.0, -1e6, 290.0, 0.05) == pytest.approx(solid, abs=1e-6)
+    assert law.advance_f(solid, 0.0, -1e6, 290.0, 1.0) == pytest.approx(solid, abs=1e-9)
+
+
+def test_kinetics_step_matches_radau_and_never_crosses_equilibrium():
+    law = FrictionLaw(**FIG6)
+    for dv in (0.0, 1e-6, 3e-6, 4e-5):
+        for h in (1e-6, 1e-4, 1e-2):
+            f = law.advance_f(0.0, dv, -1e6, 290.0, h)
+            ref = solve_ivp(lambda t, y: [law.kinetics_rate(y[0], dv, -1e6, 290.0)], (0, h), [0.0],
+                            method="Radau", rtol=1e-11, atol=1e-13).y[0, -1]
+            assert f == pytest.approx(ref, abs=5e-6, rel=5e-6)
+            target = _equilibria(law, dv, -1e6, 290.0)[0]
+            assert f <= target + 1e-12
+
+
+def test_kinetics_stays_finite_for_huge_steps():
+    law = FrictionLaw(**FIG6)
+    f = 0.0
+    for dv in (1e-3, -1e-6, 0.0, 5.0):
+        f = law.advance_f(f, dv, -1e6, 290.0, 10.0)
+        assert math.isfinite(f)
+
+
+def test_block_free_oscillator_is_exact():
+    M, K, x0 = 0.6, 7000.0, 1e-3
+    w0 = math.sqrt(2 * K / M)
+    state = BlockState(x0, 0.0)
+    t = 0.0
+    for h in (1e-3, 0.37, 1e-5, 2.0):
+        state = advance_block(state, 0.0, 0.0, h, M, K)
+        t += h
+        assert state.x == pytest.approx(x0 * math.cos(w0 * t), abs=1e-15)
+        assert state.v == pytest.approx(-x0 * w0 * math.sin(w0 * t), abs=1e-13)
+        assert energy(state, M, K) == pytest.approx(K * x0 ** 2, rel=1e-12)
+
+
+@pytest.mark.parametrize("K", [0.0, 7000.0, 1e7])
+def test_block_under_ramp_force_matches_ode(K):
+    M, F0, rate, h = 0.6, 3.0, -40.0, 0.02
+    state = advance_block(BlockState(1e-4, -0.02), F0, rate, h, M, K)
+    sol = solve_ivp(lambda t, y: [y[1], (F0 + rate * t - 2 * K * y[0]) / M], (0, h), [1e-4, -0.02],
+                    method="DOP853", rtol=1e-12, atol=1e-15)
+    assert state.x == pytest.approx(sol.y[0, -1], abs=1e-12)
+    assert state.v == pytest.approx(sol.y[1, -1], abs=1e-9)
+
+
+def test_drive_is_harmonic():
+    X, V, acc = drive(0.1, 2e-3, 30.0)
+    assert (X, V, acc) == pytest.approx((2e-3 * math.cos(3.0), -2e-3 * 30 * math.sin(3.0),
+                                         -2e-3 * 900 * math.cos(3.0)))
