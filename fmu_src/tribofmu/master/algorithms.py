@@ -25,6 +25,12 @@ from dataclasses import dataclass, field
 
 from .system import CoupledSystem, Point
 
+
+def velocity_slopes(start: Point, end: Point) -> tuple[float, float]:
+    """dv/dt at both ends of the step start -> end, as results are interpolated: over a
+    step that ends stuck, v follows V, so the slope is the drive's acceleration."""
+    return (start.aX, end.aX) if end.mode == 0 else (start.a, end.a)
+
 NS = 1_000_000_000  # nanoseconds per second
 
 
@@ -125,26 +131,47 @@ class ImplicitCoupling(CouplingAlgorithm):
             system.free(saved)
 
     def _solve(self, system, point, saved, t, h, h_ns, X, V, aX):
-        block_state = {k: v for k, v in saved.handles.items() if v[0] is system.block}
-        friction_state = {k: v for k, v in saved.handles.items() if v[0] is system.friction}
+        # Second order where the force is smooth: while the contact keeps slipping the same
+        # way, the block feels a ramp from the force at the step's start to the one at its
+        # end (trapezoidal coupling). Where the loop is stiff the ramp would ring, and at
+        # stick or reversal the force jumps: there the force is held (L-stable).
+        ramp = self.second_order and point.mode != 0 and self._loop_gain < 1.0
+        new = self._solve_held(system, point, saved, t, h, h_ns, X, V, aX, ramp)
+        if new is None:  # the ramp met stiffness or a transition: redo with the force held
+            system.restore(saved)
+            new = self._solve_held(system, point, saved, t, h, h_ns, X, V, aX, False)
+        return new
+
+    second_order = True
+    _loop_gain = 0.0  # |d(block dv)/dF * dF/d(dv)| of the last slip step, from the iteration
+
+    def _solve_held(self, system, point, saved, t, h, h_ns, X, V, aX, ramp):
+        """One step with the force ramped from point.F (ramp) or held; None if a ramp
+        step turns out stuck, reversing or stiff."""
+        block_state = [v for v in saved.handles.values() if v[0] is system.block]
+        friction_state = [v for v in saved.handles.values() if v[0] is system.friction]
         delta = 1e-10 * self.scales.velocity  # "zero" relative velocity [m/s]
         last = {}  # the latest evaluation of each slave; also: "it has stepped, restore first"
+        F_start = point.F
 
         def friction_at(dv):
             if "friction" in last:
-                for slave, handle in friction_state.values():
+                for slave, handle in friction_state:
                     slave.restore(handle)
             F, f = system.step_friction(dv, t, h)
             last["friction"] = (dv, F, f)
             return F, f
 
-        def block_under(F):
+        def block_at(F0, rate):  # the block's relative velocity and position after the step
             if "block" in last:
-                for slave, handle in block_state.values():
+                for slave, handle in block_state:
                     slave.restore(handle)
-            x, v, a = system.step_block(F, 0.0, t, h)
-            last["block"] = (F, x, v, a)
-            return V - v
+            x, v, a = system.step_block(F0, rate, t, h)
+            last["block"] = (F0 + rate * h, x, v, a, F0, rate)
+            return V - v, x
+
+        def block_under(F):  # F: the force at the end of the step
+            return block_at(F_start, (F - F_start) / h)[0] if ramp else block_at(F, 0.0)[0]
 
         def loop(dv):  # H(dv): how far the block's answer is from the assumed dv
             self.counters.iterations += 1
@@ -153,48 +180,69 @@ class ImplicitCoupling(CouplingAlgorithm):
 
         # Try the side the contact was on first: most steps need two evaluations.
         first = -1.0 if point.mode < 0 else 1.0
-        probes = {}  # side -> (friction force at +-delta, block's dv under it)
+        probes = {}  # side -> (friction force at +-delta, block's relative velocity under it)
 
         def probe(side):
             value = loop(side * delta)
-            probes[side] = (last["friction"][1], last["block"][2])
+            probes[side] = (last["friction"][1], V - last["block"][2], last["block"][1])
             return value
 
         mode = 0
+        event = 1.0
         for side in (first, -first):
             h_side = probe(side)
             if side * h_side > 0:  # the block slips past +-delta on this side
-                dv = self._slip_root(loop, side * delta, h_side, side, delta)
+                if point.mode == 0 and point.F_rate != 0.0:
+                    # It was stuck, its force ramping toward the bound: it broke away when
+                    # the ramp reached the bound, maybe well inside this step.
+                    reach = (probes[side][0] - point.F) / (point.F_rate * h)
+                    event = reach if 0.0 < reach < 1.0 else 1.0
+                dv, gain = self._slip_root(loop, side * delta, h_side, side, delta)
                 mode = int(side)
                 break
+            if ramp:
+                return None
         if mode == 0:
-            F = self._stick_force(block_under, probes, V, delta)
+            if point.mode == 0 and point.t_ns > 0:  # stuck all through the step
+                event = self._stick_ramp(block_at, probes, delta, h, X - point.X, point.x)
+            if event < 1.0 or point.mode != 0 or point.t_ns == 0:
+                self._stick_force(block_under, probes, delta)
             self.counters.stick_steps += 1
             _, f = friction_at(0.0)
         else:
+            if ramp and gain >= 1.0:
+                self._loop_gain = gain
+                return None
+            self._loop_gain = gain
             if last["friction"][0] != dv:
                 friction_at(dv)
             _, F, f = last["friction"]
             if last["block"][0] != F:
                 block_under(F)
-        _, x, v, a = last["block"]
-        return Point(point.t_ns + h_ns, X, V, aX, x, v, a, F, f, F_start=F, mode=mode)
+        F, x, v, a, F0, F_rate = last["block"]
+        return Point(point.t_ns + h_ns, X, V, aX, x, v, a, F, f, F_start=F0, F_rate=F_rate, mode=mode,
+                     event=event)
 
     def _slip_root(self, loop, lo, h_lo, direction, delta):
-        """Root of the decreasing loop function beyond lo (slip in `direction`)."""
+        """Root of the decreasing loop function beyond lo (slip in `direction`).
+
+        Returns (dv, loop gain): the gain is -(slope of the loop function) - 1, i.e. how
+        strongly the block's answer reacts to the assumed dv, measured on the bracket.
+        """
         # One fixed-point pass from lo lands beyond the root: the friction there is at
         # least as large, so the block answers with a smaller dv.
         hi = lo + h_lo
         h_hi = loop(hi)
-        if direction * h_hi >= 0:  # not beyond: the law is not monotone here; search outward
+        if direction * h_hi >= 0 and h_hi != 0:  # not beyond: the law is not monotone here
             for _ in range(self.max_iterations):
                 lo, h_lo = hi, h_hi
                 hi = lo + 2.0 * (h_lo if h_lo != 0 else direction * delta)
                 h_hi = loop(hi)
                 if direction * h_hi < 0 or h_hi == 0:
                     break
+        gain = lambda: max(0.0, -(h_hi - h_lo) / (hi - lo) - 1.0) if hi != lo else 0.0
         if h_hi == 0:
-            return hi
+            return hi, gain()
         # Illinois regula falsi on [lo, hi]; for laws constant in dv it ends at once.
         side = 0
         x = hi
@@ -202,7 +250,7 @@ class ImplicitCoupling(CouplingAlgorithm):
             x = (lo * h_hi - hi * h_lo) / (h_hi - h_lo)
             hx = loop(x)
             if abs(hx) <= delta or hx == 0:
-                return x
+                break
             if (hx > 0) == (h_lo > 0):
                 lo, h_lo = x, hx
                 if side == -1:
@@ -214,17 +262,17 @@ class ImplicitCoupling(CouplingAlgorithm):
                     h_lo *= 0.5
                 side = 1
             if abs(hi - lo) <= delta:
-                return x
-        return x
+                break
+        return x, gain()
 
-    def _stick_force(self, block_under, probes, V, delta):
+    def _stick_force(self, block_under, probes, delta):
         """The force that keeps the blocks together over the step (dv = 0 at its end).
 
         It lies between the friction at -delta and at +delta (the probes already made);
         the secant on the block's answer starts from those two evaluations.
         """
-        (F_pos, v_pos), (F_neg, v_neg) = probes[1.0], probes[-1.0]
-        a, da, b, db = F_neg, V - v_neg, F_pos, V - v_pos
+        (F_pos, a_pos, _), (F_neg, a_neg, _) = probes[1.0], probes[-1.0]
+        a, da, b, db = F_neg, a_neg, F_pos, a_pos
         if da == db:
             block_under(F_pos)
             return F_pos
@@ -236,6 +284,51 @@ class ImplicitCoupling(CouplingAlgorithm):
                 break
             a, da, b, db = b, db, F, d
         return F
+
+    def _stick_ramp(self, block_at, probes, delta, h, dX, x_start):
+        """Stuck over the whole step: the force ramp F0 + rate s that keeps the blocks
+        together, i.e. ends with dv = 0 and moves the block exactly as far as the drive.
+
+        A held force can match only one of the two, and then the position drifts by
+        O(h^3) a step through the spring term; the ramp matches both, and needs no force
+        from the previous step (so no ringing). The block's answer is affine in (F0, rate)
+        for a linear block; it is not assumed: the Newton steps use secant slopes.
+        """
+        (F_pos, d_pos, x_pos), (F_neg, d_neg, x_neg) = probes[1.0], probes[-1.0]
+        if F_pos == F_neg:
+            return 0.0
+        x_target = x_start + dX
+        # slopes in F0 from the two held probes, in rate from one more evaluation
+        dF = F_pos - F_neg
+        d_F, x_F = (d_pos - d_neg) / dF, (x_pos - x_neg) / dF
+        rate_probe = dF / h
+        F0, rate = F_neg, 0.0
+        d0, x0 = d_neg, x_neg
+        d_r, x_r = None, None
+        for _ in range(8):
+            if d_r is None:
+                d1, x1 = block_at(F0, rate + rate_probe)
+                d_r, x_r = (d1 - d0) / rate_probe, (x1 - x0) / rate_probe
+            det = d_F * x_r - d_r * x_F
+            if det == 0:
+                break
+            # Newton on (dv_end, x_end - x_target) = 0 with the secant Jacobian
+            rx = x0 - x_target
+            F0, rate = F0 - (d0 * x_r - d_r * rx) / det, rate - (d_F * rx - x_F * d0) / det
+            d0, x0 = block_at(F0, rate)
+            if abs(d0) <= delta and abs(x0 - x_target) <= 1e-12 * self.scales.position:
+                break
+        # Where the ramp leaves the friction's bounds the contact breaks away inside the
+        # step: return the fraction of the step at which it does (1.0: stuck throughout).
+        low, high = min(F_neg, F_pos), max(F_neg, F_pos)
+        F1 = F0 + rate * h
+        if not low <= F0 <= high:
+            return 0.0
+        if F1 > high:
+            return (high - F0) / (F1 - F0)
+        if F1 < low:
+            return (low - F0) / (F1 - F0)
+        return 1.0
 
 
 class AdaptiveCoupling(ImplicitCoupling):
@@ -268,6 +361,13 @@ class AdaptiveCoupling(ImplicitCoupling):
         start = system.save()
         try:
             full = self.solve_step(system, point, h_ns)
+            landing = int(h_ns * full.event) & ~1
+            if full.event < 1.0 and landing >= 2 * self.min_ns and landing >= h_ns // 100:
+                # A stuck contact breaks away inside the step: end the step right there.
+                system.restore(start)
+                self.counters.rejected += 1
+                self.h_ns = landing
+                return []
             system.restore(start)
             mid = self.solve_step(system, point, h_ns // 2)
             end = self.solve_step(system, mid, h_ns // 2)
@@ -291,9 +391,9 @@ class AdaptiveCoupling(ImplicitCoupling):
         midpoint, relative to tol: results are sampled between communication points, and
         this bounds that error (halves interpolate 16 times better)."""
         s, h = self.scales, h_ns / NS
-        hermite_mid = lambda y0, dy0, y1, dy1: 0.5 * (y0 + y1) + h / 8.0 * (dy0 - dy1)
-        v_mid = hermite_mid(start.v, start.a, end.v, end.a)
-        x_mid = hermite_mid(start.x, start.v, end.x, end.v)
+        hermite_mid = lambda y0, dy0, dy1, y1: 0.5 * (y0 + y1) + h / 8.0 * (dy0 - dy1)
+        v_mid = hermite_mid(start.v, *velocity_slopes(start, end), end.v)
+        x_mid = hermite_mid(start.x, start.v, end.v, end.x)
         return max(abs(v_mid - mid.v) / (16 * self.tol * s.velocity),
                    abs(x_mid - mid.x) / (16 * self.tol * s.position))
 

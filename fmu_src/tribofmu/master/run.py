@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .algorithms import NS, CouplingAlgorithm, Scales
+from .algorithms import NS, CouplingAlgorithm, Scales, velocity_slopes
 from .slave import FMUCallError
 from .system import CoupledSystem, Point
 
@@ -63,21 +63,26 @@ def sample(points: list[Point], grid: np.ndarray) -> dict[str, np.ndarray]:
     """The run's signals on the time grid [s].
 
     Positions and velocities are cubic Hermite interpolants between communication points
-    (each has its derivative at both ends: V for X, v for x, the accelerations for V and v);
+    (each has its derivative at both ends: V for X, v for x, the accelerations for V and v;
+    over a step that ends stuck, v follows V, so its slope is the drive's acceleration);
     F and f, which may jump, are interpolated linearly.
     """
     t = np.array([p.t_ns for p in points], dtype=np.int64) / NS
     get = lambda name: np.array([getattr(p, name) for p in points])
     X, V, aX, x, v, a = (get(k) for k in ("X", "V", "aX", "x", "v", "a"))
-    return {"X": _hermite(t, X, V, grid), "V": _hermite(t, V, aX, grid),
-            "x": _hermite(t, x, v, grid), "v": _hermite(t, v, a, grid),
+    slopes = np.array([velocity_slopes(p0, p1) for p0, p1 in zip(points, points[1:])])
+    v_left, v_right = slopes[:, 0], slopes[:, 1]
+    return {"X": _hermite(t, X, V[:-1], V[1:], grid), "V": _hermite(t, V, aX[:-1], aX[1:], grid),
+            "x": _hermite(t, x, v[:-1], v[1:], grid), "v": _hermite(t, v, v_left, v_right, grid),
             "F": np.interp(grid, t, get("F")), "f": np.interp(grid, t, get("f"))}
 
 
-def _hermite(t: np.ndarray, y: np.ndarray, dy: np.ndarray, grid: np.ndarray) -> np.ndarray:
+def _hermite(t: np.ndarray, y: np.ndarray, dy_left: np.ndarray, dy_right: np.ndarray,
+             grid: np.ndarray) -> np.ndarray:
+    """Cubic Hermite interpolation; dy_left[i], dy_right[i]: slopes at the ends of step i."""
     i = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, len(t) - 2)
     h = t[i + 1] - t[i]
     s = (grid - t[i]) / h
     h00, h10 = 2 * s ** 3 - 3 * s ** 2 + 1, s ** 3 - 2 * s ** 2 + s
     h01, h11 = -2 * s ** 3 + 3 * s ** 2, s ** 3 - s ** 2
-    return h00 * y[i] + h10 * h * dy[i] + h01 * y[i + 1] + h11 * h * dy[i + 1]
+    return h00 * y[i] + h10 * h * dy_left[i] + h01 * y[i + 1] + h11 * h * dy_right[i]

@@ -46,6 +46,7 @@ class Point:
     F_rate: float = 0.0
     mode: int = 0
     est_error: float = 0.0  # the algorithm's own error estimate of this step (0 if none)
+    event: float = 1.0  # fraction of the step at which a stuck contact broke away (1: none)
 
     @property
     def dv(self) -> float:
