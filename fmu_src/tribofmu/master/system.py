@@ -47,6 +47,7 @@ class Point:
     mode: int = 0
     est_error: float = 0.0  # the algorithm's own error estimate of this step (0 if none)
     event: float = 1.0  # fraction of the step at which a stuck contact broke away (1: none)
+    ramped: bool = False  # the step ramped the force while slipping (else held or stuck)
 
     @property
     def dv(self) -> float:
