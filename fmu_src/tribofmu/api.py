@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from .master import CoupledSystem, Scales, Slave, make_algorithm, run, sample
+from .energy import energy_audit
 from .master.run import COLUMNS
 from .scenario import Scenario, ScenarioError, load_scenario
 from .wiring import constant_inputs, fmu_parameters, scales
@@ -101,6 +102,7 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
              "stick_steps": outcome.counters["stick_steps"], "forced_steps": outcome.counters["forced"],
              "fmu_calls": outcome.calls, "fmu_calls_total": sum(outcome.calls.values()),
              "output_points": int(len(grid))}
+    stats["energy"] = energy_audit(outcome.points, scenario)
     return SimulationResult(scenario, grid, *(signals[k] for k in COLUMNS), outcome.ok,
                             outcome.message, stats, outcome.points)
 
