@@ -3,6 +3,7 @@
     tribofmu build [--out DIR]
     tribofmu simulate SCENARIO [--out DIR] [--set KEY=VALUE ...] [--algorithm NAME] [--step S] [--tol TOL]
     tribofmu export-ssp SCENARIO --out FILE.ssp [--set KEY=VALUE ...] [--fmu-dir DIR]
+    tribofmu accuracy SCENARIO [--out DIR] [--set KEY=VALUE ...] [--quick]
 
 Bad input (a scenario key, a value, a missing FMU) is one line on stderr and exit code 2;
 results are written whole or not at all.
@@ -67,6 +68,14 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--fmu-dir", default="build", help="where the .fmu files are (default: build)")
     p.set_defaults(run=cmd_export_ssp)
+
+    p = sub.add_parser("accuracy", help="error vs cost of every algorithm against the reference solution")
+    p.add_argument("scenario")
+    p.add_argument("--out", default=None, help="output directory (default: out/<scenario name>-accuracy)")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
+    p.add_argument("--quick", action="store_true", help="a shorter ladder of steps and tolerances")
+    p.add_argument("--fmu-dir", default="build", help="where the .fmu files are (default: build)")
+    p.set_defaults(run=cmd_accuracy)
     return parser
 
 
@@ -109,6 +118,18 @@ def cmd_export_ssp(args) -> int:
     scenario = api.load(args.scenario, args.overrides)
     path = export_ssp(scenario, Path(args.out), Path(args.fmu_dir))
     print(path)
+    return 0
+
+
+def cmd_accuracy(args) -> int:
+    from . import api
+    from .accuracy import accuracy_study, write_study
+    scenario = api.load(args.scenario, args.overrides)
+    api.ensure_fmus(Path(args.fmu_dir), scenario.fmus, build=False)
+    rows, summary = accuracy_study(scenario, fmu_dir=args.fmu_dir, quick=args.quick)
+    out = Path(args.out) if args.out else Path("out") / f"{scenario.name}-accuracy"
+    write_study(rows, summary, scenario, out)
+    print(f"{len(rows)} runs, {summary['total_wall_time_s']:.1f} s -> {out}/")
     return 0
 
 

@@ -1,0 +1,210 @@
+"""Accuracy study: every coupling algorithm over a ladder of steps / tolerances, against the
+monolithic reference solution.
+
+    from tribofmu.accuracy import accuracy_study
+    rows, summary = accuracy_study(scenario, out_dir)
+
+Per run: nRMS error of v on the shown window (:func:`tribofmu.reference.nrms`), the largest
+|v - v_ref| on the window over max |v_ref| (same normalisation), wall time of the whole
+``simulate`` call [s], communication steps, FMU calls, rollbacks (rejected steps). For the
+adaptive algorithm also how well its own error estimate tracks the true local error
+(:func:`estimate_tracking`). Writes accuracy.csv and accuracy.png whole or not at all.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .master.algorithms import NS
+from .physics.block import BlockState, advance_block
+from .physics.drive import drive
+from .physics.friction import DRY, FLUID
+from .reference import nrms, reference_solution
+from .scenario import Scenario
+from .wiring import scales
+
+COLUMNS = ("algorithm", "step", "tol", "nrms_v", "max_err_v", "wall_time_s", "steps", "fmu_calls",
+           "rollbacks", "ok", "est_true_ratio_median", "est_true_ratio_p10", "est_true_ratio_p90",
+           "est_underestimated_frac")
+
+# (algorithm, step [s] or None, tol or None): the whole fig2_dry ladder takes about 1 min
+LADDER = ([("jacobi", h, None) for h in (1e-3, 3e-4, 1e-4, 3e-5)]
+          + [("gauss-seidel", h, None) for h in (1e-3, 3e-4, 1e-4, 3e-5)]
+          + [("implicit", h, None) for h in (1e-3, 3e-4, 1e-4, 3e-5)]
+          + [("adaptive", None, tol) for tol in (1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5)])
+QUICK_LADDER = ([("jacobi", h, None) for h in (1e-3, 1e-4)]
+                + [("gauss-seidel", h, None) for h in (1e-3, 1e-4)]
+                + [("implicit", h, None) for h in (1e-3, 1e-4)]
+                + [("adaptive", None, tol) for tol in (1e-2, 1e-3, 1e-4)])
+
+
+def accuracy_study(scenario: Scenario, fmu_dir: str | Path = "build", quick: bool = False,
+                   ladder=None, max_run_s: float = 60.0, log=print) -> tuple[list[dict], dict]:
+    """Run the ladder; returns (rows, summary). A rung whose finer neighbour would exceed
+    max_run_s (estimated from the last run of the same algorithm) is skipped and logged."""
+    from .api import simulate
+
+    ladder = list(ladder if ladder is not None else (QUICK_LADDER if quick else LADDER))
+    begin = time.perf_counter()
+    ref = reference_solution(scenario)
+    ref_wall = time.perf_counter() - begin
+    if not ref.ok:
+        raise RuntimeError(f"reference solution failed: {ref.message}")
+    log(f"reference: {ref_wall:.2f} s ({ref.message or 'ok'})")
+    window = scenario.window
+    inside = (ref.time >= window[0] - 1e-12) & (ref.time <= window[1] + 1e-12)
+    v_scale = float(np.max(np.abs(ref.v[inside])))
+    rows: list[dict] = []
+    last: dict[str, tuple[float, float]] = {}  # algorithm -> (setting, wall time)
+    for algorithm, step, tol in ladder:
+        setting = step if step is not None else tol
+        if algorithm in last:  # cost grows like 1/step (fixed) or tol^-1/2 (adaptive)
+            prev_setting, prev_wall = last[algorithm]
+            power = 1.0 if step is not None else 0.5
+            if prev_wall * (prev_setting / setting) ** power > max_run_s:
+                log(f"{algorithm} {setting:g}: skipped (estimated > {max_run_s:g} s)")
+                continue
+        t0 = time.perf_counter()
+        result = simulate(scenario, algorithm=algorithm, step=step, tol=tol, fmu_dir=fmu_dir, build=False)
+        wall = time.perf_counter() - t0
+        last[algorithm] = (setting, wall)
+        row: dict[str, Any] = dict(algorithm=algorithm, step=step, tol=tol, wall_time_s=wall,
+                                   steps=result.stats["communication_steps"],
+                                   fmu_calls=result.stats["fmu_calls_total"],
+                                   rollbacks=result.stats["rejected_steps"], ok=result.ok)
+        try:
+            row["nrms_v"] = nrms(result.time, result.v, ref.time, ref.v, window)
+            v_on_ref = np.interp(ref.time[inside], result.time, result.v)
+            row["max_err_v"] = float(np.max(np.abs(v_on_ref - ref.v[inside])) / v_scale)
+        except ValueError:  # the run stopped before the window ended
+            row["nrms_v"] = row["max_err_v"] = math.nan
+        if algorithm == "adaptive":
+            track = estimate_tracking(result.points, scenario, result.stats["tol"])
+            row.update({f"est_true_ratio_{k}": track[k] for k in ("median", "p10", "p90")})
+            row["est_underestimated_frac"] = track["underestimated_frac"]
+            row["est_pairs"] = track["pairs"]
+        rows.append(row)
+        log(f"{algorithm:12s} {'h=%g' % step if step else 'tol=%g' % tol:12s} nRMS(v)={row['nrms_v']:.3g} "
+            f"max={row['max_err_v']:.3g} {wall:6.2f} s {row['steps']:7d} steps {row['fmu_calls']:8d} calls"
+            + (f"  est/true median {row.get('est_true_ratio_median', math.nan):.3g}"
+               if algorithm == "adaptive" else ""))
+    summary = {"reference_wall_time_s": ref_wall, "total_wall_time_s": time.perf_counter() - begin}
+    return rows, summary
+
+
+# -- the adaptive's error estimate against the true local error ---------------------------------
+def estimate_tracking(points, scenario: Scenario, tol: float, window_only: bool = True) -> dict:
+    """Per accepted step pair of the adaptive algorithm, its estimate against the truth.
+
+    The adaptive accepts two half steps (mid, end) at a time and stores on both the estimate
+    ``est_error = tol * err``, err the step-doubling difference over ``tol h / T`` of the
+    scales; the v-error it claims for the pair is ``est_error * v_scale * h / T``. The true
+    local error is |v_end - v(t_end)| where v(t) starts from the co-simulation's own state
+    at the pair's start and follows the exact dynamics (dry: closed-form slip while the
+    contact keeps slipping the same way; fluid: DOP853 at rtol 1e-12). Stuck pairs, pairs
+    with a stick/slip transition (dry) or a sign change of dv (fluid), and the boundary
+    regime are skipped. Returns ratio est/true quantiles and the fraction of pairs whose
+    estimate is below the true error (underestimated).
+    """
+    from scipy.integrate import solve_ivp
+
+    sc = scenario
+    law = sc.friction.law()
+    if "Friction" not in sc.fmus or law.regime not in (DRY, FLUID) or "Drive" not in sc.fmus:
+        return {"pairs": 0, "median": math.nan, "p10": math.nan, "p90": math.nan,
+                "underestimated_frac": math.nan, "skipped": 0}
+    M, K, n = sc.block.M, sc.block.K, sc.conditions.n
+    A, omega, T = sc.drive.A, sc.drive.omega, sc.drive.period
+    _, v_scale, _ = scales(sc)
+    t_lo, t_hi = sc.window if window_only else (0.0, math.inf)
+    ratios, under, skipped = [], 0, 0
+    i = 1
+    while i + 1 < len(points):
+        start, mid, end = points[i - 1], points[i], points[i + 1]
+        if not (mid.est_error > 0 and end.est_error == mid.est_error and
+                end.t_ns - mid.t_ns == mid.t_ns - start.t_ns):
+            i += 1
+            continue
+        i += 2
+        t0, t1 = start.t_ns / NS, end.t_ns / NS
+        if t0 < t_lo or t1 > t_hi:
+            continue
+        s = start.mode
+        if s == 0 or mid.mode != s or end.mode != s:
+            skipped += 1
+            continue
+        h = t1 - t0
+        if law.regime == DRY:
+            exact = advance_block(BlockState(start.x, start.v), law.force(float(s), n), 0.0, h, M, K)
+            v_true = exact.v
+        else:
+            def rhs(t, y):
+                dv = drive(t, A, omega)[1] - y[1]
+                return (y[1], (law.force(dv, n) - 2.0 * K * y[0]) / M)
+            sol = solve_ivp(rhs, (t0, t1), (start.x, start.v), method="DOP853", rtol=1e-12,
+                            atol=(1e-15 * A, 1e-15 * v_scale))
+            v_true = float(sol.y[1, -1])
+        dv_true = drive(t1, A, omega)[1] - v_true
+        if (dv_true > 0) - (dv_true < 0) != s:  # the true motion sticks or reverses inside
+            skipped += 1
+            continue
+        true_err = abs(end.v - v_true)
+        est = end.est_error * v_scale * h / T
+        true_err = max(true_err, 1e-15 * v_scale)
+        ratios.append(est / true_err)
+        under += est < true_err
+    if not ratios:
+        return {"pairs": 0, "median": math.nan, "p10": math.nan, "p90": math.nan,
+                "underestimated_frac": math.nan, "skipped": skipped}
+    r = np.array(ratios)
+    return {"pairs": int(r.size), "median": float(np.median(r)), "p10": float(np.percentile(r, 10)),
+            "p90": float(np.percentile(r, 90)), "underestimated_frac": under / r.size, "skipped": skipped}
+
+
+# -- output -------------------------------------------------------------------------------------
+def rows_csv(rows: list[dict]) -> str:
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=COLUMNS, extrasaction="ignore", lineterminator="\n")
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({k: ("" if row.get(k) is None else row.get(k, "")) for k in COLUMNS})
+    return buf.getvalue()
+
+
+def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for k, name in enumerate(dict.fromkeys(r["algorithm"] for r in rows)):
+        sel = [r for r in rows if r["algorithm"] == name and np.isfinite(r["nrms_v"]) and r["nrms_v"] > 0]
+        if not sel:
+            continue
+        sel.sort(key=lambda r: r["wall_time_s"])
+        ax.loglog([r["wall_time_s"] for r in sel], [r["nrms_v"] for r in sel], "o-", color=f"C{k}", label=name)
+        for r in sel:
+            ax.annotate(f"{r['step']:g}" if r["step"] else f"{r['tol']:g}", (r["wall_time_s"], r["nrms_v"]),
+                        fontsize=6, xytext=(3, 3), textcoords="offset points")
+    ax.axvline(summary["reference_wall_time_s"], color="k", ls="--", lw=1, label="reference solver")
+    ax.set_xlabel("wall time [s]")
+    ax.set_ylabel("nRMS error of v on the window")
+    ax.set_title(title, fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def write_study(rows: list[dict], summary: dict, scenario: Scenario, out: Path) -> None:
+    from .atomic import atomic_directory
+    with atomic_directory(Path(out)) as tmp:
+        plot_accuracy(rows, summary, f"{scenario.title or scenario.name}: error vs cost", tmp / "accuracy.png")
+        (tmp / "accuracy.csv").write_text(rows_csv(rows))
