@@ -15,13 +15,18 @@ from typing import Any
 
 import numpy as np
 
-from .master import CoupledSystem, Scales, Slave, make_algorithm, run, sample
+from .master import (CoupledSystem, FMUCallError, FMUFileError, Scales, Slave, make_algorithm, run,
+                     sample)
 from .energy import energy_audit
 from .master.run import COLUMNS
 from .scenario import Scenario, ScenarioError, load_scenario
 from .wiring import constant_inputs, fmu_parameters, scales
 
 DEFAULT_FMU_DIR = Path("build")
+
+
+class FMUSetupError(RuntimeError):
+    """One or more FMUs could not be loaded or initialized; the message names each instance."""
 SAMPLES_PER_PERIOD = 1000
 
 
@@ -78,8 +83,14 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     ensure_fmus(fmu_dir, scenario.fmus, build)
     slaves: dict[str, Slave] = {}
     try:
+        failures = []  # every instance's failure, in one message
         for fmu, params in fmu_parameters(scenario).items():
-            slaves[fmu] = Slave(fmu_dir / f"{fmu}.fmu", instance=fmu.lower(), parameters=params)
+            try:
+                slaves[fmu] = Slave(fmu_dir / f"{fmu}.fmu", instance=fmu.lower(), parameters=params)
+            except (FMUFileError, FMUCallError) as exc:
+                failures.append(str(exc))
+        if failures:
+            raise FMUSetupError("; ".join(failures))
         system = CoupledSystem(block=slaves["BlockSpring"], drive=slaves.get("Drive"),
                                friction=slaves.get("Friction"), conditions=constant_inputs(scenario)
                                if "Friction" in slaves else None)

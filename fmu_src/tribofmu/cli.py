@@ -4,6 +4,7 @@
     tribofmu simulate SCENARIO [--out DIR] [--set KEY=VALUE ...] [--algorithm NAME] [--step S] [--tol TOL]
     tribofmu export-ssp SCENARIO --out FILE.ssp [--set KEY=VALUE ...] [--fmu-dir DIR]
     tribofmu accuracy SCENARIO [--out DIR] [--set KEY=VALUE ...] [--quick]
+    tribofmu sweep SCENARIO --grid KEY=V1,V2,... [--grid ...] [--out DIR] [--scheduler ADDR] [--workers N]
 
 Bad input (a scenario key, a value, a missing FMU) is one line on stderr and exit code 2;
 results are written whole or not at all.
@@ -34,9 +35,11 @@ def main(argv: list[str] | None = None) -> int:
         print("tribofmu: interrupted; nothing was written", file=sys.stderr)
         return 130
     except Exception as exc:  # every expected failure becomes one line, never a traceback
-        from .master.slave import FMUFileError
+        from .api import FMUSetupError
+        from .master.slave import FMUCallError, FMUFileError
         from .scenario import ScenarioError
-        if isinstance(exc, (UsageError, ScenarioError, FMUFileError, FileNotFoundError)):
+        if isinstance(exc, (UsageError, ScenarioError, FMUFileError, FileNotFoundError, FMUSetupError,
+                            FMUCallError)):
             print(f"tribofmu: {exc}", file=sys.stderr)
             return EXIT_BAD_INPUT
         raise
@@ -69,6 +72,24 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--fmu-dir", default="build", help="where the .fmu files are (default: build)")
     p.set_defaults(run=cmd_export_ssp)
 
+    p = sub.add_parser("sweep", help="run a grid of overrides on Dask; sweep.csv, regime maps")
+    p.add_argument("scenario")
+    p.add_argument("--grid", action="append", default=[], required=True, metavar="KEY=V1,V2,...",
+                   help="swept values of a scenario key (repeatable: the cartesian product)")
+    p.add_argument("--out", default=None, help="output directory (default: out/<scenario name>-sweep)")
+    p.add_argument("--scheduler", default=None, help="address of an existing Dask scheduler")
+    p.add_argument("--workers", type=int, default=None,
+                   help="local worker processes (default: one per core; 0: no Dask, a plain loop)")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
+    p.add_argument("--algorithm", default=None, help="jacobi, gauss-seidel, implicit, adaptive")
+    p.add_argument("--step", type=float, default=None, help="communication step [s]")
+    p.add_argument("--tol", type=float, default=None, help="tolerance of the adaptive algorithm")
+    p.add_argument("--fmu-dir", default=None, help="use these FMUs (default: build into OUT/fmus)")
+    p.add_argument("--retry-failed", action="store_true", help="rerun the points sweep.csv has as failed")
+    p.add_argument("--timeout", type=float, default=None, help="per-point time limit [s]: then failed")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    p.set_defaults(run=cmd_sweep)
+
     p = sub.add_parser("accuracy", help="error vs cost of every algorithm against the reference solution")
     p.add_argument("scenario")
     p.add_argument("--out", default=None, help="output directory (default: out/<scenario name>-accuracy)")
@@ -99,11 +120,12 @@ def cmd_simulate(args) -> int:
                           fmu_dir=args.fmu_dir, build=False)
     out = Path(args.out) if args.out else Path("out") / scenario.name
     with atomic_directory(out) as tmp:
-        write_result_csv(result, tmp / "result.csv")
         (tmp / "stats.json").write_text(json.dumps(result.stats, indent=2) + "\n")
-        if not args.no_plots:
-            from .plots import plot_result
-            plot_result(result, tmp)
+        if result.ok:  # a failed run leaves its stats (with the message), never a partial result
+            write_result_csv(result, tmp / "result.csv")
+            if not args.no_plots:
+                from .plots import plot_result
+                plot_result(result, tmp)
     print(f"{scenario.name}: {result.message}; {result.stats['communication_steps']} steps, "
           f"{result.stats['wall_time']:.2f} s -> {out}/")
     if not result.ok:
@@ -119,6 +141,24 @@ def cmd_export_ssp(args) -> int:
     path = export_ssp(scenario, Path(args.out), Path(args.fmu_dir))
     print(path)
     return 0
+
+
+def cmd_sweep(args) -> int:
+    """Exit 0 when every point is ok, 1 when some failed (see their rows), 2 on bad input."""
+    from .sweep import parse_grid, sweep
+    out = Path(args.out) if args.out else Path("out") / f"{Path(args.scenario).stem}-sweep"
+    try:
+        rows = sweep(args.scenario, parse_grid(args.grid), out, scheduler=args.scheduler,
+                     workers=args.workers, overrides=args.overrides, algorithm=args.algorithm,
+                     step=args.step, tol=args.tol, fmu_dir=args.fmu_dir,
+                     retry_failed=args.retry_failed, timeout=args.timeout, plots=not args.no_plots)
+    except KeyboardInterrupt:
+        print(f"tribofmu: sweep interrupted; finished points are in {out}/sweep.csv, "
+              "rerun the same command to resume", file=sys.stderr)
+        return 130
+    print(f"{len(rows)} points: {len(rows) - rows.failed} ok, {rows.failed} failed "
+          f"({rows.computed} run, {rows.skipped} already done), {rows.elapsed:.1f} s -> {out}/")
+    return EXIT_FAILED if rows.failed else 0
 
 
 def cmd_accuracy(args) -> int:
