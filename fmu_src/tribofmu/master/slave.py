@@ -8,6 +8,8 @@ the FMU logged. Anything with the same methods (``set``, ``get``, ``do_step``, `
 from __future__ import annotations
 
 import ctypes
+import shutil
+import sys
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -180,7 +182,8 @@ class Slave:
                     len(self.messages))
 
     def close(self) -> None:
-        """Terminate and free the instance (errors here lose nothing: ignore them)."""
+        """Terminate and free the instance, delete its unzipped copy (errors here lose
+        nothing: ignore them)."""
         try:
             self._fmu.terminate()
         except Exception:
@@ -189,3 +192,8 @@ class Slave:
             self._fmu.freeInstance()
         except Exception:
             pass
+        # pythonfmu put the FMU's resources folder on sys.path; its trimmed tribofmu copy
+        # would shadow the installed package in processes started later (Dask workers).
+        resources = str(Path(self._unzipped, "resources"))
+        sys.path[:] = [entry for entry in sys.path if entry != resources]
+        shutil.rmtree(self._unzipped, ignore_errors=True)
