@@ -9,6 +9,10 @@
 from __future__ import annotations
 
 import csv
+import types
+import subprocess
+import socket
+import sys
 import datetime as dt
 import math
 from pathlib import Path
@@ -211,11 +215,33 @@ def fmu_dir(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def cluster():
+def cluster(tmp_path_factory):
+    """A real local Dask cluster (scheduler + 2 single-threaded worker processes) started as
+    fresh interpreters, so nothing an earlier test loaded into this process (FMUs, whose
+    pythonfmu resources stay on sys.path) reaches the workers."""
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                  scheduler_kwargs={"dashboard_address": ":0"}) as cl:
-        yield cl
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    cwd = tmp_path_factory.mktemp("dask")
+    quiet = dict(cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    procs = [subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
+                               "--port", str(port), "--no-dashboard"], **quiet)]
+    procs.append(subprocess.Popen([sys.executable, "-m", "dask", "worker", address, "--nworkers", "2",
+                                   "--nthreads", "1", "--no-dashboard"], **quiet))
+    try:
+        with distributed.Client(address, timeout=60) as client:
+            client.wait_for_workers(2, timeout=120)
+        yield types.SimpleNamespace(scheduler_address=address)
+    finally:
+        for proc in reversed(procs):
+            proc.terminate()
+        for proc in procs:
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
 
 
 def read_csv(path):
@@ -344,13 +370,15 @@ def test_one_sweep_at_a_time_in_a_directory(tmp_path):
 
 
 @pytest.mark.integration
-def test_cli_sweep_on_an_embedded_cluster_two_dimensional_map(tmp_path, capsys):
-    """The command as a user runs it: its own LocalCluster, FMUs built into OUT/fmus."""
-    from tribofmu.cli import main
+def test_cli_sweep_on_an_embedded_cluster_two_dimensional_map(tmp_path):
+    """The command as a user runs it, in its own process: its own LocalCluster, FMUs built
+    into OUT/fmus."""
     out = tmp_path / "map"
-    code = main(["sweep", str(FIG2), "--grid", "drive.omega=30,130", "--grid", "conditions.n=-20,-10",
-                 "--set", "time.periods=2", "--set", "time.window=[1,2]", "--out", str(out), "--workers", "2"])
-    assert code == 0, capsys.readouterr().err + (out / "sweep.csv").read_text()
+    proc = subprocess.run([sys.executable, "-m", "tribofmu.cli", "sweep", str(FIG2),
+                           "--grid", "drive.omega=30,130", "--grid", "conditions.n=-20,-10",
+                           "--set", "time.periods=2", "--set", "time.window=[1,2]", "--out", str(out),
+                           "--workers", "2"], capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
     assert sorted(p.name for p in (out / "fmus").iterdir()) == ["BlockSpring.fmu", "Drive.fmu", "Friction.fmu"]
     header, rows = read_csv(out / "sweep.csv")
     assert header[:2] == ["drive.omega", "conditions.n"]
@@ -360,7 +388,7 @@ def test_cli_sweep_on_an_embedded_cluster_two_dimensional_map(tmp_path, capsys):
         assert (out / f"map_{m}.png").stat().st_size > 0
     assert not (out / "map_melt_fraction.png").exists()  # dry friction: nothing to map
     assert (out / "portraits.png").stat().st_size > 0
-    assert "4 points: 4 ok, 0 failed" in capsys.readouterr().out
+    assert "4 points: 4 ok, 0 failed" in proc.stdout
 
 
 @pytest.mark.integration
