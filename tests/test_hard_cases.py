@@ -1,0 +1,220 @@
+"""Hard cases of the co-simulation with the real FMUs: each fails if the numerics go wrong
+(NaN, growth, energy created, wrong regime), checked against the monolithic reference, the
+exact free oscillator, the energy audit, or the theory of the coupling's order.
+
+Spans are shortened with time.periods so the module stays within a few minutes on 2 cores.
+Note (grid): simulate() drops the last output sample when stop_time is not a whole number
+of nanoseconds; windows here end a little before the span so nRMS is always defined.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tribofmu import api
+from tribofmu.build import build_fmus
+from tribofmu.energy import energy_audit
+from tribofmu.reference import nrms, reference_solution
+
+pytestmark = pytest.mark.integration
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+
+
+@pytest.fixture(scope="module")
+def fmu_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("hard-fmus")
+    build_fmus(out)
+    return out
+
+
+def run(fmu_dir, scene, overrides=(), **kw):
+    sc = api.load(SCENARIOS / f"{scene}.toml", list(overrides))
+    return sc, api.simulate(sc, fmu_dir=fmu_dir, build=False, **kw)
+
+
+def assert_sane(result, residual_rel=1e-3, negative_steps=0):
+    """Finite, completed, and the energy balance closes without energy created."""
+    assert result.ok, result.message
+    for k in ("x", "v", "F", "f"):
+        assert np.all(np.isfinite(getattr(result, k))), k
+    e = result.stats["energy"]
+    assert abs(e["residual_rel"]) < residual_rel, e
+    assert e["D"] >= -1e-8 * max(abs(e["W"]), abs(e["dE"]), 1e-12), e  # friction never feeds the block
+    assert e["negative_dissipation_steps"] <= negative_steps, e
+
+
+def error_vs_reference(sc, result):
+    ref = reference_solution(sc)
+    assert ref.ok, ref.message
+    return nrms(result.time, result.v, ref.time, ref.v, sc.window), ref
+
+
+# -- dry friction ----------------------------------------------------------------------------
+def test_dry_w130_mostly_stuck_with_asymmetric_portrait(fmu_dir):
+    sc, r = run(fmu_dir, "fig4_dry_w130", ["time.periods=6.6", "time.window=[5.0,6.5]"])
+    assert_sane(r, negative_steps=2)
+    err, ref = error_vs_reference(sc, r)
+    assert err < 2e-3
+    m = r.window_mask()
+    stuck = np.mean(np.abs(r.V[m] - r.v[m]) < 1e-6 * np.max(np.abs(r.V[m])))
+    assert stuck > 0.8  # Fig. 4f: stuck almost always
+    # the block's portrait sits off-centre (x swings more to one side), as in the reference
+    rm = (ref.time >= sc.window[0]) & (ref.time <= sc.window[1])
+    offset, ref_offset = r.x[m].max() + r.x[m].min(), ref.x[rm].max() + ref.x[rm].min()
+    assert abs(ref_offset) > 0.05 * (ref.x[rm].max() - ref.x[rm].min())
+    assert offset == pytest.approx(ref_offset, rel=0.02)
+
+
+def test_dry_very_high_load_always_stuck(fmu_dir):
+    sc, r = run(fmu_dir, "fig2_dry", ["conditions.n=-1e6", "time.periods=2.1", "time.window=[1.0,2.0]"])
+    assert_sane(r)
+    assert all(p.mode == 0 for p in r.points[1:])
+    scale = np.max(np.abs(r.V))
+    assert np.max(np.abs(r.v - r.V)) < 1e-8 * scale
+    assert np.max(np.abs((r.x - r.X) - (r.x[0] - r.X[0]))) < 1e-8 * sc.drive.A  # moves with the drive
+
+
+def test_no_friction_is_the_free_oscillator(fmu_dir):
+    x0 = 1e-3
+    sc, r = run(fmu_dir, "fig2_dry", ["friction.mu_friction=0", f"block.x0={x0}", "time.periods=3.1",
+                                      "time.window=[1.0,3.0]"])
+    assert_sane(r, residual_rel=1e-9)
+    w0 = math.sqrt(2 * sc.block.K / sc.block.M)
+    t = np.array([p.t_ns for p in r.points]) / 1e9
+    x = np.array([p.x for p in r.points])
+    v = np.array([p.v for p in r.points])
+    # the block is exact at communication points ...
+    assert np.max(np.abs(x - x0 * np.cos(w0 * t))) < 1e-9 * x0
+    assert np.max(np.abs(v + x0 * w0 * np.sin(w0 * t))) < 1e-9 * x0 * w0
+    assert all(p.F == 0.0 for p in r.points)
+    # ... and the sampled signal is within the interpolation tolerance
+    assert np.max(np.abs(r.x - x0 * np.cos(w0 * r.time))) < 1e-2 * x0
+    E0 = sc.block.K * x0 ** 2
+    assert abs(r.stats["energy"]["dE"]) < 1e-9 * E0  # no energy created or lost
+
+
+def test_no_friction_at_rest_stays_at_rest(fmu_dir):
+    sc, r = run(fmu_dir, "fig2_dry", ["friction.mu_friction=0", "time.periods=1", "time.window=[0,1]"])
+    assert r.ok and np.all(r.x == 0.0) and np.all(r.v == 0.0)
+
+
+def test_very_stiff_spring(fmu_dir):
+    """K = 1e7: the block rings at 1 ms, 200 times faster than the drive; it moves 30x less
+    than the drive, so the tolerance (relative to the drive's velocity) must be tight."""
+    ov = ["block.K=1e7", "time.periods=1.6", "time.window=[0.5,1.5]"]
+    sc, r = run(fmu_dir, "fig2_dry", ov, algorithm="adaptive", tol=1e-5)
+    assert_sane(r, residual_rel=1e-5, negative_steps=2)
+    err, ref = error_vs_reference(sc, r)
+    assert err < 1e-3
+    assert np.max(np.abs(r.v)) < 1.01 * np.max(np.abs(ref.v))  # no growth
+
+
+@pytest.mark.xfail(strict=True, reason="known: the default tol 1e-3 (scaled by the drive's velocity) "
+                   "gives nRMS(v) ~0.3 with K = 1e7; tol 1e-5 is needed")
+def test_very_stiff_spring_default_tolerance(fmu_dir):
+    ov = ["block.K=1e7", "time.periods=1.6", "time.window=[0.5,1.5]"]
+    sc, r = run(fmu_dir, "fig2_dry", ov, algorithm="adaptive")
+    err, _ = error_vs_reference(sc, r)
+    assert err < 1e-2
+
+
+# -- fluid friction --------------------------------------------------------------------------
+@pytest.mark.parametrize("ov, residual_rel, negative_frac, kw", [
+    (["friction.gamma=-0.6666666666666666", "friction.m=1e-3", "time.periods=3.1", "time.window=[2.0,3.0]"],
+     1e-4, 0.01, {}),
+    (["friction.gamma=-0.6666666666666666", "friction.m=1e3", "time.periods=3.1", "time.window=[2.0,3.0]"],
+     3e-2, 0.1, {}),
+], ids=["gamma-2/3-m1e-3", "gamma-2/3-m1e3"])
+def test_shear_thinning_extremes(fmu_dir, ov, residual_rel, negative_frac, kw):
+    """Tiny m: the block barely moves (1e-4 of the drive); huge m: it nearly follows the
+    drive and dv creeps through 0 with an unbounded relaxation rate. Errors are measured
+    on the drive's velocity scale, which the adaptive's tolerance refers to."""
+    sc, r = run(fmu_dir, "fig5_newtonian", ov, **kw)
+    steps = r.stats["communication_steps"]
+    assert_sane(r, residual_rel=residual_rel, negative_steps=negative_frac * steps)
+    err, ref = error_vs_reference(sc, r)
+    rm = (ref.time >= sc.window[0]) & (ref.time <= sc.window[1])
+    drive_scale = sc.drive.A * sc.drive.omega
+    assert err * np.max(np.abs(ref.v[rm])) < 1e-3 * drive_scale
+    assert np.max(np.abs(r.v)) < 1.05 * np.max(np.abs(ref.v)) + 1e-6 * drive_scale  # no growth
+
+
+def test_gamma_minus_095_fixed_steps(fmu_dir):
+    """gamma = -0.95: the adaptive crawls (dv creeps through 0 with a rate ~|dv|^-0.95) and
+    the reference solver does not finish in CI time: fixed implicit steps, checked for
+    sanity, the energy balance and self-convergence (h vs h/2)."""
+    ov = ["friction.gamma=-0.95", "time.periods=1.1", "time.window=[0.1,1.0]"]
+    sc, coarse = run(fmu_dir, "fig5_newtonian", ov, algorithm="implicit", step=1e-4)
+    _, fine = run(fmu_dir, "fig5_newtonian", ov, algorithm="implicit", step=5e-5)
+    for r in (coarse, fine):
+        assert_sane(r, residual_rel=1e-4, negative_steps=0.1 * r.stats["communication_steps"])
+        assert np.max(np.abs(r.v)) < 1.5 * np.max(np.abs(r.V))  # no growth
+    assert nrms(coarse.time, coarse.v, fine.time, fine.v, sc.window) < 1e-2
+
+
+# -- boundary friction -------------------------------------------------------------------------
+def test_boundary_large_fixed_steps_bounded(fmu_dir):
+    sc = api.load(SCENARIOS / "fig6_boundary.toml", ["time.periods=2", "time.window=[1.0,2.0]"])
+    r = api.simulate(sc, fmu_dir=fmu_dir, build=False, algorithm="implicit", step=sc.drive.period / 20)
+    assert r.ok, r.message
+    assert np.all(np.isfinite(r.f)) and np.all(np.isfinite(r.v)) and np.all(np.isfinite(r.F))
+    # f (the lubricant's excess volume) stays within the range the reference visits
+    ref = reference_solution(sc)
+    assert ref.ok, ref.message
+    assert r.f.min() >= ref.f.min() - 0.1 and r.f.max() <= 1.1 * ref.f.max() + 0.1
+    assert np.max(np.abs(r.v)) < 10 * np.max(np.abs(r.V))  # no growth
+    assert r.stats["energy"]["D"] >= 0.0
+
+
+# -- long run ----------------------------------------------------------------------------------
+LONG_PERIODS = 200  # 1000 periods take ~2 min at tol 1e-3 on 2 cores: too long for CI
+
+
+def test_long_run_energy_balance_does_not_drift(fmu_dir):
+    n = LONG_PERIODS
+    sc, r = run(fmu_dir, "fig5_newtonian", [f"time.periods={n + 0.1}", f"time.window=[{n - 1.5},{n}]"],
+                algorithm="adaptive", tol=1e-3)
+    # near dv = 0 the interpolants give slivers of ~1e-14 J of negative dissipation
+    assert_sane(r, residual_rel=1e-4, negative_steps=0.02 * r.stats["communication_steps"])
+    assert r.stats["energy"]["most_negative_step_dissipation"] > -1e-12 * r.stats["energy"]["D"]
+    period_ns = sc.drive.period * 1e9
+    # the residual of the balance over each tenth of the run: small and not growing
+    cut = [0] + [next(i for i, p in enumerate(r.points) if p.t_ns >= k * n / 10 * period_ns)
+                 for k in range(1, 11)]
+    chunks = [energy_audit(r.points[a:b + 1], sc) for a, b in zip(cut, cut[1:])]
+    res = np.array([abs(c["residual"]) / c["D"] for c in chunks])
+    assert np.all(res < 1e-4)
+    assert res[-3:].mean() < 3 * res[:3].mean() + 1e-9
+    # the periodic state neither grows nor decays: same amplitude after n periods
+    err, ref = error_vs_reference(sc, r)
+    assert err < 1e-3
+    D_per_period = np.array([c["D"] for c in chunks[1:]])
+    assert np.ptp(D_per_period) < 1e-3 * D_per_period.mean()
+
+
+# -- convergence order ----------------------------------------------------------------------
+def _order(fmu_dir, algorithm, steps):
+    ov = ["time.periods=2.6", "time.window=[1.5,2.5]"]
+    sc = api.load(SCENARIOS / "fig5_newtonian.toml", ov)
+    ref = reference_solution(sc)
+    errors = []
+    for h in steps:
+        r = api.simulate(sc, fmu_dir=fmu_dir, build=False, algorithm=algorithm, step=h)
+        assert r.ok
+        errors.append(nrms(r.time, r.v, ref.time, ref.v, sc.window))
+    slope = np.polyfit(np.log(steps), np.log(errors), 1)[0]
+    return slope, errors
+
+
+def test_jacobi_is_first_order(fmu_dir):
+    slope, errors = _order(fmu_dir, "jacobi", [4e-4, 2e-4, 1e-4])
+    assert 0.85 < slope < 1.15, (slope, errors)
+
+
+def test_implicit_is_second_order_on_smooth_fluid(fmu_dir):
+    slope, errors = _order(fmu_dir, "implicit", [4e-4, 2e-4, 1e-4])
+    assert 1.7 < slope < 2.3, (slope, errors)
