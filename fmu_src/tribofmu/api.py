@@ -102,7 +102,7 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     n = max(1, math.ceil(round(scenario.time.periods * SAMPLES_PER_PERIOD, 6)))
     t_end = outcome.points[-1].t_ns / 1e9
     grid = np.linspace(0.0, scenario.stop_time, n + 1)
-    grid = grid[grid <= t_end + 1e-12]
+    grid = grid[grid <= t_end + 1e-9]  # the run ends on the whole nanosecond nearest the stop
     signals = sample(outcome.points, grid) if len(outcome.points) > 1 else {
         k: np.array([getattr(outcome.points[0], k)]) for k in COLUMNS}
     stats = {"algorithm": coupling.name, "step": coupling.step_ns / 1e9 if name != "adaptive" else None,
