@@ -102,10 +102,13 @@ class ExplicitCoupling(CouplingAlgorithm):
 
 
 class ImplicitCoupling(CouplingAlgorithm):
-    """Fixed-step implicit coupling (backward Euler in the exchanged force).
+    """Fixed-step implicit coupling.
 
-    Over a step the block feels a constant force F; the step is accepted when F equals
-    the friction at the end-of-step relative velocity (or, stuck, lies within the jump).
+    A step is accepted when the force the block felt at its end equals the friction at the
+    end-of-step relative velocity (or, stuck, lies within the jump). Over the step the
+    force is ramped (slipping the same way, loop gain below max_ramp_gain), held (at
+    transitions and where the loop is stiff: backward Euler), or, stuck throughout, the
+    ramp that keeps both v = V and x - X.
     """
 
     name = "implicit"
@@ -186,7 +189,7 @@ class ImplicitCoupling(CouplingAlgorithm):
 
         # Try the side the contact was on first: most steps need two evaluations.
         first = -1.0 if point.mode < 0 else 1.0
-        probes = {}  # side -> (friction force at +-delta, block's relative velocity under it)
+        probes = {}  # side -> (friction at +-delta, block's dv and x under it, force held)
 
         def probe(side):
             value = loop(side * delta)
