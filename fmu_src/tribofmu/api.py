@@ -42,6 +42,7 @@ class SimulationResult:
     v: np.ndarray
     F: np.ndarray
     f: np.ndarray
+    stuck: np.ndarray  # 1.0 where the coupling held the blocks together, else 0.0
     ok: bool
     message: str
     stats: dict[str, Any] = field(default_factory=dict)

@@ -195,9 +195,9 @@ def run_point(scenario: Scenario, fmu_dir: str, algorithm: str | None = None, st
     start = time.perf_counter()
     progress = None
     if timeout is not None:
-        def progress(fraction: float) -> None:
+        def progress(status) -> None:
             if time.perf_counter() - start > timeout:
-                raise PointTimeout(f"stopped after {timeout:g} s, {fraction:.0%} of the span done")
+                raise PointTimeout(f"stopped after {timeout:g} s, {status.fraction:.0%} of the span done")
     out: dict[str, Any] = {"status": STATUS_FAILED, "message": "", "metrics": {}, "x": None, "v": None,
                            "pid": os.getpid()}
     path_before = list(sys.path)

@@ -10,7 +10,22 @@ from .algorithms import NS, CouplingAlgorithm, Scales, velocity_slopes
 from .slave import FMUCallError
 from .system import CoupledSystem, Point
 
-COLUMNS = ("X", "V", "x", "v", "F", "f")
+COLUMNS = ("X", "V", "x", "v", "F", "f", "stuck")
+
+
+@dataclass(frozen=True)
+class RunProgress:
+    """What a progress callback is told after each accepted step."""
+
+    t: float  # simulated time reached [s]
+    stop_time: float  # s
+    steps: int  # accepted communication steps so far
+    rejected: int  # rejected (rolled-back) steps so far
+    wall_time: float  # s since the run started
+
+    @property
+    def fraction(self) -> float:
+        return self.t / self.stop_time if self.stop_time > 0 else 1.0
 
 
 @dataclass
@@ -46,7 +61,9 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
                                              f"x={p.x}, v={p.v}, F={p.F}, f={p.f}")
             points.extend(new)
             if progress is not None and new:
-                progress(new[-1].t_ns / stop_ns)
+                c = algorithm.counters
+                progress(RunProgress(new[-1].t_ns / NS, stop_ns / NS, c.steps, c.rejected,
+                                     _time.perf_counter() - begin))
     except FMUCallError as exc:
         ok, message = False, f"stopped at t = {points[-1].t_ns / NS:.9g} s: {exc}"
     except FloatingPointError as exc:
@@ -65,7 +82,9 @@ def sample(points: list[Point], grid: np.ndarray) -> dict[str, np.ndarray]:
     Positions and velocities are cubic Hermite interpolants between communication points
     (each has its derivative at both ends: V for X, v for x, the accelerations for V and v;
     over a step that ends stuck, v follows V, so its slope is the drive's acceleration);
-    F and f, which may jump, are interpolated linearly.
+    F and f, which may jump, are interpolated linearly. ``stuck`` is 1.0 where the coupling
+    held the blocks together over the step containing the sample (its own state, exact, not
+    a velocity threshold), else 0.0.
     """
     t = np.array([p.t_ns for p in points], dtype=np.int64) / NS
     get = lambda name: np.array([getattr(p, name) for p in points])
@@ -74,7 +93,14 @@ def sample(points: list[Point], grid: np.ndarray) -> dict[str, np.ndarray]:
     v_left, v_right = slopes[:, 0], slopes[:, 1]
     return {"X": _hermite(t, X, V[:-1], V[1:], grid), "V": _hermite(t, V, aX[:-1], aX[1:], grid),
             "x": _hermite(t, x, v[:-1], v[1:], grid), "v": _hermite(t, v, v_left, v_right, grid),
-            "F": np.interp(grid, t, get("F")), "f": np.interp(grid, t, get("f"))}
+            "F": np.interp(grid, t, get("F")), "f": np.interp(grid, t, get("f")),
+            "stuck": _stuck(t, get("mode"), grid)}
+
+
+def _stuck(t: np.ndarray, mode: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """1.0 where the step (t[i], t[i+1]] holding the sample ended stuck (mode 0)."""
+    i = np.clip(np.searchsorted(t, grid, side="left"), 1, len(t) - 1)
+    return (mode[i] == 0).astype(float)
 
 
 def _hermite(t: np.ndarray, y: np.ndarray, dy_left: np.ndarray, dy_right: np.ndarray,
