@@ -97,8 +97,9 @@ class ExplicitCoupling(CouplingAlgorithm):
         system.step_friction(dv_in, t, h)
         F, f = system.friction_outputs(V - v)  # direct feedthrough at the new point
         self.counters.steps += 1
-        return [Point(point.t_ns + h_ns, X, V, aX, x, v, a, F, f, F_start=F_start,
-                      mode=_mode(V - v, 0.0))]
+        new = Point(point.t_ns + h_ns, X, V, aX, x, v, a, F, f, F_start=F_start, mode=_mode(V - v, 0.0))
+        system.finish_step(point, new, t, h)
+        return [new]
 
 
 class ImplicitCoupling(CouplingAlgorithm):
@@ -131,9 +132,11 @@ class ImplicitCoupling(CouplingAlgorithm):
             return Point(point.t_ns + h_ns, X, V, aX, x, v, a, mode=_mode(V - v, 0.0))
         saved = system.save(system.block, system.friction)
         try:
-            return self._solve(system, point, saved, t, h, h_ns, X, V, aX, ramp_allowed)
+            new = self._solve(system, point, saved, t, h, h_ns, X, V, aX, ramp_allowed)
         finally:
             system.free(saved)
+        system.finish_step(point, new, t, h)
+        return new
 
     def _solve(self, system, point, saved, t, h, h_ns, X, V, aX, ramp_allowed):
         # Second order where the force is smooth: while the contact keeps slipping the same

@@ -122,6 +122,12 @@ class CoupledSystem:
         self.friction.do_step(t, h)
         return tuple(self.friction.get_reals(self._friction_out))
 
+    def finish_step(self, start: Point, end: Point, t: float, h: float) -> None:
+        """Called once the coupled loop of a step t -> t + h [s] is solved (end holds its
+        outcome, every slave of the loop stands at t + h): a place to step FMUs that only
+        follow the loop (e.g. a heat balance fed by the friction power). Rolled back with
+        the rest when the step is rejected. Nothing to do in the three-FMU system."""
+
     # -- rollback -----------------------------------------------------------------------
     def save(self, *slaves: SlaveLike) -> States:
         return States({s.instance: (s, s.save()) for s in (slaves or self.slaves) if s is not None})
