@@ -8,7 +8,7 @@ from scipy.optimize import brentq
 
 from tribofmu.physics import (BOUNDARY, DRY, FLUID, BlockState, Effects, FrictionLaw,
                               advance_block, drive, energy)
-from tribofmu.physics.friction import illinois
+from tribofmu.physics.roots import illinois
 
 FIG6 = dict(regime=BOUNDARY, m=0.05, gamma=-2 / 3, S=3e-9)
 LAWS = [FrictionLaw(regime=DRY, mu_friction=0.5, S=1.0),

@@ -23,7 +23,8 @@ import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
-from .system import CoupledSystem, Point
+from ..physics.roots import illinois
+from .system import CoupledSystem, Point, States
 
 
 def velocity_slopes(start: Point, end: Point) -> tuple[float, float]:
@@ -109,11 +110,29 @@ class ImplicitCoupling(CouplingAlgorithm):
     end-of-step relative velocity (or, stuck, lies within the jump). Over the step the
     force is ramped (slipping the same way, loop gain below max_ramp_gain), held (at
     transitions and where the loop is stiff: backward Euler), or, stuck throughout, the
-    ramp that keeps both v = V and x - X.
+    ramp that keeps both v = V and x - X. One step's solve is a :class:`ImplicitStep`.
     """
 
     name = "implicit"
     max_iterations = 60
+    second_order = True
+    # The trapezoidal ramp damps an error mode by (1 - g)/(1 + g) per step at loop gain g,
+    # which rings toward -1 as g grows: above this gain the force is held instead. Measured
+    # on fig6 (stiff solid lubricant): 30 rather than 3 cut rejections 7x at equal error.
+    max_ramp_gain = 30.0
+
+    def __init__(self, step=None, tol=None):
+        super().__init__(step, tol)
+        self.loop_gain = 0.0  # |d(block dv)/dF * dF/d(dv)| of the last slip step ...
+        self.loop_gain_step = 1.0  # ... whose length this was [s]
+
+    def expected_gain(self, h: float) -> float:
+        """The loop gain a slip step of h [s] should meet: the last one's, scaled by the
+        step (the block's response to a force change grows with the step)."""
+        return self.loop_gain * h / self.loop_gain_step
+
+    def measured_gain(self, gain: float, h: float) -> None:
+        self.loop_gain, self.loop_gain_step = gain, h
 
     def advance(self, system, point, stop_ns):
         h_ns = self.next_step(point, stop_ns)
@@ -126,178 +145,208 @@ class ImplicitCoupling(CouplingAlgorithm):
 
         ramp_allowed=False holds the force over the step even where a ramp would do."""
         t, h = point.t_ns / NS, h_ns / NS
-        X, V, aX = system.step_drive(t, h)
+        drive = system.step_drive(t, h)
         if system.friction is None:
             x, v, a = system.step_block(0.0, 0.0, t, h)
-            return Point(point.t_ns + h_ns, X, V, aX, x, v, a, mode=_mode(V - v, 0.0))
-        saved = system.save(system.block, system.friction)
-        try:
-            new = self._solve(system, point, saved, t, h, h_ns, X, V, aX, ramp_allowed)
-        finally:
-            system.free(saved)
+            new = Point(point.t_ns + h_ns, *drive, x, v, a, mode=_mode(drive[1] - v, 0.0))
+        else:
+            saved = system.save(system.block, system.friction)
+            try:
+                # Second order where the force is smooth: while the contact keeps slipping the
+                # same way, the block feels a ramp from the force at the step's start to the
+                # one at its end (trapezoidal coupling). Where the loop is stiff the ramp would
+                # ring, and at stick or reversal the force jumps: there the force is held.
+                ramp = (ramp_allowed and self.second_order and point.mode != 0
+                        and self.expected_gain(h) < self.max_ramp_gain)
+                new = ImplicitStep(self, system, point, saved, h_ns, drive, ramp).solve()
+                if new is None:  # the ramp met stiffness or a transition: hold the force
+                    system.restore(saved)
+                    new = ImplicitStep(self, system, point, saved, h_ns, drive, False).solve()
+            finally:
+                system.free(saved)
         system.finish_step(point, new, t, h)
         return new
 
-    def _solve(self, system, point, saved, t, h, h_ns, X, V, aX, ramp_allowed):
-        # Second order where the force is smooth: while the contact keeps slipping the same
-        # way, the block feels a ramp from the force at the step's start to the one at its
-        # end (trapezoidal coupling). Where the loop is stiff the ramp would ring, and at
-        # stick or reversal the force jumps: there the force is held (L-stable).
-        ramp = ramp_allowed and self.second_order and point.mode != 0 and self._loop_gain < self.max_ramp_gain
-        new = self._solve_held(system, point, saved, t, h, h_ns, X, V, aX, ramp)
-        if new is None:  # the ramp met stiffness or a transition: redo with the force held
-            system.restore(saved)
-            new = self._solve_held(system, point, saved, t, h, h_ns, X, V, aX, False)
-        return new
 
-    second_order = True
-    # The trapezoidal ramp damps an error mode by (1 - g)/(1 + g) per step at loop gain g,
-    # which rings toward -1 as g grows: above this gain the force is held instead. Measured
-    # on fig6 (stiff solid lubricant): 30 rather than 3 cut rejections 7x at equal error.
-    max_ramp_gain = 30.0
-    _loop_gain = 0.0  # |d(block dv)/dF * dF/d(dv)| of the last slip step, from the iteration
+class ImplicitStep:
+    """The solve of one implicit step: from ``point`` over ``h_ns`` with the drive already
+    at the step's end (``drive`` = X, V, aX), the block and friction saved in ``saved``.
 
-    def _solve_held(self, system, point, saved, t, h, h_ns, X, V, aX, ramp):
-        """One step with the force ramped from point.F (ramp) or held; None if a ramp
-        step turns out stuck, reversing or stiff."""
-        block_state = [v for v in saved.handles.values() if v[0] is system.block]
-        friction_state = [v for v in saved.handles.values() if v[0] is system.friction]
-        delta = 1e-10 * self.scales.velocity  # "zero" relative velocity [m/s]
-        last = {}  # the latest evaluation of each slave; also: "it has stepped, restore first"
-        F_start = point.F
+    The loop function H(dv) = (the block's relative velocity after the step under the
+    friction at dv) - dv is decreasing, so the coupled answer is its single root, found on
+    a bracket; on the jump of a discontinuous law (dry friction at dv = 0) there is no
+    root: the blocks are stuck and the force is the one that keeps dv = 0.
+    """
 
-        def friction_at(dv):
-            if "friction" in last:
-                for slave, handle in friction_state:
-                    slave.restore(handle)
-            F, f = system.step_friction(dv, t, h)
-            last["friction"] = (dv, F, f)
-            return F, f
+    def __init__(self, algorithm: ImplicitCoupling, system: CoupledSystem, point: Point, saved: States,
+                 h_ns: int, drive: tuple[float, float, float], ramp: bool):
+        self.algorithm, self.system, self.point, self.ramp = algorithm, system, point, ramp
+        self.h_ns, self.t, self.h = h_ns, point.t_ns / NS, h_ns / NS
+        self.X, self.V, self.aX = drive
+        self.block_state = [v for v in saved.handles.values() if v[0] is system.block]
+        self.friction_state = [v for v in saved.handles.values() if v[0] is system.friction]
+        self.delta = 1e-10 * algorithm.scales.velocity  # "zero" relative velocity [m/s]
+        self.counters = algorithm.counters
+        self.friction_last = None  # (dv, F, f) of the friction's latest step; None: not stepped
+        self.block_last = None  # (F_end, x, v, a, F0, rate) of the block's latest step
+        self.probes = {}  # side -> (friction at side * delta, block's dv and x under it, held)
 
-        def block_at(F0, rate):  # the block's relative velocity and position after the step
-            if "block" in last:
-                for slave, handle in block_state:
-                    slave.restore(handle)
-            x, v, a = system.step_block(F0, rate, t, h)
-            last["block"] = (F0 + rate * h, x, v, a, F0, rate)
-            return V - v, x
+    # -- evaluations ----------------------------------------------------------------------
+    def friction_at(self, dv: float) -> tuple[float, float]:
+        if self.friction_last is not None:
+            for slave, handle in self.friction_state:
+                slave.restore(handle)
+        F, f = self.system.step_friction(dv, self.t, self.h)
+        self.friction_last = (dv, F, f)
+        return F, f
 
-        def block_under(F):  # F: the force at the end of the step
-            return block_at(F_start, (F - F_start) / h)[0] if ramp else block_at(F, 0.0)[0]
+    def block_at(self, F0: float, rate: float) -> tuple[float, float]:
+        """The block's relative velocity and position after the step under F0 + rate s."""
+        if self.block_last is not None:
+            for slave, handle in self.block_state:
+                slave.restore(handle)
+        x, v, a = self.system.step_block(F0, rate, self.t, self.h)
+        self.block_last = (F0 + rate * self.h, x, v, a, F0, rate)
+        return self.V - v, x
 
-        def loop(dv):  # H(dv): how far the block's answer is from the assumed dv
-            self.counters.iterations += 1
-            F, _ = friction_at(dv)
-            return block_under(F) - dv
+    def block_under(self, F: float) -> float:
+        """The block's relative velocity after the step whose force ends at F."""
+        if self.ramp:
+            return self.block_at(self.point.F, (F - self.point.F) / self.h)[0]
+        return self.block_at(F, 0.0)[0]
 
-        # Try the side the contact was on first: most steps need two evaluations.
+    def loop(self, dv: float) -> float:
+        """H(dv): how far the block's answer is from the assumed dv."""
+        self.counters.iterations += 1
+        F, _ = self.friction_at(dv)
+        return self.block_under(F) - dv
+
+    def probe(self, side: float) -> float:
+        value = self.loop(side * self.delta)
+        self.probes[side] = (self.friction_last[1], self.V - self.block_last[2], self.block_last[1])
+        return value
+
+    # -- the solve ------------------------------------------------------------------------
+    def solve(self) -> Point | None:
+        """The new point; None if a ramped step turns out stuck, reversing or stiff."""
+        point, delta, algorithm = self.point, self.delta, self.algorithm
         first = -1.0 if point.mode < 0 else 1.0
-        probes = {}  # side -> (friction at +-delta, block's dv and x under it, force held)
-
-        def probe(side):
-            value = loop(side * delta)
-            probes[side] = (last["friction"][1], V - last["block"][2], last["block"][1])
-            return value
-
-        mode = 0
-        event = 1.0
-        for side in (first, -first):
-            h_side = probe(side)
-            if side * h_side > 0:  # the block slips past +-delta on this side
-                if point.mode == 0 and point.F_rate != 0.0:
-                    # It was stuck, its force ramping toward the bound: it broke away when
-                    # the ramp reached the bound, maybe well inside this step.
-                    reach = (probes[side][0] - point.F) / (point.F_rate * h)
-                    event = reach if 0.0 < reach < 1.0 else 1.0
-                dv, gain = self._slip_root(loop, side * delta, h_side, side, delta)
-                mode = int(side)
-                break
-            if ramp:
-                return None
+        mode, event, slip = 0, 1.0, None
+        if point.mode != 0 and algorithm.loop_gain > 0:
+            # (with no loop gain, as for dry friction, the first pass from +-delta is exact)
+            slip = self.predicted_slip(first)
+        if slip is None:
+            for side in (first, -first):
+                h_side = self.probe(side)
+                if side * h_side > 0:  # the block slips past +-delta on this side
+                    if point.mode == 0 and point.F_rate != 0.0:
+                        # It was stuck, its force ramping toward the bound: it broke away when
+                        # the ramp reached the bound, maybe well inside this step.
+                        reach = (self.probes[side][0] - point.F) / (point.F_rate * self.h)
+                        event = reach if 0.0 < reach < 1.0 else 1.0
+                    slip = self.slip_root(side * delta, h_side, side)
+                    mode = int(side)
+                    break
+                if self.ramp:
+                    return None
+        else:
+            mode = int(first)
         if mode == 0:
             if point.mode == 0 and point.t_ns > 0:  # stuck all through the step
-                event = self._stick_ramp(block_at, probes, delta, h, X - point.X, point.x)
+                event = self.stick_ramp()
             if event < 1.0 or point.mode != 0 or point.t_ns == 0:
-                self._stick_force(block_under, probes, delta)
+                self.stick_force()
             self.counters.stick_steps += 1
-            _, f = friction_at(0.0)
+            _, f = self.friction_at(0.0)
         else:
-            if ramp and gain >= self.max_ramp_gain:
-                self._loop_gain = gain
+            dv, gain = slip
+            algorithm.measured_gain(gain, self.h)
+            if self.ramp and gain >= algorithm.max_ramp_gain:
                 return None
-            self._loop_gain = gain
-            if last["friction"][0] != dv:
-                friction_at(dv)
-            _, F, f = last["friction"]
-            if last["block"][0] != F:
-                block_under(F)
-        F, x, v, a, F0, F_rate = last["block"]
-        return Point(point.t_ns + h_ns, X, V, aX, x, v, a, F, f, F_start=F0, F_rate=F_rate, mode=mode,
-                     event=event, ramped=ramp)
+            if self.friction_last[0] != dv:
+                self.friction_at(dv)
+            _, F, f = self.friction_last
+            if self.block_last[0] != F:
+                self.block_under(F)
+        F, x, v, a, F0, F_rate = self.block_last
+        return Point(point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
+                     F_rate=F_rate, mode=mode, event=event, ramped=self.ramp)
 
-    def _slip_root(self, loop, lo, h_lo, direction, delta):
-        """Root of the decreasing loop function beyond lo (slip in `direction`).
+    def predicted_slip(self, side: float) -> tuple[float, float] | None:
+        """Slipping on, as before: start the root search at the predicted dv instead of at
+        +-delta, which saves the probe and keeps trial velocities near the answer (a trial
+        far beyond it can melt the lubricant: costly, and a detour for the root finder).
+        Returns (dv, gain), or None where the prediction does not show slip on this side."""
+        point, delta = self.point, self.delta
+        # dv moves with the drive's acceleration less the block's; the loop's own answer
+        # pulls it back by 1/(1 + gain) (a stiff loop hardly lets dv change).
+        guess = point.dv + (point.aX - point.a) * self.h / (1.0 + self.algorithm.expected_gain(self.h))
+        if not side * guess > delta:
+            return None
+        h_guess = self.loop(guess)
+        if side * h_guess > 0:  # the root lies beyond the guess: slip confirmed
+            return self.slip_root(guess, h_guess, side)
+        h_lo = self.probe(side)  # between +-delta and the guess, or no slip at all
+        if not side * h_lo > 0:
+            return None
+        return self.slip_root(side * delta, h_lo, side, guess, h_guess)
+
+    def slip_root(self, lo: float, h_lo: float, direction: float, hi: float | None = None,
+                  h_hi: float | None = None) -> tuple[float, float]:
+        """Root of the decreasing loop function beyond lo (slip in `direction`), on the
+        bracket [lo, hi] if given.
 
         Returns (dv, loop gain): the gain is -(slope of the loop function) - 1, i.e. how
         strongly the block's answer reacts to the assumed dv, measured on the bracket.
         """
-        # One fixed-point pass from lo lands beyond the root: the friction there is at
-        # least as large, so the block answers with a smaller dv.
-        hi = lo + h_lo
-        h_hi = loop(hi)
-        if direction * h_hi >= 0 and h_hi != 0:  # not beyond: the law is not monotone here
-            for _ in range(self.max_iterations):
-                lo, h_lo = hi, h_hi
-                hi = lo + 2.0 * (h_lo if h_lo != 0 else direction * delta)
+        loop, delta, max_iterations = self.loop, self.delta, self.algorithm.max_iterations
+        if hi is None:
+            # Aim at the root with the last step's loop gain; where that falls short, the
+            # fixed-point pass from the nearer point lands beyond the root: the friction
+            # there is at least as large, so the block answers with a smaller dv.
+            gain = self.algorithm.expected_gain(self.h)
+            for fraction in ((1.05 / (1.0 + gain), 1.0) if gain > 0 else (1.0,)):
+                hi = lo + fraction * h_lo
                 h_hi = loop(hi)
                 if direction * h_hi < 0 or h_hi == 0:
                     break
-        gain = lambda: max(0.0, -(h_hi - h_lo) / (hi - lo) - 1.0) if hi != lo else 0.0
+                lo, h_lo = hi, h_hi
+            else:  # not beyond even so: the law is not monotone here; widen
+                for _ in range(max_iterations):
+                    hi = lo + 2.0 * (h_lo if h_lo != 0 else direction * delta)
+                    h_hi = loop(hi)
+                    if direction * h_hi < 0 or h_hi == 0:
+                        break
+                    lo, h_lo = hi, h_hi
+        gain = max(0.0, -(h_hi - h_lo) / (hi - lo) - 1.0) if hi != lo else 0.0
         if h_hi == 0:
-            return hi, gain()
-        # Illinois regula falsi on [lo, hi]; for laws constant in dv it ends at once.
-        side = 0
-        x = hi
-        for _ in range(self.max_iterations):
-            x = (lo * h_hi - hi * h_lo) / (h_hi - h_lo)
-            hx = loop(x)
-            if abs(hx) <= delta or hx == 0:
-                break
-            if (hx > 0) == (h_lo > 0):
-                lo, h_lo = x, hx
-                if side == -1:
-                    h_hi *= 0.5
-                side = -1
-            else:
-                hi, h_hi = x, hx
-                if side == 1:
-                    h_lo *= 0.5
-                side = 1
-            if abs(hi - lo) <= delta:
-                break
-        return x, gain()
+            return hi, gain
+        if abs(h_lo) <= delta:
+            return lo, gain
+        return illinois(loop, lo, hi, h_lo, h_hi, xtol=delta, rtol=0.0, ftol=delta,
+                        max_iterations=max_iterations), gain
 
-    def _stick_force(self, block_under, probes, delta):
+    def stick_force(self) -> float:
         """The force that keeps the blocks together over the step (dv = 0 at its end).
 
         It lies between the friction at -delta and at +delta (the probes already made);
         the secant on the block's answer starts from those two evaluations.
         """
-        (F_pos, a_pos, _), (F_neg, a_neg, _) = probes[1.0], probes[-1.0]
+        (F_pos, a_pos, _), (F_neg, a_neg, _) = self.probes[1.0], self.probes[-1.0]
         a, da, b, db = F_neg, a_neg, F_pos, a_pos
         if da == db:
-            block_under(F_pos)
+            self.block_under(F_pos)
             return F_pos
         F = b
-        for _ in range(self.max_iterations):
+        for _ in range(self.algorithm.max_iterations):
             F = b - db * (b - a) / (db - da)
-            d = block_under(F)
-            if abs(d) <= delta or d == db:
+            d = self.block_under(F)
+            if abs(d) <= self.delta or d == db:
                 break
             a, da, b, db = b, db, F, d
         return F
 
-    def _stick_ramp(self, block_at, probes, delta, h, dX, x_start):
+    def stick_ramp(self) -> float:
         """Stuck over the whole step: the force ramp F0 + rate s that keeps the blocks
         together, i.e. ends with dv = 0 and moves the block exactly as far as the drive.
 
@@ -305,11 +354,14 @@ class ImplicitCoupling(CouplingAlgorithm):
         O(h^3) a step through the spring term; the ramp matches both, and needs no force
         from the previous step (so no ringing). The block's answer is affine in (F0, rate)
         for a linear block; it is not assumed: the Newton steps use secant slopes.
+        Returns the fraction of the step at which the ramp leaves the friction's bounds
+        (the contact breaks away there), 1.0 if it stays stuck throughout.
         """
-        (F_pos, d_pos, x_pos), (F_neg, d_neg, x_neg) = probes[1.0], probes[-1.0]
+        (F_pos, d_pos, x_pos), (F_neg, d_neg, x_neg) = self.probes[1.0], self.probes[-1.0]
         if F_pos == F_neg:
             return 0.0
-        x_target = x_start + dX
+        h = self.h
+        x_target = self.point.x + self.X - self.point.X
         # slopes in F0 from the two held probes, in rate from one more evaluation
         dF = F_pos - F_neg
         d_F, x_F = (d_pos - d_neg) / dF, (x_pos - x_neg) / dF
@@ -319,7 +371,7 @@ class ImplicitCoupling(CouplingAlgorithm):
         d_r, x_r = None, None
         for _ in range(8):
             if d_r is None:
-                d1, x1 = block_at(F0, rate + rate_probe)
+                d1, x1 = self.block_at(F0, rate + rate_probe)
                 d_r, x_r = (d1 - d0) / rate_probe, (x1 - x0) / rate_probe
             det = d_F * x_r - d_r * x_F
             if det == 0:
@@ -327,11 +379,9 @@ class ImplicitCoupling(CouplingAlgorithm):
             # Newton on (dv_end, x_end - x_target) = 0 with the secant Jacobian
             rx = x0 - x_target
             F0, rate = F0 - (d0 * x_r - d_r * rx) / det, rate - (d_F * rx - x_F * d0) / det
-            d0, x0 = block_at(F0, rate)
-            if abs(d0) <= delta and abs(x0 - x_target) <= 1e-12 * self.scales.position:
+            d0, x0 = self.block_at(F0, rate)
+            if abs(d0) <= self.delta and abs(x0 - x_target) <= 1e-12 * self.algorithm.scales.position:
                 break
-        # Where the ramp leaves the friction's bounds the contact breaks away inside the
-        # step: return the fraction of the step at which it does (1.0: stuck throughout).
         low, high = min(F_neg, F_pos), max(F_neg, F_pos)
         F1 = F0 + rate * h
         if not low <= F0 <= high:
@@ -361,6 +411,7 @@ class AdaptiveCoupling(ImplicitCoupling):
         self.min_ns = max(2, int(scales.period * 1e-7 * NS) & ~1)
         self.max_ns = max(self.min_ns, int(scales.period / 20 * NS) & ~1)
         self.h_ns = min(max(self.step_ns & ~1, self.min_ns), self.max_ns)
+        self._v_scale = self._x_scale = 0.0  # largest |v| [m/s] and |x| [m] of the block so far
 
     def advance(self, system, point, stop_ns):
         h_ns = min(self.h_ns, stop_ns - point.t_ns)
@@ -387,7 +438,8 @@ class AdaptiveCoupling(ImplicitCoupling):
             end = self.solve_step(system, mid, h_ns // 2, full.ramped)
             err = max(self._error(full, end, h_ns), self._interpolation_error(point, mid, end, h_ns))
             end.est_error = mid.est_error = err * self.tol
-            factor = 0.9 / math.sqrt(max(err, 1e-12))
+            # local error ~ h^3 for a ramped step, h^2 for a held one
+            factor = 0.9 * max(err, 1e-12) ** (-1.0 / 3.0 if full.ramped else -0.5)
             if err <= 1.0 or h_ns <= 2 * self.min_ns:
                 self.counters.forced += err > 1.0
                 self.counters.steps += 2
@@ -408,17 +460,22 @@ class AdaptiveCoupling(ImplicitCoupling):
         hermite_mid = lambda y0, dy0, dy1, y1: 0.5 * (y0 + y1) + h / 8.0 * (dy0 - dy1)
         v_mid = hermite_mid(start.v, *velocity_slopes(start, end), end.v)
         x_mid = hermite_mid(start.x, start.v, end.v, end.x)
-        return max(abs(v_mid - mid.v) / (16 * self.tol * s.velocity),
-                   abs(x_mid - mid.x) / (16 * self.tol * s.position))
+        return max(abs(v_mid - mid.v) / (16 * self.tol * self._v_scale or 1.0),
+                   abs(x_mid - mid.x) / (16 * self.tol * self._x_scale or 1.0))
+
+    f_tol_factor = 0.1
 
     def _error(self, full: Point, halves: Point, h_ns: int) -> float:
-        s = self.scales
-        allowed = self.tol * (h_ns / NS) / s.period
-        # f relaxes within microseconds and so carries no error forward: it is held to
-        # tol per step (which still catches a melting or solidification the step misses).
-        return max(abs(full.v - halves.v) / (allowed * s.velocity),
-                   abs(full.x - halves.x) / (allowed * s.position),
-                   abs(full.f - halves.f) / (self.tol * (1.0 + abs(halves.f))))
+        """The step's error relative to what tol allows: the difference between one step
+        and two halves in v and x, measured against the block's own motion so far (its
+        largest |v| and |x|, or the step's own values while the motion grows), and f held
+        to tol * (1 + |f|) (f relaxes within microseconds and so carries no error
+        forward: this still catches a melting or solidification the step misses)."""
+        self._v_scale = max(self._v_scale, abs(halves.v), abs(full.v))
+        self._x_scale = max(self._x_scale, abs(halves.x), abs(full.x))
+        return max(abs(full.v - halves.v) / (self.tol * self._v_scale or 1.0),
+                   abs(full.x - halves.x) / (self.tol * self._x_scale or 1.0),
+                   abs(full.f - halves.f) / (self.f_tol_factor * self.tol * (1.0 + abs(halves.f))))
 
 
 def _mode(dv: float, delta: float) -> int:

@@ -11,38 +11,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields
 
+from .roots import illinois
+
 
 DRY, FLUID, BOUNDARY = 0, 1, 2
 REGIMES = {"dry": DRY, "fluid": FLUID, "boundary": BOUNDARY}
 REGIME_NAMES = {code: name for name, code in REGIMES.items()}
-
-
-def illinois(fun, lo: float, hi: float, xtol: float = 1e-15, rtol: float = 1e-14) -> float:
-    """Root of fun in [lo, hi] (fun(lo) < 0 <= fun(hi)) by the Illinois regula falsi.
-
-    Hand-written rather than scipy's brentq so that the Friction FMU runs in any host
-    Python that has only the standard library; tests check it against brentq.
-    """
-    f_lo, f_hi = fun(lo), fun(hi)
-    if f_hi == 0.0:
-        return hi
-    side = 0
-    for _ in range(200):
-        x = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-        fx = fun(x)
-        if fx < 0.0:
-            lo, f_lo = x, fx
-            if side == -1:
-                f_hi *= 0.5
-            side = -1
-        else:
-            hi, f_hi = x, fx
-            if side == 1:
-                f_lo *= 0.5
-            side = 1
-        if fx == 0.0 or abs(hi - lo) <= xtol + rtol * abs(x):
-            return x
-    return 0.5 * (lo + hi)
 
 
 def sign(x: float) -> float:
@@ -175,24 +149,46 @@ class FrictionLaw:
 
     def kinetics_rate(self, f: float, dv: float, n: float, T: float) -> float:
         """df/dt [1/s] of the Landau-Khalatnikov equation (21)."""
-        lub = self.lubricant
-        lam_eff = max(0.0, lub.lam - lub.lam_bar * f)
+        return self.rate_function(dv, n, T)(f)
+
+    def rate_function(self, dv: float, n: float, T: float):
+        """df/dt [1/s] of eq. (21) as a function of f alone, for inputs held over a step.
+
+        What does not depend on f is computed once: the integrator calls this thousands
+        of times per communication step."""
+        lub, effects = self.lubricant, self.effects
+        lam, lam_bar, mu, mu_bar = lub.lam, lub.lam_bar, lub.mu_shear, lub.mu_shear_bar
+        phi1, phi2, phi3, inv_tau = lub.phi1, lub.phi2, lub.phi3, 1.0 / lub.tau_f
         # The floor keeps the pressure terms finite past both melting thresholds.
-        moduli = max(lam_eff + self.mu_eff(f), 1e-12 * (lub.lam + lub.mu_shear))
+        floor = 1e-12 * (lam + mu)
         eps = self.shear_strain(dv)
-        e_ii = n / moduli if self.effects.pressure else 0.0
-        e_ij_sq = 0.5 * ((2.0 * eps) ** 2 + e_ii ** 2)  # eq. (17), note 1
-        phi0 = lub.phi0_star + 0.5 * lub.lam_bar * e_ii ** 2 + lub.mu_shear_bar * e_ij_sq
-        if self.effects.temperature:
-            phi0 += lub.alpha * T
-        rhs = phi0 - lub.phi1 * f + lub.phi2 * f * f - lub.phi3 * f ** 3
-        if self.effects.pressure:
-            rhs -= n * n * (lub.lam_bar + lub.mu_shear_bar) / moduli ** 2
-        return rhs / lub.tau_f
+        strain_term = mu_bar * 0.5 * (2.0 * eps) ** 2  # mub e_ij^2 without its e_ii part, eq. (17)
+        base = lub.phi0_star + strain_term + (lub.alpha * T if effects.temperature else 0.0)
+        pressure = effects.pressure
+        # e_ii enters phi0 as (lamb/2 + mub/2) e_ii^2 (eqs. 15, 17) and the last term of
+        # eq. (21) as -n^2 (lamb + mub) / moduli^2 = -(lamb + mub) e_ii^2.
+        squeeze = -0.5 * (lam_bar + mu_bar) * n * n if pressure else 0.0
+
+        def rate(f: float) -> float:
+            rhs = base - phi1 * f + phi2 * f * f - phi3 * f * f * f
+            if pressure:
+                moduli = max(max(0.0, lam - lam_bar * f) + max(0.0, mu - mu_bar * f), floor)
+                rhs += squeeze / (moduli * moduli)
+            return rhs * inv_tau
+
+        return rate
+
+    # A moving relative velocity is followed in this many pieces, each held at the value
+    # its piece ends with: in the stiff regime f then ends on the equilibrium of the
+    # step's final dv, and through a melting bottleneck the timing error falls with it.
+    DV_PIECES = 4
 
     def advance_f(self, f: float, dv: float, n: float, T: float, h: float,
-                  rtol: float = 1e-6, atol: float = 1e-6) -> float:
-        """Advance the excess volume f over a step h [s] with dv, n, T held; returns f(t+h).
+                  rtol: float = 1e-6, atol: float = 1e-6, dv_start: float | None = None) -> float:
+        """Advance the excess volume f over a step h [s] with n, T held; returns f(t+h).
+
+        dv [m/s] is held over the step, or, given dv_start, moves linearly from dv_start to
+        dv (followed in DV_PIECES pieces, each held at the relative velocity it ends with).
 
         Eq. (21) is stiff (rates 1e5 to 1e7 1/s) and, with inputs held, scalar and
         autonomous: its solution moves monotonically toward the nearest equilibrium and
@@ -200,56 +196,79 @@ class FrictionLaw:
         linearised at the sub-step's start (second order here), which lands on an
         equilibrium like a Newton step however stiff the rate. A sub-step that would cross
         an equilibrium is replaced by backward Euler with its root bracketed between f and
-        that equilibrium, which cannot jump branches or blow up. Step doubling controls the
-        error; sub-steps grow where f sits near equilibrium.
+        that equilibrium, which cannot jump branches or blow up. The error of a sub-step is
+        estimated from its defect (how far the true rate at its end is from the linear
+        model's), which costs one rate evaluation instead of step doubling's extra two
+        sub-steps; sub-steps grow where f sits near equilibrium.
         """
         if not self.effects.melting or h <= 0.0:
             return f
-        t_left, sub, min_sub = h, h, 1e-12 * h
+        if dv_start is None or dv_start == dv:
+            return self._advance_held(f, dv, n, T, h, h, rtol, atol)[0]
+        pieces = self.DV_PIECES
+        sub = h / pieces
+        for k in range(1, pieces + 1):
+            dv_k = dv if k == pieces else dv_start + (dv - dv_start) * k / pieces
+            f, sub = self._advance_held(f, dv_k, n, T, h / pieces, sub, rtol, atol)
+        return f
+
+    def _advance_held(self, f: float, dv: float, n: float, T: float, h: float, sub: float,
+                      rtol: float, atol: float) -> tuple[float, float]:
+        """advance_f with dv held, starting with sub-steps of sub [s]; returns f(t+h) and
+        the sub-step to go on with."""
+        rate = self.rate_function(dv, n, T)
+        t_left, min_sub = h, 1e-12 * h
+        r0 = rate(f)
         for _ in range(self.MAX_SUBSTEPS):
-            if t_left <= 0.0:
-                return f
+            if t_left <= 0.0 or r0 == 0.0:
+                return f, sub
             sub = min(sub, t_left)
-            full = self._substep(f, dv, n, T, sub)
-            half = self._substep(f, dv, n, T, 0.5 * sub)
-            two_halves = self._substep(half, dv, n, T, 0.5 * sub)
-            err = abs(two_halves - full)
-            tol = atol + rtol * abs(two_halves)
+            f1, r1, err = self._substep(rate, f, r0, sub)
+            tol = atol + rtol * abs(f1)
             if err <= tol or sub <= min_sub:
-                f = two_halves
+                f, r0 = f1, r1
                 t_left -= sub
                 # Floored: a sub-step forced through at the minimum must not shrink the next
                 # one toward zero, or t_left would stop decreasing.
-                sub = max(min_sub, sub * min(10.0, 0.9 * (tol / max(err, 1e-300)) ** (1 / 3)))
+                sub = max(min_sub, sub * min(10.0, 0.9 * (tol / max(err, 1e-300)) ** 0.5))
             else:
-                sub *= max(0.1, 0.9 * (tol / err) ** (1 / 3))
-        if t_left <= 0.0:
-            return f
+                sub *= max(0.1, 0.9 * (tol / err) ** 0.5)
+        if t_left <= 0.0 or r0 == 0.0:
+            return f, sub
         raise ArithmeticError(f"eq. (21) needs more than {self.MAX_SUBSTEPS} sub-steps over "
                               f"h={h} s (reached f={f} with {t_left} s left)")
 
-    def _substep(self, f0: float, dv: float, n: float, T: float, h: float) -> float:
-        rate0 = self.kinetics_rate(f0, dv, n, T)
-        if rate0 == 0.0:
-            return f0
+    def _substep(self, rate, f0: float, r0: float, h: float) -> tuple[float, float, float]:
+        """One sub-step from f0 (rate r0) over h: (f1, its rate, estimated local error)."""
         eps = 1e-7 * (1.0 + abs(f0))
-        slope = (self.kinetics_rate(f0 + eps, dv, n, T) - rate0) / eps  # d(rate)/df [1/s]
+        slope = (rate(f0 + eps) - r0) / eps  # d(rate)/df [1/s]
         z = slope * h
+        f_exp = None
         if z < 30.0:  # beyond, the linearisation grows without bound: leave it to Euler
             phi = h if abs(z) < 1e-12 else math.expm1(z) / slope
-            f1 = f0 + rate0 * phi
-            if math.isfinite(f1) and rate0 * self.kinetics_rate(f1, dv, n, T) > 0.0:
-                return f1  # has not crossed an equilibrium
-        return self._backward_euler(f0, dv, n, T, h)
+            f_exp = f0 + r0 * phi
+            if math.isfinite(f_exp):
+                r1 = rate(f_exp)
+                if r0 * r1 > 0.0:  # has not crossed an equilibrium
+                    # The linear model's rate at the end is r0 e^z; the true one is r1. The
+                    # defect, integrated over the sub-step's effective length phi (h when
+                    # slow, 1/|slope| when stiff), bounds the local error.
+                    defect = r1 - r0 * math.exp(min(z, 30.0))
+                    return f_exp, r1, 2.0 * abs(defect * phi)
+        f1 = self._backward_euler(rate, f0, r0, h)
+        r1 = rate(f1)
+        # Crossing: both the linear model and backward Euler land near the equilibrium;
+        # where they disagree, the sub-step was too long for the curvature of the rate.
+        err = abs(f_exp - f1) if f_exp is not None and math.isfinite(f_exp) else 0.5 * h * abs(r1 - r0)
+        return f1, r1, err
 
-    def _backward_euler(self, f0: float, dv: float, n: float, T: float, h: float) -> float:
-        rate0 = self.kinetics_rate(f0, dv, n, T)
+    def _backward_euler(self, rate, f0: float, rate0: float, h: float) -> float:
         if rate0 == 0.0:
             return f0
         direction = 1.0 if rate0 > 0 else -1.0
 
         def residual(y: float) -> float:  # signed so it starts < 0 and rises through the root
-            return direction * (y - f0 - h * self.kinetics_rate(y, dv, n, T))
+            return direction * (y - f0 - h * rate(y))
 
         # At least a few ulps: below that f0 + width == f0 and the bracket never opens
         # (a step of 1e-300 s moves f by less than one ulp).

@@ -58,6 +58,7 @@ class Friction(Fmi2Slave):
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self._law = None
+        self.dv_previous = None  # m/s, the input of the last step (None: none yet)
         self.declare("regime", 0, PARAMETER, "1", "friction regime: 0 = dry, 1 = fluid, 2 = boundary",
                      check=_regime)
         self.declare("mu_friction", 0.5, PARAMETER, "1", "dry friction coefficient, eq. (4)",
@@ -99,6 +100,9 @@ class Friction(Fmi2Slave):
 
     def initialize(self):
         self.f = self.f0
+        self.dv_previous = None
+
+    internal_state_names = ("dv_previous",)
 
     def advance(self, t, h):
         law = self.law()
@@ -106,5 +110,6 @@ class Friction(Fmi2Slave):
         if problems:
             return "; ".join(problems)
         if law.regime == BOUNDARY:  # dry and fluid laws have no state: nothing to integrate
-            self.f = law.advance_f(self.f, self.dv, self.n, self.T, h)
+            self.f = law.advance_f(self.f, self.dv, self.n, self.T, h, dv_start=self.dv_previous)
+        self.dv_previous = self.dv
         return None
