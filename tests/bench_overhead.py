@@ -66,7 +66,7 @@ def record(scenario, **kw):
 
 def fresh_slaves(scenario):
     from tribofmu.master.slave import Slave
-    from tribofmu.wiring import fmu_parameters
+    from tribofmu.scene.wiring import fmu_parameters
     return {fmu.lower(): Slave(FMU_DIR / f"{fmu}.fmu", instance=fmu.lower(), parameters=params)
             for fmu, params in fmu_parameters(scenario).items()}
 

@@ -42,7 +42,7 @@ CASES = {
 
 
 def timed_sweep(case, out: Path, fmu_dir: Path, **kw) -> tuple[float, float]:
-    from tribofmu.sweep import sweep
+    from tribofmu.studies.sweep import sweep
     scenario, grid, overrides = CASES[case]
     t0 = time.perf_counter()
     rows = sweep(scenario, grid, out, overrides=overrides, fmu_dir=fmu_dir, plots=False, progress=False,

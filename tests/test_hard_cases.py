@@ -16,8 +16,8 @@ import pytest
 
 from tribofmu import api
 from tribofmu.build import build_fmus
-from tribofmu.energy import energy_audit
-from tribofmu.reference import nrms, reference_solution
+from tribofmu.studies.energy import energy_audit
+from tribofmu.studies.reference import nrms, reference_solution
 
 pytestmark = pytest.mark.integration
 

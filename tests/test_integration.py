@@ -10,8 +10,8 @@ import pytest
 
 from tribofmu import api
 from tribofmu.build import build_fmus
-from tribofmu.reference import nrms, reference_solution
-from tribofmu.scenario import load_scenario
+from tribofmu.studies.reference import nrms, reference_solution
+from tribofmu.scene.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ROOT / "scenarios"

@@ -1,6 +1,6 @@
 """Issue "Sweeps at scale: regime maps on Dask".
 
-- the metrics (tribofmu.metrics) against synthetic signals with known answers;
+- the metrics (tribofmu.studies.metrics) against synthetic signals with known answers;
 - the grid: parsing, and bad keys/values caught on the client before any work (exit 2);
 - sweeps through a real ``distributed.LocalCluster`` (2 worker processes): sweep.csv's
   columns and rows, portraits and pictures, resume after a row is lost, a failing point;
@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tribofmu import metrics as M
+from tribofmu.studies import metrics as M
 
 ROOT = Path(__file__).resolve().parent.parent
 FIG2 = ROOT / "scenarios" / "fig2_dry.toml"
@@ -156,7 +156,7 @@ def test_compute_metrics_gives_every_metric():
 
 # -- the grid -------------------------------------------------------------------------------
 def test_parse_grid_reads_values_like_set():
-    from tribofmu.sweep import grid_points, parse_grid
+    from tribofmu.studies.sweep import grid_points, parse_grid
     g = parse_grid(["drive.omega=10, 20.5,1e2", "time.window=[1,2],[2, 3]", "friction.regime=dry,fluid"])
     assert g == {"drive.omega": [10, 20.5, 100.0], "time.window": [[1, 2], [2, 3]],
                  "friction.regime": ["dry", "fluid"]}
@@ -182,24 +182,24 @@ def test_a_bad_grid_is_one_line_exit_2_before_any_work(tmp_path, capsys, grid_ar
 
 
 def test_run_point_reports_a_missing_fmu_as_a_failed_point(tmp_path):
-    from tribofmu.scenario import load_scenario
-    from tribofmu.sweep import run_point
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.studies.sweep import run_point
     out = run_point(load_scenario(FIG2, SHORT), str(tmp_path / "no-fmus"))
     assert out["status"] == "failed" and "no-fmus" in out["message"] and "\n" not in out["message"]
     assert out["metrics"] == {} and out["x"] is None
 
 
 def test_run_point_stops_a_point_past_its_time_limit(fmu_dir):
-    from tribofmu.scenario import load_scenario
-    from tribofmu.sweep import run_point
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.studies.sweep import run_point
     out = run_point(load_scenario(FIG2, SHORT), str(fmu_dir), timeout=1e-6)
     assert out["status"] == "failed" and out["message"].startswith("PointTimeout: stopped after")
 
 
 def test_run_point_leaves_no_unzipped_fmu_on_sys_path(fmu_dir):
     import sys
-    from tribofmu.scenario import load_scenario
-    from tribofmu.sweep import run_point
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.studies.sweep import run_point
     before = list(sys.path)
     out = run_point(load_scenario(FIG2, SHORT), str(fmu_dir))
     assert out["status"] == "ok" and sys.path == before
@@ -256,8 +256,8 @@ def stamp(row):
 
 @pytest.mark.integration
 def test_small_sweep_on_two_dask_workers_writes_rows_portraits_pictures(tmp_path, fmu_dir, cluster):
-    from tribofmu.metrics import METRICS
-    from tribofmu.sweep import sweep
+    from tribofmu.studies.metrics import METRICS
+    from tribofmu.studies.sweep import sweep
     out = tmp_path / "s"
     rows = sweep(FIG2, {"drive.omega": [30, 80, 130]}, out, scheduler=cluster.scheduler_address,
                  overrides=SHORT, fmu_dir=fmu_dir, progress=False)
@@ -287,7 +287,7 @@ def test_small_sweep_on_two_dask_workers_writes_rows_portraits_pictures(tmp_path
 
 @pytest.mark.integration
 def test_resume_runs_only_the_points_missing_from_sweep_csv(tmp_path, fmu_dir, cluster):
-    from tribofmu.sweep import sweep
+    from tribofmu.studies.sweep import sweep
     out = tmp_path / "r"
     args = (FIG2, {"drive.omega": [30, 80, 130]}, out)
     kw = dict(scheduler=cluster.scheduler_address, overrides=SHORT, fmu_dir=fmu_dir, progress=False, plots=False)
@@ -319,7 +319,7 @@ def test_resume_runs_only_the_points_missing_from_sweep_csv(tmp_path, fmu_dir, c
 
 @pytest.mark.integration
 def test_resume_refuses_a_directory_of_another_sweep(tmp_path, fmu_dir):
-    from tribofmu.sweep import SweepError, sweep
+    from tribofmu.studies.sweep import SweepError, sweep
     out = tmp_path / "o"
     sweep(FIG2, {"drive.omega": [130]}, out, workers=0, overrides=SHORT, fmu_dir=fmu_dir,
           progress=False, plots=False)
@@ -332,7 +332,7 @@ def test_resume_refuses_a_directory_of_another_sweep(tmp_path, fmu_dir):
 
 @pytest.mark.integration
 def test_a_failing_point_is_reported_in_its_row_and_the_others_complete(tmp_path, fmu_dir, cluster):
-    from tribofmu.sweep import sweep
+    from tribofmu.studies.sweep import sweep
     # explicit (Jacobi) coupling with a 1 ms step is unstable for a 1 mg block: that point diverges
     overrides = {**SHORT, "simulation.algorithm": "jacobi", "simulation.step": 1e-3}
     out = tmp_path / "f"
@@ -359,7 +359,7 @@ def test_a_failing_point_is_reported_in_its_row_and_the_others_complete(tmp_path
 
 def test_one_sweep_at_a_time_in_a_directory(tmp_path):
     import fcntl
-    from tribofmu.sweep import LOCK_NAME, SweepError, sweep
+    from tribofmu.studies.sweep import LOCK_NAME, SweepError, sweep
     out = tmp_path / "busy"
     out.mkdir()
     with open(out / LOCK_NAME, "w") as fh:
@@ -394,7 +394,7 @@ def test_cli_sweep_on_an_embedded_cluster_two_dimensional_map(tmp_path):
 @pytest.mark.integration
 def test_fig4_fewer_stick_episodes_and_harmonics_as_omega_rises(tmp_path, fmu_dir, cluster):
     """Paper, Fig. 4: w = 10 ... 130 rad/s; the motion simplifies, at 130 the blocks stay stuck."""
-    from tribofmu.sweep import sweep
+    from tribofmu.studies.sweep import sweep
     rows = sweep(FIG2, {"drive.omega": FIG4_OMEGAS}, tmp_path / "fig4", scheduler=cluster.scheduler_address,
                  fmu_dir=fmu_dir, progress=False)
     table = "\n".join(f"w={r['drive.omega']:>4}: stick {r['stick_fraction']:.3f}, episodes "

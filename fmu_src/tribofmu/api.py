@@ -17,10 +17,10 @@ import numpy as np
 
 from .master import (CoupledSystem, FMUCallError, FMUFileError, Scales, Slave, make_algorithm, run,
                      sample)
-from .energy import energy_audit
+from .studies.energy import energy_audit
 from .master.run import COLUMNS
-from .scenario import Scenario, ScenarioError, load_scenario
-from .wiring import constant_inputs, fmu_parameters, scales
+from .scene.scenario import Scenario, ScenarioError, load_scenario
+from .scene.wiring import constant_inputs, fmu_parameters, scales
 
 DEFAULT_FMU_DIR = Path("build")
 

@@ -1,11 +1,11 @@
 """Parameter sweeps on Dask: the cartesian grid of ``--set`` overrides, one simulation per point.
 
-    from tribofmu.sweep import sweep
+    from tribofmu.studies.sweep import sweep
     rows = sweep("scenarios/fig2_dry.toml", {"drive.omega": [10, 20, 30, 50, 80, 130]}, "out/fig4")
 
 Each grid point is independent: a worker simulates it (``api.simulate(..., build=False)`` with
 the FMUs the client built into ``out_dir/fmus``) and returns its metrics
-(:mod:`tribofmu.metrics`) and its phase portrait, downsampled. The client appends each row
+(:mod:`tribofmu.studies.metrics`) and its phase portrait, downsampled. The client appends each row
 to ``out_dir/sweep.csv`` as it arrives, so an interrupted sweep resumes: running it again
 skips the points already there (matched on the swept values). At the end ``sweep.csv`` is
 rewritten whole, in grid order, with ``portraits.npz`` and the pictures.
@@ -19,7 +19,7 @@ one after the other in this process, without Dask.
 Files in ``out_dir``:
 
 - ``sweep.csv``: the swept keys (one column each, named as the keys), ``status`` (ok /
-  failed), ``message``, the metrics (:data:`tribofmu.metrics.METRICS`; empty = not defined),
+  failed), ``message``, the metrics (:data:`tribofmu.studies.metrics.METRICS`; empty = not defined),
   ``wall_time`` (s spent simulating the point) and ``finished_at`` (local ISO time).
 - ``sweep.json``: what was swept and with which settings (a resumed sweep must match it).
 - ``portraits.npz``: ``labels`` and ``x``, ``v`` (points x PORTRAIT_POINTS, NaN when failed),
@@ -48,9 +48,9 @@ from typing import Any, Callable, Iterable
 
 import numpy as np
 
-from .atomic import atomic_write_bytes
+from ..atomic import atomic_write_bytes
+from ..scene.scenario import Scenario, ScenarioError, _split_assignment, load_scenario, to_dict
 from .metrics import METRICS, result_metrics
-from .scenario import Scenario, ScenarioError, _split_assignment, load_scenario, to_dict
 
 PORTRAIT_POINTS = 400
 STATUS_OK, STATUS_FAILED = "ok", "failed"
@@ -190,7 +190,7 @@ def run_point(scenario: Scenario, fmu_dir: str, algorithm: str | None = None, st
     ``portrait_points`` uniform times (None when failed). timeout [s]: stop the run at the
     first communication point past it (the master's progress callback), a failed point.
     """
-    from . import api
+    from .. import api
 
     start = time.perf_counter()
     progress = None
@@ -372,7 +372,7 @@ def _plan(scenario_path, grid: dict[str, list], overrides, algorithm, step, tol)
             scenarios.append(base.with_overrides(point))
         except ScenarioError as exc:
             raise SweepError(f"--grid point {point_label(point)}: {exc}") from None
-    from .master import make_algorithm
+    from ..master import make_algorithm
     for value, name in ((step, "step"), (tol, "tol")):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise SweepError(f"--{name} must be > 0, got {value}")
@@ -476,7 +476,7 @@ def _sweep_locked(plan, out_dir, scheduler, workers, algorithm, step, tol, fmu_d
     todo = [i for i, p in enumerate(plan.points) if point_key(p, keys) not in done]
 
     # the FMUs, on the client, before any work
-    from . import api
+    from .. import api
     needed = sorted({name for sc in plan.scenarios for name in sc.fmus})
     if fmu_dir is None:
         fmu_dir = out_dir / "fmus"

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree as ET
 
-from .physics.friction import REGIMES, LubricantConstants
+from ..physics.friction import REGIMES, LubricantConstants
 from .scenario import Scenario
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"

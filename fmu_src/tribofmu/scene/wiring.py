@@ -8,7 +8,7 @@ import math
 from dataclasses import fields
 from typing import Any
 
-from .physics.friction import REGIMES, Effects, LubricantConstants
+from ..physics.friction import REGIMES, Effects, LubricantConstants
 from .scenario import Scenario
 
 # Effects field -> Friction FMU parameter name

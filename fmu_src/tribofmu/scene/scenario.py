@@ -13,9 +13,9 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from .physics.block import block_problems
-from .physics.drive import drive_problems
-from .physics.friction import REGIMES, Effects, FrictionLaw, LubricantConstants
+from ..physics.block import block_problems
+from ..physics.drive import drive_problems
+from ..physics.friction import REGIMES, Effects, FrictionLaw, LubricantConstants
 
 KNOWN_FMUS = ("Drive", "BlockSpring", "Friction")
 
