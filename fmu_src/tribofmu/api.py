@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from .errors import FMUError
 from .master import (CoupledSystem, FMUCallError, FMUFileError, Scales, Slave, make_algorithm, run,
                      sample)
 from .studies.energy import energy_audit
@@ -25,7 +26,7 @@ from .scene.wiring import constant_inputs, fmu_parameters
 DEFAULT_FMU_DIR = Path("build")
 
 
-class FMUSetupError(RuntimeError):
+class FMUSetupError(FMUError, RuntimeError):
     """One or more FMUs could not be loaded or initialized; the message names each instance."""
 SAMPLES_PER_PERIOD = 1000
 

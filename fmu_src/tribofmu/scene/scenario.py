@@ -13,14 +13,11 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
+from ..errors import ScenarioError
 from ..physics.block import block_problems
 from ..physics.drive import drive_problems
 from ..physics.friction import REGIMES, Effects, FrictionLaw, LubricantConstants
 from .wiring import FMU_NAMES as KNOWN_FMUS, scene_problems
-
-
-class ScenarioError(ValueError):
-    """A scenario file or override is wrong; the message is one line naming file, key, value."""
 
 
 @dataclass(frozen=True)

@@ -56,7 +56,8 @@ def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path = Path("build")) -> 
     for inst in instances(scenario):
         path = fmu_dir / inst.fmu.file
         if not path.is_file():
-            error = FileNotFoundError(f"FMU {path} not found (build it with tribofmu.build.build_fmus)")
+            from ..master.slave import FMUFileError  # a FileNotFoundError, and a TriboFMUError
+            error = FMUFileError(f"FMU {path} not found (build it with tribofmu.build.build_fmus)")
             error.filename = str(path)
             raise error
         sources[f"resources/{inst.fmu.file}"] = path

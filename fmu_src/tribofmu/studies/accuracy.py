@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import NumericalError
 from ..master.algorithms import NS
 from ..physics.block import BlockState, advance_block
 from ..physics.drive import drive
@@ -54,7 +55,7 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path = "build", quick: boo
     ref = reference_solution(scenario)
     ref_wall = time.perf_counter() - begin
     if not ref.ok:
-        raise RuntimeError(f"reference solution failed: {ref.message}")
+        raise NumericalError(f"reference solution failed: {ref.message}")
     log(f"reference: {ref_wall:.2f} s ({ref.message or 'ok'})")
     window = scenario.window
     inside = (ref.time >= window[0] - 1e-12) & (ref.time <= window[1] + 1e-12)

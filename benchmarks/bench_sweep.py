@@ -1,6 +1,6 @@
 """Benchmark of ``tribofmu sweep``: speed-up from 1 to 2 Dask workers, per-point Dask overhead.
 
-    python tests/bench_sweep.py [--repeats 3] [--cases fig4,short]
+    python benchmarks/bench_sweep.py [--repeats 3] [--cases fig4,short]
 
 Not a test (pytest does not collect it): it prints numbers measured in one run, on this machine.
 

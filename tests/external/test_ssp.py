@@ -40,7 +40,6 @@ NEWTONIAN_TOL = 0.02  # nRMS of v on the window, the issue's acceptance bound
 # the force chatters between +-mu L. This bound only guards against a broken run (wrong
 # parameters, a diverging block); the measured values are printed for the README table.
 DRY_GUARD = 0.25
-SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
       "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues"}
@@ -145,19 +144,11 @@ def run_master(master: str, ssp: Path, h: float, n: int, parameter_set: str, var
 
 
 # -- fixtures and helpers ---------------------------------------------------------------------
-@pytest.fixture(scope="session")
-def fmu_dir(tmp_path_factory) -> Path:
-    from tribofmu.build import build_fmus
-
-    out = tmp_path_factory.mktemp("ssp_fmus")
-    build_fmus(out)
-    return out
-
-
 def load(name: str, overrides: dict | None = None):
     from tribofmu.scene.scenario import load_scenario
 
-    return load_scenario(SCENARIOS / f"{name}.toml", overrides)
+    from scenes import scene  # not at module level: the child process imports this file
+    return load_scenario(scene(name), overrides)
 
 
 def export(scenario, tmp_path: Path, fmu_dir: Path) -> Path:

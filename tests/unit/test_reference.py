@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +10,8 @@ from tribofmu.studies import reference as reference_module
 from tribofmu.studies.reference import ReferenceResult, nrms, reference_solution
 from tribofmu.scene.scenario import load_scenario
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+from scenes import SCENARIOS
+
 
 
 def scenario(name: str, **overrides):

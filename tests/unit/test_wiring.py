@@ -3,16 +3,14 @@ scenario's validation and the README all follow, so that a new FMU is added in o
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
-
 import pytest
 
 from tribofmu.scene import wiring
 from tribofmu.scene.scenario import ScenarioError, load_scenario
 from tribofmu.scene.ssp import parameter_values, system_structure
 
-ROOT = Path(__file__).resolve().parents[1]
-FIG2 = ROOT / "scenarios" / "fig2_dry.toml"
+from scenes import FIG2, ROOT, scene
+
 
 
 def test_todays_system_is_drive_block_friction_in_a_loop():
@@ -41,7 +39,7 @@ def test_start_values_follow_the_scenario_at_an_unused_point():
 
 
 def test_a_scene_without_friction_has_no_friction_wiring():
-    sc = load_scenario(ROOT / "scenarios" / "free_oscillator.toml")
+    sc = load_scenario(scene("free_oscillator"))
     assert [i.fmu.name for i in wiring.instances(sc)] == ["BlockSpring"]
     assert wiring.connections(sc) == [] and wiring.constant_inputs(sc) == {}
 

@@ -29,15 +29,6 @@ OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 FMU_NAMES = ("Friction", "Drive", "BlockSpring")
 
 
-@pytest.fixture(scope="session")
-def fmu_paths(tmp_path_factory) -> dict[str, Path]:
-    """The three FMUs built from the working tree into a fresh temporary directory."""
-    from tribofmu.build import build_fmus
-
-    out = tmp_path_factory.mktemp("fmus")
-    return {path.stem: path for path in build_fmus(out)}
-
-
 class FmuFatal(AssertionError):
     """An FMI call returned fmi2Fatal (or fmi2Error): the host lost the instance."""
 
