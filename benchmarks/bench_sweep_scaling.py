@@ -9,7 +9,10 @@ single-threaded worker processes, started before the clock runs (``tribofmu swee
 start-up once per command); the FMUs reach the workers through Dask, as on a cluster without
 a shared disk, and the points run longest expected first. Reported per worker count: the
 sweep's wall time (median over repeats), the speed-up over 1 worker and the efficiency
-(speed-up / workers), plus the sum of the points' own times (what a perfect split divides).
+(speed-up / workers), plus the sum of the points' own times and the workers' utilisation
+(that sum / (workers x wall)): on a machine other jobs load, the points themselves slow down
+and the speed-up shows it, while the utilisation still says whether the scheduling kept
+every worker busy to the end.
 """
 from __future__ import annotations
 
@@ -70,11 +73,13 @@ def main() -> int:
             print(f"{n} worker(s): {statistics.median(walls[n]):.2f} s", flush=True)
     base = statistics.median(walls[counts[0]]) * counts[0]
     print(f"\nload average at end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    print(f"{'workers':>7} {'wall [s]':>9} {'sum of points [s]':>18} {'speed-up':>9} {'efficiency':>10}")
+    print(f"{'workers':>7} {'wall [s]':>9} {'sum of points [s]':>18} {'speed-up':>9} {'efficiency':>10} "
+          f"{'utilisation':>11}")
     for n in counts:
         wall = statistics.median(walls[n])
         speedup = base / wall
-        print(f"{n:>7} {wall:>9.2f} {statistics.median(sims[n]):>18.2f} {speedup:>9.2f} {speedup / n:>10.2f}")
+        busy = statistics.median(sims[n])
+        print(f"{n:>7} {wall:>9.2f} {busy:>18.2f} {speedup:>9.2f} {speedup / n:>10.2f} {busy / (n * wall):>11.2f}")
     return 0
 
 

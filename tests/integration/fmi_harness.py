@@ -19,7 +19,6 @@ import math
 import struct
 from pathlib import Path
 
-import pytest
 from fmpy import calloc, extract, free, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,

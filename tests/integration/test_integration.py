@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from tribofmu import api
-from tribofmu.scene.scenario import load_scenario
 from tribofmu.studies.reference import nrms, reference_solution
 
 from scenes import SCENARIOS

@@ -10,6 +10,7 @@ other workers idle.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import logging
 import math
@@ -59,23 +60,28 @@ def longest_first(scenarios: list[Scenario], todo: list[int], algorithm, step, t
     return sorted(todo, key=lambda i: -expected_cost(scenarios[i], algorithm, step, tol))
 
 
-def _progress_bar(total: int, enabled: bool, desc: str):
+@contextlib.contextmanager
+def _recording(record: Record, total: int, enabled: bool, desc: str):
+    """``record`` that also advances a progress bar counting the failed points."""
     from tqdm import tqdm
-    return tqdm(total=total, unit="point", desc=desc, disable=not enabled, file=sys.stderr,
-                dynamic_ncols=True)
+    failed = 0
+    with tqdm(total=total, unit="point", desc=desc, disable=not enabled, file=sys.stderr,
+              dynamic_ncols=True) as bar:
+        def done(i: int, out: dict) -> None:
+            nonlocal failed
+            record(i, out)
+            failed += out["status"] != STATUS_OK
+            bar.set_postfix(failed=failed, refresh=False)
+            bar.update()
+        yield done
 
 
 def run_plain(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings: tuple, record: Record,
               progress: bool, desc: str) -> None:
     """Run the points one after the other in this process, in grid order."""
-    with _progress_bar(len(todo), progress, desc) as bar:
-        failed = 0
+    with _recording(record, len(todo), progress, desc) as done:
         for i in todo:
-            out = run_point(scenarios[i], str(fmu_dir), *settings)
-            record(i, out)
-            failed += out["status"] != STATUS_OK
-            bar.set_postfix(failed=failed, refresh=False)
-            bar.update()
+            done(i, run_point(scenarios[i], str(fmu_dir), *settings))
 
 
 def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings: tuple, record: Record,
@@ -123,19 +129,14 @@ def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings
                                 key=f"tribofmu-point-{i}-{token}", pure=False, retries=0,
                                 priority=len(order) - rank)
             futures[fut] = i
-        with _progress_bar(len(todo), progress, desc) as bar:
-            failed = 0
+        with _recording(record, len(todo), progress, desc) as done:
             for fut in as_completed(futures):
-                i = futures[fut]
                 try:
                     out = fut.result()
                 except Exception as exc:  # the worker died, the task could not be run
                     out = {"status": STATUS_FAILED, "message": " ".join(f"{type(exc).__name__}: {exc}".split()),
                            "metrics": {}, "wall_time": math.nan}
-                record(i, out)
-                failed += out["status"] != STATUS_OK
-                bar.set_postfix(failed=failed, refresh=False)
-                bar.update()
+                done(futures[fut], out)
                 fut.release()
     finally:
         for fut in futures:
