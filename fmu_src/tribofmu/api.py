@@ -15,17 +15,18 @@ from typing import Any
 
 import numpy as np
 
+from .errors import FMUError
 from .master import (CoupledSystem, FMUCallError, FMUFileError, Scales, Slave, make_algorithm, run,
                      sample)
-from .energy import energy_audit
+from .studies.energy import energy_audit
 from .master.run import COLUMNS
-from .scenario import Scenario, ScenarioError, load_scenario
-from .wiring import constant_inputs, fmu_parameters, scales
+from .scene.scenario import Scenario, ScenarioError, load_scenario, scales
+from .scene.wiring import constant_inputs, fmu_parameters
 
 DEFAULT_FMU_DIR = Path("build")
 
 
-class FMUSetupError(RuntimeError):
+class FMUSetupError(FMUError, RuntimeError):
     """One or more FMUs could not be loaded or initialized; the message names each instance."""
 SAMPLES_PER_PERIOD = 1000
 

@@ -37,7 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # every expected failure becomes one line, never a traceback
         from .api import FMUSetupError
         from .master.slave import FMUCallError, FMUFileError
-        from .scenario import ScenarioError
+        from .scene.scenario import ScenarioError
         if isinstance(exc, (UsageError, ScenarioError, FMUFileError, FileNotFoundError, FMUSetupError,
                             FMUCallError)):
             print(f"tribofmu: {exc}", file=sys.stderr)
@@ -136,7 +136,7 @@ def cmd_simulate(args) -> int:
 
 def cmd_export_ssp(args) -> int:
     from . import api
-    from .ssp import export_ssp
+    from .scene.ssp import export_ssp
     scenario = api.load(args.scenario, args.overrides)
     path = export_ssp(scenario, Path(args.out), Path(args.fmu_dir))
     print(path)
@@ -145,7 +145,7 @@ def cmd_export_ssp(args) -> int:
 
 def cmd_sweep(args) -> int:
     """Exit 0 when every point is ok, 1 when some failed (see their rows), 2 on bad input."""
-    from .sweep import parse_grid, sweep
+    from .studies.sweep import parse_grid, sweep
     out = Path(args.out) if args.out else Path("out") / f"{Path(args.scenario).stem}-sweep"
     try:
         rows = sweep(args.scenario, parse_grid(args.grid), out, scheduler=args.scheduler,
@@ -163,7 +163,7 @@ def cmd_sweep(args) -> int:
 
 def cmd_accuracy(args) -> int:
     from . import api
-    from .accuracy import accuracy_study, write_study
+    from .studies.accuracy import accuracy_study, write_study
     scenario = api.load(args.scenario, args.overrides)
     api.ensure_fmus(Path(args.fmu_dir), scenario.fmus, build=False)
     rows, summary = accuracy_study(scenario, fmu_dir=args.fmu_dir, quick=args.quick)

@@ -13,10 +13,12 @@ import sys
 from pathlib import Path
 from typing import Any, Sequence
 
+from ..errors import FMUError
+
 STATUS_NAMES = ("fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error", "fmi2Fatal", "fmi2Pending")
 
 
-class FMUCallError(RuntimeError):
+class FMUCallError(FMUError, RuntimeError):
     """An FMU call returned a status worse than fmi2Warning."""
 
     def __init__(self, instance: str, call: str, status: int, messages: Sequence[str] = ()):
@@ -31,7 +33,7 @@ class FMUCallError(RuntimeError):
         return self.status == 2
 
 
-class FMUFileError(FileNotFoundError):
+class FMUFileError(FMUError, FileNotFoundError):
     """An FMU file is missing or unreadable."""
 
 

@@ -1,10 +1,10 @@
 """Accuracy study: every coupling algorithm over a ladder of steps / tolerances, against the
 monolithic reference solution.
 
-    from tribofmu.accuracy import accuracy_study
+    from tribofmu.studies.accuracy import accuracy_study
     rows, summary = accuracy_study(scenario, out_dir)
 
-Per run: nRMS error of v on the shown window (:func:`tribofmu.reference.nrms`), the largest
+Per run: nRMS error of v on the shown window (:func:`tribofmu.studies.reference.nrms`), the largest
 |v - v_ref| on the window over max |v_ref| (same normalisation), wall time of the whole
 ``simulate`` call [s], communication steps, FMU calls, rollbacks (rejected steps). For the
 adaptive algorithm also how well its own error estimate tracks the true local error
@@ -21,13 +21,13 @@ from typing import Any
 
 import numpy as np
 
-from .master.algorithms import NS
-from .physics.block import BlockState, advance_block
-from .physics.drive import drive
-from .physics.friction import DRY, FLUID
+from ..errors import NumericalError
+from ..master.algorithms import NS
+from ..physics.block import BlockState, advance_block
+from ..physics.drive import drive
+from ..physics.friction import DRY, FLUID
+from ..scene.scenario import Scenario, scales
 from .reference import nrms, reference_solution
-from .scenario import Scenario
-from .wiring import scales
 
 COLUMNS = ("algorithm", "step", "tol", "nrms_v", "max_err_v", "wall_time_s", "steps", "fmu_calls",
            "rollbacks", "ok", "est_true_ratio_median", "est_true_ratio_p10", "est_true_ratio_p90",
@@ -48,14 +48,14 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path = "build", quick: boo
                    ladder=None, max_run_s: float = 60.0, log=print) -> tuple[list[dict], dict]:
     """Run the ladder; returns (rows, summary). A rung whose finer neighbour would exceed
     max_run_s (estimated from the last run of the same algorithm) is skipped and logged."""
-    from .api import simulate
+    from ..api import simulate
 
     ladder = list(ladder if ladder is not None else (QUICK_LADDER if quick else LADDER))
     begin = time.perf_counter()
     ref = reference_solution(scenario)
     ref_wall = time.perf_counter() - begin
     if not ref.ok:
-        raise RuntimeError(f"reference solution failed: {ref.message}")
+        raise NumericalError(f"reference solution failed: {ref.message}")
     log(f"reference: {ref_wall:.2f} s ({ref.message or 'ok'})")
     window = scenario.window
     inside = (ref.time >= window[0] - 1e-12) & (ref.time <= window[1] + 1e-12)
@@ -204,7 +204,7 @@ def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> No
 
 
 def write_study(rows: list[dict], summary: dict, scenario: Scenario, out: Path) -> None:
-    from .atomic import atomic_directory
+    from ..atomic import atomic_directory
     with atomic_directory(Path(out)) as tmp:
         plot_accuracy(rows, summary, f"{scenario.title or scenario.name}: error vs cost", tmp / "accuracy.png")
         (tmp / "accuracy.csv").write_text(rows_csv(rows))

@@ -1,6 +1,6 @@
 """Benchmark of ``tribofmu sweep``: speed-up from 1 to 2 Dask workers, per-point Dask overhead.
 
-    python tests/bench_sweep.py [--repeats 3] [--cases fig4,short]
+    python benchmarks/bench_sweep.py [--repeats 3] [--cases fig4,short]
 
 Not a test (pytest does not collect it): it prints numbers measured in one run, on this machine.
 
@@ -42,7 +42,7 @@ CASES = {
 
 
 def timed_sweep(case, out: Path, fmu_dir: Path, **kw) -> tuple[float, float]:
-    from tribofmu.sweep import sweep
+    from tribofmu.studies.sweep import sweep
     scenario, grid, overrides = CASES[case]
     t0 = time.perf_counter()
     rows = sweep(scenario, grid, out, overrides=overrides, fmu_dir=fmu_dir, plots=False, progress=False,

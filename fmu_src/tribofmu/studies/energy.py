@@ -23,7 +23,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .master.algorithms import NS, velocity_slopes
+from ..master.algorithms import NS, velocity_slopes
 
 # 3-point Gauss-Legendre on [0, 1]: exact for polynomials up to degree 5
 _GL_S = np.array([0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0])

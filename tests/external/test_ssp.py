@@ -1,7 +1,7 @@
 """Issue "Portability": the SSP export runs unchanged in three external co-simulation masters.
 
 fmpy (``fmpy.ssp.simulation.simulate_ssp``), libcosim (``libcosimpy``) and Ecos (``ecospy``)
-each run an archive written by :func:`tribofmu.ssp.export_ssp`, with the FMUs built by
+each run an archive written by :func:`tribofmu.scene.ssp.export_ssp`, with the FMUs built by
 :func:`tribofmu.build.build_fmus` for this test session.
 
 Every master runs in a child Python process: this file is the child's script (see ``_child``
@@ -40,7 +40,6 @@ NEWTONIAN_TOL = 0.02  # nRMS of v on the window, the issue's acceptance bound
 # the force chatters between +-mu L. This bound only guards against a broken run (wrong
 # parameters, a diverging block); the measured values are printed for the README table.
 DRY_GUARD = 0.25
-SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
       "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues"}
@@ -145,23 +144,15 @@ def run_master(master: str, ssp: Path, h: float, n: int, parameter_set: str, var
 
 
 # -- fixtures and helpers ---------------------------------------------------------------------
-@pytest.fixture(scope="session")
-def fmu_dir(tmp_path_factory) -> Path:
-    from tribofmu.build import build_fmus
-
-    out = tmp_path_factory.mktemp("ssp_fmus")
-    build_fmus(out)
-    return out
-
-
 def load(name: str, overrides: dict | None = None):
-    from tribofmu.scenario import load_scenario
+    from tribofmu.scene.scenario import load_scenario
 
-    return load_scenario(SCENARIOS / f"{name}.toml", overrides)
+    from scenes import scene  # not at module level: the child process imports this file
+    return load_scenario(scene(name), overrides)
 
 
 def export(scenario, tmp_path: Path, fmu_dir: Path) -> Path:
-    from tribofmu.ssp import export_ssp
+    from tribofmu.scene.ssp import export_ssp
 
     return export_ssp(scenario, tmp_path / f"{scenario.name}.ssp", fmu_dir)
 
@@ -185,9 +176,9 @@ def bound_parameters(root: ET.Element) -> dict[str, dict[str, tuple[str, str]]]:
 
 
 def reference_velocity(scenario, t: np.ndarray) -> np.ndarray:
-    """v(t) [m/s] of the converged monolithic solution (tribofmu.reference when present)."""
-    if importlib.util.find_spec("tribofmu.reference") is not None:
-        from tribofmu.reference import reference_solution
+    """v(t) [m/s] of the converged monolithic solution (tribofmu.studies.reference when present)."""
+    if importlib.util.find_spec("tribofmu.studies.reference") is not None:
+        from tribofmu.studies.reference import reference_solution
 
         result = reference_solution(scenario, t)
         assert result.ok, f"reference solution failed: {result.message}"
@@ -196,9 +187,9 @@ def reference_velocity(scenario, t: np.ndarray) -> np.ndarray:
 
 
 def window_nrms(t: np.ndarray, v: np.ndarray, t_ref: np.ndarray, v_ref: np.ndarray, window) -> float:
-    """RMS(v - v_ref) over the window / max |v_ref| there (tribofmu.reference.nrms when present)."""
-    if importlib.util.find_spec("tribofmu.reference") is not None:
-        from tribofmu.reference import nrms
+    """RMS(v - v_ref) over the window / max |v_ref| there (tribofmu.studies.reference.nrms when present)."""
+    if importlib.util.find_spec("tribofmu.studies.reference") is not None:
+        from tribofmu.studies.reference import nrms
 
         return nrms(t, v, t_ref, v_ref, window)
     inside = (t_ref >= window[0]) & (t_ref <= window[1])
@@ -207,7 +198,7 @@ def window_nrms(t: np.ndarray, v: np.ndarray, t_ref: np.ndarray, v_ref: np.ndarr
 
 
 def _local_reference_velocity(scenario, t: np.ndarray) -> np.ndarray:
-    """Stand-in until tribofmu.reference lands: Newtonian fluid and dry friction only."""
+    """Stand-in until tribofmu.studies.reference lands: Newtonian fluid and dry friction only."""
     from scipy.integrate import solve_ivp
 
     A, w, M, K = scenario.drive.A, scenario.drive.omega, scenario.block.M, scenario.block.K
@@ -346,7 +337,7 @@ def test_scene_without_friction_exports_only_its_fmu(fmu_dir, tmp_path):
 
 
 def test_missing_fmu_raises_naming_it_and_writes_nothing(fmu_dir, tmp_path):
-    from tribofmu.ssp import export_ssp
+    from tribofmu.scene.ssp import export_ssp
 
     partial = tmp_path / "fmus"
     partial.mkdir()
@@ -361,7 +352,7 @@ def test_missing_fmu_raises_naming_it_and_writes_nothing(fmu_dir, tmp_path):
 
 
 def test_failed_write_keeps_the_previous_archive(fmu_dir, tmp_path, monkeypatch):
-    from tribofmu.ssp import export_ssp
+    from tribofmu.scene.ssp import export_ssp
 
     out = tmp_path / "scene.ssp"
     out.write_bytes(b"previous archive")
@@ -377,7 +368,7 @@ def test_failed_write_keeps_the_previous_archive(fmu_dir, tmp_path, monkeypatch)
 
 
 def test_export_replaces_an_existing_archive(fmu_dir, tmp_path):
-    from tribofmu.ssp import export_ssp
+    from tribofmu.scene.ssp import export_ssp
 
     out = tmp_path / "scene.ssp"
     out.write_bytes(b"old")

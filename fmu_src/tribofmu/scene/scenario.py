@@ -13,15 +13,11 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from .physics.block import block_problems
-from .physics.drive import drive_problems
-from .physics.friction import REGIMES, Effects, FrictionLaw, LubricantConstants
-
-KNOWN_FMUS = ("Drive", "BlockSpring", "Friction")
-
-
-class ScenarioError(ValueError):
-    """A scenario file or override is wrong; the message is one line naming file, key, value."""
+from ..errors import ScenarioError
+from ..physics.block import block_problems
+from ..physics.drive import drive_problems
+from ..physics.friction import REGIMES, Effects, FrictionLaw, LubricantConstants
+from .wiring import FMU_NAMES as KNOWN_FMUS, scene_problems
 
 
 @dataclass(frozen=True)
@@ -217,14 +213,7 @@ def from_dict(data: dict[str, dict[str, Any]], source: str) -> Scenario:
 
 def validate(scenario: Scenario) -> list[str]:
     """Every problem with the scenario, each as ``table.key must be ..., got value``."""
-    out = []
-    for name in scenario.fmus:
-        if name not in KNOWN_FMUS:
-            out.append(f"scenario.fmus names an unknown FMU {name!r} (known: {', '.join(KNOWN_FMUS)})")
-    if "BlockSpring" not in scenario.fmus:
-        out.append(f"scenario.fmus must include 'BlockSpring', got {list(scenario.fmus)}")
-    if "Friction" in scenario.fmus and "Drive" not in scenario.fmus:
-        out.append(f"scenario.fmus must include 'Drive' when it includes 'Friction', got {list(scenario.fmus)}")
+    out = scene_problems(scenario.fmus)
     out += [f"drive.{p}" for p in drive_problems(scenario.drive.A, scenario.drive.omega)]
     out += [f"block.{p}" for p in block_problems(scenario.block.M, scenario.block.K)]
     fr = scenario.friction
@@ -283,3 +272,12 @@ def _assign(data: dict[str, dict[str, Any]], key: str, value: Any, source: str) 
     if not name:
         raise ScenarioError(f"{source}: override key must be TABLE.KEY (e.g. drive.omega), got {key!r}")
     data.setdefault(table, {})[name] = value
+
+
+def scales(scenario: Scenario) -> tuple[float, float, float]:
+    """Position [m], velocity [m/s] and time [s] scales of the scene, for tolerances."""
+    b, d = scenario.block, scenario.drive
+    w0 = math.sqrt(2 * b.K / b.M)
+    position = max(abs(d.A) if "Drive" in scenario.fmus else 0.0, abs(b.x0), abs(b.v0) / max(w0, d.omega))
+    velocity = max(position * d.omega, abs(b.v0), abs(b.x0) * w0)
+    return position or 1e-9, velocity or 1e-9, d.period

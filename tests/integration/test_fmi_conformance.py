@@ -7,18 +7,18 @@ from __future__ import annotations
 
 import math
 import zipfile
-from pathlib import Path
 
 import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
-from fmi_harness import FMU_NAMES, OK, Instance, bits, fmu_paths  # noqa: F401 (fixture)
+from fmi_harness import FMU_NAMES, OK, Instance, bits
+from scenes import ROOT
 
 pytestmark = pytest.mark.integration
 
-PACKAGE = Path(__file__).resolve().parents[1] / "fmu_src" / "tribofmu"
+PACKAGE = ROOT / "fmu_src" / "tribofmu"
 
 # Direct feedthrough declared in ModelStructure/Outputs: output -> inputs it depends on.
 DEPENDENCIES = {

@@ -1,6 +1,6 @@
 """Master overhead per communication step against the bare cost of its FMU calls (fig2_dry).
 
-    python tests/bench_overhead.py [--repeats 5] [--profile]
+    python benchmarks/bench_overhead.py [--repeats 5] [--profile]
 
 1. Record every hot-path FMU call (set/get reals, do_step, save/restore/free state) that a
    simulate() run makes, with its arguments.
@@ -66,7 +66,7 @@ def record(scenario, **kw):
 
 def fresh_slaves(scenario):
     from tribofmu.master.slave import Slave
-    from tribofmu.wiring import fmu_parameters
+    from tribofmu.scene.wiring import fmu_parameters
     return {fmu.lower(): Slave(FMU_DIR / f"{fmu}.fmu", instance=fmu.lower(), parameters=params)
             for fmu, params in fmu_parameters(scenario).items()}
 

@@ -2,16 +2,16 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from tribofmu import reference as reference_module
-from tribofmu.reference import ReferenceResult, nrms, reference_solution
-from tribofmu.scenario import load_scenario
+from tribofmu.studies import reference as reference_module
+from tribofmu.studies.reference import ReferenceResult, nrms, reference_solution
+from tribofmu.scene.scenario import load_scenario
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+from scenes import SCENARIOS
+
 
 
 def scenario(name: str, **overrides):

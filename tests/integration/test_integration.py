@@ -3,26 +3,16 @@ import json
 import math
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from tribofmu import api
-from tribofmu.build import build_fmus
-from tribofmu.reference import nrms, reference_solution
-from tribofmu.scenario import load_scenario
+from tribofmu.studies.reference import nrms, reference_solution
 
-ROOT = Path(__file__).resolve().parents[1]
-SCENARIOS = ROOT / "scenarios"
+from scenes import SCENARIOS
+
 pytestmark = pytest.mark.integration
-
-
-@pytest.fixture(scope="module")
-def fmu_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("fmus")
-    build_fmus(out)
-    return out
 
 
 def simulate(fmu_dir, name, overrides=None, **kwargs):

@@ -20,8 +20,7 @@ from fmpy import read_model_description
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fmi_harness import (DISCARD, FMU_NAMES, OK, Instance, all_finite, bits, fmu_paths,  # noqa: F401
-                         value_text)
+from fmi_harness import DISCARD, FMU_NAMES, OK, Instance, all_finite, bits, value_text
 
 pytestmark = pytest.mark.integration
 

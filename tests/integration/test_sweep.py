@@ -1,6 +1,5 @@
 """Issue "Sweeps at scale: regime maps on Dask".
 
-- the metrics (tribofmu.metrics) against synthetic signals with known answers;
 - the grid: parsing, and bad keys/values caught on the client before any work (exit 2);
 - sweeps through a real ``distributed.LocalCluster`` (2 worker processes): sweep.csv's
   columns and rows, portraits and pictures, resume after a row is lost, a failing point;
@@ -8,7 +7,10 @@
 """
 from __future__ import annotations
 
+import contextlib
 import csv
+import os
+import tempfile
 import types
 import subprocess
 import socket
@@ -20,143 +22,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tribofmu import metrics as M
+from tribofmu.studies import metrics as M
 
-ROOT = Path(__file__).resolve().parent.parent
-FIG2 = ROOT / "scenarios" / "fig2_dry.toml"
-NEWTONIAN = ROOT / "scenarios" / "fig5_newtonian.toml"
+from scenes import FIG2, NEWTONIAN
 SHORT = {"time.periods": 2, "time.window": [1, 2]}  # a short span: one period shown
 FIG4_OMEGAS = [10, 20, 30, 50, 80, 130]
 
 
-# -- metrics on synthetic signals ---------------------------------------------------------
-def grid(periods: float, omega: float = 30.0, per_period: int = 1000, t0_periods: float = 5.0):
-    T = 2 * math.pi / omega
-    n = int(round(periods * per_period))
-    return np.linspace(t0_periods * T, (t0_periods + periods) * T, n + 1), T
-
-
-def test_pure_sinusoid_has_one_harmonic_whatever_its_phase_and_offset():
-    t, T = grid(1.5)
-    w = 2 * math.pi / T
-    for phase, offset in ((0.0, 0.0), (1.0, 3e-4), (2.5, -1e-3)):
-        x = 2e-3 * np.cos(w * t + phase) + offset
-        assert M.harmonics(t, x, T) == 1
-        a = M.harmonic_amplitudes(t, x, T)
-        assert a[0] == pytest.approx(2e-3, rel=1e-6)
-
-
-def test_harmonics_counts_those_above_one_percent_of_the_largest():
-    t, T = grid(2.0)
-    w = 2 * math.pi / T
-    # amplitudes relative to the largest: 1, 0.2, 0.05, 0.011 (significant), 0.009, 0.001 (not)
-    x = (np.sin(w * t) + 0.2 * np.sin(3 * w * t + 0.3) + 0.05 * np.cos(5 * w * t)
-         + 0.011 * np.sin(7 * w * t) + 0.009 * np.sin(9 * w * t) + 0.001 * np.sin(2 * w * t))
-    assert M.harmonics(t, x, T) == 4
-    a = M.harmonic_amplitudes(t, x, T)
-    assert a[2] == pytest.approx(0.2, rel=1e-6) and a[8] == pytest.approx(0.009, rel=1e-5)
-
-
-def test_harmonics_of_a_constant_is_zero_and_of_less_than_a_period_is_nan():
-    t, T = grid(1.5)
-    assert M.harmonics(t, np.full_like(t, 1e-3), T) == 0
-    t, T = grid(0.8)
-    assert math.isnan(M.harmonics(t, np.sin(2 * math.pi / T * t), T))
-
-
-def test_a_window_that_lost_its_end_sample_still_holds_its_whole_period():
-    t, T = grid(1.0)
-    w = 2 * math.pi / T
-    t = t[:-1]  # [t0, t0 + T): 1000 samples
-    assert M.whole_periods(t, T) == (1, 1000)
-    assert M.harmonics(t, np.sin(w * t) + 0.1 * np.sin(3 * w * t), T) == 2
-
-
-def stuck_signal(t, T, stuck):
-    """V = sin; v = V where stuck(phase in [0, 1)), else 0.3 V (slipping)."""
-    w = 2 * math.pi / T
-    V = 0.06 * np.sin(w * t)
-    mask = stuck(((t - t[0]) / T) % 1.0)
-    return V, np.where(mask, V, 0.3 * V), mask
-
-
-def test_stuck_half_the_time_gives_stick_fraction_one_half():
-    t, T = grid(1.0)
-    V, v, _ = stuck_signal(t, T, lambda p: p < 0.5)
-    assert M.stick_fraction(t, V, v) == pytest.approx(0.5, abs=2e-3)
-
-
-def test_stick_fraction_is_time_weighted_on_a_non_uniform_grid():
-    t = np.concatenate([np.linspace(0, 0.5, 11), np.linspace(0.5, 1.0, 1001)[1:]])  # coarse, fine
-    V = np.ones_like(t)
-    v = np.where(t <= 0.25, 1.0, 0.0)
-    assert M.stick_fraction(t, V, v) == pytest.approx(0.25, abs=0.03)
-
-
-def test_four_stick_episodes_per_period_whatever_the_window_phase():
-    # stuck on [0.05, 0.2), [0.3, 0.45), [0.55, 0.7), [0.8, 0.95) of each period
-    def four(p):
-        return ((p % 0.25) >= 0.05) & ((p % 0.25) < 0.2)
-    for t0 in (5.0, 5.1, 5.37):  # windows starting inside a stick, inside a slip
-        t, T = grid(1.5, t0_periods=t0)
-        V, v, _ = stuck_signal(t, T, lambda p, s=t0: four((p + s) % 1.0))
-        assert M.stick_episodes_per_period(t, V, v, T) == 4
-        assert M.stick_fraction(t, V, v) == pytest.approx(0.6, abs=0.01)
-
-
-def test_a_run_crossing_the_whole_period_end_counts_once():
-    t, T = grid(2.0)
-    V, v, _ = stuck_signal(t, T, lambda p: (p < 0.1) | (p >= 0.6))  # one run per period, wrapping
-    assert M.stick_episodes_per_period(t, V, v, T) == 1
-
-
-def test_always_or_never_stuck_has_no_stick_episodes():
-    t, T = grid(1.5)
-    V, v, _ = stuck_signal(t, T, lambda p: np.ones_like(p, dtype=bool))
-    assert M.stick_episodes_per_period(t, V, v, T) == 0 and M.stick_fraction(t, V, v) == 1
-    v = V - 0.02  # always slipping
-    assert M.stick_episodes_per_period(t, V, v, T) == 0 and M.stick_fraction(t, V, v) == 0
-
-
-def test_a_slipping_reversal_through_v_equals_V_is_not_a_stick_episode():
-    t, T = grid(1.0)
-    w = 2 * math.pi / T
-    V = 0.06 * np.sin(w * t)
-    v = V + 0.01 * np.sin(2 * w * t + 0.3)  # dv crosses 0 four times per period, never dwells
-    assert np.count_nonzero(M.stuck(V, v)) > 0  # the crossings do sample below the threshold
-    assert M.stick_episodes_per_period(t, V, v, T) == 0
-
-
-def test_dissipated_per_cycle_of_a_viscous_force():
-    # F = c (V - v), v = 0, V = A w sin(w t): one period dissipates c A^2 w^2 T / 2 = pi c A^2 w
-    t, T = grid(1.5)
-    A, c = 2e-3, 25.0
-    w = 2 * math.pi / T
-    V = -A * w * np.sin(w * t)
-    v = np.zeros_like(t)
-    assert M.dissipated_per_cycle(t, c * (V - v), V, v, T) == pytest.approx(math.pi * c * A**2 * w, rel=1e-4)
-
-
-def test_amplitude_ratio_and_melt_fraction():
-    t, T = grid(1.0)
-    w = 2 * math.pi / T
-    assert M.amplitude_ratio(3e-3 * np.sin(w * t), 2e-3) == pytest.approx(1.5, rel=1e-6)
-    f = 1.025 + 0.5 * np.sin(w * t)
-    assert M.melt_fraction(t, f, 1.025) == pytest.approx(0.5, abs=2e-3)
-    assert M.melt_fraction(t, f, 1.025 + 0.5 * math.sin(math.pi / 4)) == pytest.approx(0.25, abs=2e-3)
-    assert math.isnan(M.melt_fraction(t, f, None))
-
-
-def test_compute_metrics_gives_every_metric():
-    t, T = grid(1.5)
-    V, v, _ = stuck_signal(t, T, lambda p: p < 0.5)
-    out = M.compute_metrics(t, V, np.sin(t), v, V - v, np.zeros_like(t), T, 1.0)
-    assert list(out) == list(M.METRICS)
-
-
 # -- the grid -------------------------------------------------------------------------------
 def test_parse_grid_reads_values_like_set():
-    from tribofmu.sweep import grid_points, parse_grid
+    from tribofmu.studies.sweep.grid import grid_points, parse_grid
     g = parse_grid(["drive.omega=10, 20.5,1e2", "time.window=[1,2],[2, 3]", "friction.regime=dry,fluid"])
     assert g == {"drive.omega": [10, 20.5, 100.0], "time.window": [[1, 2], [2, 3]],
                  "friction.regime": ["dry", "fluid"]}
@@ -182,57 +57,50 @@ def test_a_bad_grid_is_one_line_exit_2_before_any_work(tmp_path, capsys, grid_ar
 
 
 def test_run_point_reports_a_missing_fmu_as_a_failed_point(tmp_path):
-    from tribofmu.scenario import load_scenario
-    from tribofmu.sweep import run_point
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.studies.sweep.worker import run_point
     out = run_point(load_scenario(FIG2, SHORT), str(tmp_path / "no-fmus"))
     assert out["status"] == "failed" and "no-fmus" in out["message"] and "\n" not in out["message"]
     assert out["metrics"] == {} and out["x"] is None
 
 
 def test_run_point_stops_a_point_past_its_time_limit(fmu_dir):
-    from tribofmu.scenario import load_scenario
-    from tribofmu.sweep import run_point
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.studies.sweep.worker import run_point
     out = run_point(load_scenario(FIG2, SHORT), str(fmu_dir), timeout=1e-6)
     assert out["status"] == "failed" and out["message"].startswith("PointTimeout: stopped after")
 
 
 def test_run_point_leaves_no_unzipped_fmu_on_sys_path(fmu_dir):
     import sys
-    from tribofmu.scenario import load_scenario
-    from tribofmu.sweep import run_point
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.studies.sweep.worker import run_point
     before = list(sys.path)
     out = run_point(load_scenario(FIG2, SHORT), str(fmu_dir))
     assert out["status"] == "ok" and sys.path == before
 
 
 # -- sweeps on a real local Dask cluster -----------------------------------------------------
-@pytest.fixture(scope="module")
-def fmu_dir(tmp_path_factory):
-    from tribofmu.build import build_fmus
-    path = tmp_path_factory.mktemp("fmus")
-    build_fmus(path)
-    return path
-
-
-@pytest.fixture(scope="module")
-def cluster(tmp_path_factory):
-    """A real local Dask cluster (scheduler + 2 single-threaded worker processes) started as
-    fresh interpreters, so nothing an earlier test loaded into this process (FMUs, whose
+@contextlib.contextmanager
+def dask_cluster(cwd: Path, workers: int = 2, env: dict | None = None, preload: Path | None = None):
+    """A real Dask cluster (scheduler + single-threaded worker processes) started as fresh
+    interpreters in ``cwd``, so nothing an earlier test loaded into this process (FMUs, whose
     pythonfmu resources stay on sys.path) reaches the workers."""
     distributed = pytest.importorskip("distributed")
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
     address = f"tcp://127.0.0.1:{port}"
-    cwd = tmp_path_factory.mktemp("dask")
     quiet = dict(cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     procs = [subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
                                "--port", str(port), "--no-dashboard"], **quiet)]
-    procs.append(subprocess.Popen([sys.executable, "-m", "dask", "worker", address, "--nworkers", "2",
-                                   "--nthreads", "1", "--no-dashboard"], **quiet))
+    extra = ["--preload", str(preload)] if preload else []
+    procs.append(subprocess.Popen([sys.executable, "-m", "dask", "worker", address, "--nworkers", str(workers),
+                                   "--nthreads", "1", "--no-dashboard", *extra],
+                                  env={**os.environ, **(env or {})}, **quiet))
     try:
         with distributed.Client(address, timeout=60) as client:
-            client.wait_for_workers(2, timeout=120)
+            client.wait_for_workers(workers, timeout=120)
         yield types.SimpleNamespace(scheduler_address=address)
     finally:
         for proc in reversed(procs):
@@ -242,6 +110,25 @@ def cluster(tmp_path_factory):
                 proc.wait(timeout=30)
             except subprocess.TimeoutExpired:
                 proc.kill()
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory):
+    with dask_cluster(tmp_path_factory.mktemp("dask")) as running:
+        yield running
+
+
+@pytest.fixture(scope="module")
+def cluster_without_client_disk(tmp_path_factory):
+    """Two workers started in a directory of their own, with their own temp dir, that cannot
+    open anything in this test session's temp tree (the FMUs, the sweep's output)."""
+    with tempfile.TemporaryDirectory(prefix="tribofmu-worker-") as home:
+        worker_tmp = Path(home, "tmp")
+        worker_tmp.mkdir()
+        env = {"TMPDIR": str(worker_tmp), "TRIBOFMU_TEST_FORBIDDEN": str(tmp_path_factory.getbasetemp())}
+        with dask_cluster(Path(home), env=env, preload=Path(__file__).with_name("forbid_client_disk.py")) as running:
+            running.tmp = worker_tmp
+            yield running
 
 
 def read_csv(path):
@@ -256,8 +143,8 @@ def stamp(row):
 
 @pytest.mark.integration
 def test_small_sweep_on_two_dask_workers_writes_rows_portraits_pictures(tmp_path, fmu_dir, cluster):
-    from tribofmu.metrics import METRICS
-    from tribofmu.sweep import sweep
+    from tribofmu.studies.metrics import METRICS
+    from tribofmu.studies.sweep import sweep
     out = tmp_path / "s"
     rows = sweep(FIG2, {"drive.omega": [30, 80, 130]}, out, scheduler=cluster.scheduler_address,
                  overrides=SHORT, fmu_dir=fmu_dir, progress=False)
@@ -287,7 +174,7 @@ def test_small_sweep_on_two_dask_workers_writes_rows_portraits_pictures(tmp_path
 
 @pytest.mark.integration
 def test_resume_runs_only_the_points_missing_from_sweep_csv(tmp_path, fmu_dir, cluster):
-    from tribofmu.sweep import sweep
+    from tribofmu.studies.sweep import sweep
     out = tmp_path / "r"
     args = (FIG2, {"drive.omega": [30, 80, 130]}, out)
     kw = dict(scheduler=cluster.scheduler_address, overrides=SHORT, fmu_dir=fmu_dir, progress=False, plots=False)
@@ -319,7 +206,7 @@ def test_resume_runs_only_the_points_missing_from_sweep_csv(tmp_path, fmu_dir, c
 
 @pytest.mark.integration
 def test_resume_refuses_a_directory_of_another_sweep(tmp_path, fmu_dir):
-    from tribofmu.sweep import SweepError, sweep
+    from tribofmu.studies.sweep import SweepError, sweep
     out = tmp_path / "o"
     sweep(FIG2, {"drive.omega": [130]}, out, workers=0, overrides=SHORT, fmu_dir=fmu_dir,
           progress=False, plots=False)
@@ -332,7 +219,7 @@ def test_resume_refuses_a_directory_of_another_sweep(tmp_path, fmu_dir):
 
 @pytest.mark.integration
 def test_a_failing_point_is_reported_in_its_row_and_the_others_complete(tmp_path, fmu_dir, cluster):
-    from tribofmu.sweep import sweep
+    from tribofmu.studies.sweep import sweep
     # explicit (Jacobi) coupling with a 1 ms step is unstable for a 1 mg block: that point diverges
     overrides = {**SHORT, "simulation.algorithm": "jacobi", "simulation.step": 1e-3}
     out = tmp_path / "f"
@@ -359,7 +246,8 @@ def test_a_failing_point_is_reported_in_its_row_and_the_others_complete(tmp_path
 
 def test_one_sweep_at_a_time_in_a_directory(tmp_path):
     import fcntl
-    from tribofmu.sweep import LOCK_NAME, SweepError, sweep
+    from tribofmu.studies.sweep import SweepError, sweep
+    from tribofmu.studies.sweep.store import LOCK_NAME
     out = tmp_path / "busy"
     out.mkdir()
     with open(out / LOCK_NAME, "w") as fh:
@@ -394,7 +282,7 @@ def test_cli_sweep_on_an_embedded_cluster_two_dimensional_map(tmp_path):
 @pytest.mark.integration
 def test_fig4_fewer_stick_episodes_and_harmonics_as_omega_rises(tmp_path, fmu_dir, cluster):
     """Paper, Fig. 4: w = 10 ... 130 rad/s; the motion simplifies, at 130 the blocks stay stuck."""
-    from tribofmu.sweep import sweep
+    from tribofmu.studies.sweep import sweep
     rows = sweep(FIG2, {"drive.omega": FIG4_OMEGAS}, tmp_path / "fig4", scheduler=cluster.scheduler_address,
                  fmu_dir=fmu_dir, progress=False)
     table = "\n".join(f"w={r['drive.omega']:>4}: stick {r['stick_fraction']:.3f}, episodes "
@@ -419,3 +307,32 @@ def test_fig4_fewer_stick_episodes_and_harmonics_as_omega_rises(tmp_path, fmu_di
     assert by[130]["stick_fraction"] > 0.9, table
     assert by[130]["harmonics"] <= 2, table
     assert by[130]["dissipated_per_cycle"] < 0.2 * min(by[w]["dissipated_per_cycle"] for w in FIG4_OMEGAS[:-1]), table
+
+
+@pytest.mark.integration
+def test_a_sweep_runs_on_workers_that_cannot_see_the_clients_disk(tmp_path, fmu_dir, cluster_without_client_disk):
+    """The FMUs reach the workers through Dask; the numbers equal a plain loop's."""
+    from distributed import Client
+    from tribofmu.studies.sweep import sweep
+    with Client(cluster_without_client_disk.scheduler_address) as client:  # the workers really are blind
+        with pytest.raises(PermissionError, match="cannot see the client's disk"):
+            client.submit(Path.read_bytes, fmu_dir / "Drive.fmu", pure=False).result()
+    kw = dict(overrides=SHORT, fmu_dir=fmu_dir, plots=False, progress=False, log=lambda msg: None)
+    grid = {"drive.omega": [30, 80], "conditions.n": [-10, -20]}
+    remote = sweep(FIG2, grid, tmp_path / "remote", scheduler=cluster_without_client_disk.scheduler_address, **kw)
+    assert [r["status"] for r in remote] == ["ok"] * 4, [r["message"] for r in remote]
+    local = sweep(FIG2, grid, tmp_path / "local", workers=0, **kw)
+    for a, b in zip(remote, local):
+        assert all(a[m] == b[m] or (math.isnan(a[m]) and math.isnan(b[m])) for m in M.METRICS)
+    copies = list(cluster_without_client_disk.tmp.glob("tribofmu-fmus-*/Friction.fmu"))
+    assert len(copies) == 1 and copies[0].read_bytes() == (fmu_dir / "Friction.fmu").read_bytes()
+
+
+@pytest.mark.integration
+def test_dask_runs_the_longest_expected_points_first(tmp_path, fmu_dir):
+    from tribofmu.studies.sweep import sweep
+    rows = sweep(FIG2, {"drive.omega": [130, 30, 10]}, tmp_path / "out", workers=1, overrides=SHORT,
+                 fmu_dir=fmu_dir, plots=False, progress=False, log=lambda msg: None)
+    assert [r["drive.omega"] for r in rows] == [130, 30, 10]  # grid order in the results
+    by_finish = sorted(rows, key=lambda r: r["finished_at"])
+    assert [r["drive.omega"] for r in by_finish] == [10, 30, 130]

@@ -19,7 +19,6 @@ import math
 import struct
 from pathlib import Path
 
-import pytest
 from fmpy import calloc, extract, free, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
@@ -27,15 +26,6 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
 
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 FMU_NAMES = ("Friction", "Drive", "BlockSpring")
-
-
-@pytest.fixture(scope="session")
-def fmu_paths(tmp_path_factory) -> dict[str, Path]:
-    """The three FMUs built from the working tree into a fresh temporary directory."""
-    from tribofmu.build import build_fmus
-
-    out = tmp_path_factory.mktemp("fmus")
-    return {path.stem: path for path in build_fmus(out)}
 
 
 class FmuFatal(AssertionError):

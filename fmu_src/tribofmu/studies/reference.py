@@ -36,10 +36,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
-from .physics.block import BlockState, acceleration, advance_block
-from .physics.drive import drive
-from .physics.friction import BOUNDARY, DRY, FLUID, FrictionLaw
-from .scenario import Scenario
+from ..physics.block import BlockState, acceleration, advance_block
+from ..physics.drive import drive
+from ..physics.friction import BOUNDARY, DRY, FLUID, FrictionLaw
+from ..scene.scenario import Scenario
 
 __all__ = ["ReferenceResult", "reference_solution", "nrms", "SAMPLES_PER_PERIOD"]
 

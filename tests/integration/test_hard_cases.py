@@ -9,26 +9,17 @@ of nanoseconds; windows here end a little before the span so nRMS is always defi
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from tribofmu import api
-from tribofmu.build import build_fmus
-from tribofmu.energy import energy_audit
-from tribofmu.reference import nrms, reference_solution
+from tribofmu.studies.energy import energy_audit
+from tribofmu.studies.reference import nrms, reference_solution
+
+from scenes import SCENARIOS
 
 pytestmark = pytest.mark.integration
-
-SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
-
-
-@pytest.fixture(scope="module")
-def fmu_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("hard-fmus")
-    build_fmus(out)
-    return out
 
 
 def run(fmu_dir, scene, overrides=(), **kw):

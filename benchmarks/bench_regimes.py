@@ -1,7 +1,7 @@
 """Per-step cost of the Friction FMU in each regime ("simulate only the effects a scene
 calls for": dry never touches the kinetics; boundary with melting on/off).
 
-    python tests/bench_regimes.py [--periods 0.25] [--step 1e-4]
+    python benchmarks/bench_regimes.py [--periods 0.25] [--step 1e-4]
 
 Every regime runs the same fixed-step implicit coupling (h = 1e-4 s) over a short span;
 each fmi2DoStep of the friction instance is timed; medians are printed, with the whole

@@ -1,0 +1,156 @@
+"""Which FMUs a scene instantiates and how they connect: the one description of the system.
+
+The master (:mod:`tribofmu.api` builds the coupled system from it), the SSP export
+(:mod:`tribofmu.scene.ssp`), the scenario's validation and the README's wiring list all read
+what is declared here. To add an FMU to scenes, declare it once in :data:`FMUS` (file, instance
+name, start values from the scenario, recorded outputs, constant inputs, which FMUs it needs)
+and its connections in :data:`CONNECTIONS`; a constant input that a connection feeds in a
+scene is left to the connection (e.g. a Load FMU's ``n`` replaces the constant ``n``).
+
+Today's system (SSP connections cannot subtract, so BlockSpring forms ``dv = V - v`` itself)::
+
+    Drive.V -> BlockSpring.V,  BlockSpring.dv -> Friction.dv,  Friction.F -> BlockSpring.F
+
+with Friction's ``n`` [Pa] and ``T`` [K] held constant at the scene's conditions.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING, Callable
+
+from ..physics.friction import REGIMES, Effects, LubricantConstants
+
+if TYPE_CHECKING:  # the scenario module validates scenes with this one: no import at run time
+    from .scenario import Scenario
+
+Value = float | int | bool  # Python types carry the FMI types: Real, Integer, Boolean
+
+
+@dataclass(frozen=True)
+class FMU:
+    """One FMU a scene may instantiate.
+
+    name: the model name, also the file stem (``<fmu_dir>/<name>.fmu``) and the SSP component;
+    instance: the instance name the master gives it (named in its error messages);
+    start_values: the scenario -> the FMU's parameters (SI units, typed, in declaration order);
+    outputs: the outputs a host should record (the SSP export declares them as connectors);
+    constant_inputs: the scenario -> inputs held constant during the run, unless connected;
+    needs: FMUs that must be in a scene that has this one; required: in every scene.
+    """
+
+    name: str
+    instance: str
+    start_values: Callable[["Scenario"], dict[str, Value]]
+    outputs: tuple[str, ...]
+    constant_inputs: Callable[["Scenario"], dict[str, float]] = lambda scenario: {}
+    needs: tuple[str, ...] = ()
+    required: bool = False
+
+    @property
+    def file(self) -> str:
+        """The FMU's file name, ``<name>.fmu``."""
+        return f"{self.name}.fmu"
+
+
+@dataclass(frozen=True)
+class Connection:
+    """An output of one FMU feeding an input of another, e.g. ``Friction.F -> BlockSpring.F``."""
+
+    start: str
+    output: str
+    end: str
+    input: str
+
+    def __str__(self) -> str:
+        return f"{self.start}.{self.output} -> {self.end}.{self.input}"
+
+
+@dataclass(frozen=True)
+class Instance:
+    """What a scene makes of one FMU: its start values and the constant inputs left unconnected."""
+
+    fmu: FMU
+    start_values: dict[str, Value]
+    constant_inputs: dict[str, float]
+
+
+# Friction FMU parameter name for each field of the boundary model's Effects switches.
+EFFECT_PARAMETERS = {"melting": "melting", "pressure": "pressure_term",
+                     "temperature": "temperature_term", "viscous": "viscous_term",
+                     "elastic": "elastic_term"}
+
+
+def _drive(sc: "Scenario") -> dict[str, Value]:
+    return {"A": float(sc.drive.A), "omega": float(sc.drive.omega)}
+
+
+def _block(sc: "Scenario") -> dict[str, Value]:
+    b = sc.block
+    return {"M": float(b.M), "K": float(b.K), "x0": float(b.x0), "v0": float(b.v0)}
+
+
+def _friction(sc: "Scenario") -> dict[str, Value]:
+    fr = sc.friction
+    values: dict[str, Value] = {"regime": int(REGIMES[fr.regime])}
+    values.update({key: float(getattr(fr, key)) for key in ("mu_friction", "S", "m", "gamma", "f0")})
+    values.update({f.name: float(getattr(fr.lubricant, f.name)) for f in fields(LubricantConstants)})
+    values.update({EFFECT_PARAMETERS[f.name]: bool(getattr(fr.effects, f.name)) for f in fields(Effects)})
+    return values
+
+
+def _conditions(sc: "Scenario") -> dict[str, float]:
+    return {"n": float(sc.conditions.n), "T": float(sc.conditions.T)}
+
+
+# Declaration order is the order of instantiation and of the SSP components.
+FMUS: tuple[FMU, ...] = (
+    FMU("Drive", "drive", _drive, outputs=("X", "V", "a")),
+    FMU("BlockSpring", "blockspring", _block, outputs=("x", "v", "a", "dv"), required=True),
+    FMU("Friction", "friction", _friction, outputs=("F", "f"), constant_inputs=_conditions,
+        needs=("Drive",)),
+)
+FMU_NAMES: tuple[str, ...] = tuple(f.name for f in FMUS)
+CONNECTIONS: tuple[Connection, ...] = (
+    Connection("Drive", "V", "BlockSpring", "V"),
+    Connection("BlockSpring", "dv", "Friction", "dv"),
+    Connection("Friction", "F", "BlockSpring", "F"),
+)
+
+
+def scene_problems(names: tuple[str, ...] | list[str]) -> list[str]:
+    """What is wrong with a scene's list of FMU names, each as ``scenario.fmus ...``."""
+    known = [fmu.name for fmu in FMUS]
+    out = [f"scenario.fmus names an unknown FMU {name!r} (known: {', '.join(known)})"
+           for name in names if name not in known]
+    for fmu in FMUS:
+        if fmu.required and fmu.name not in names:
+            out.append(f"scenario.fmus must include {fmu.name!r}, got {list(names)}")
+        if fmu.name in names:
+            out += [f"scenario.fmus must include {need!r} when it includes {fmu.name!r}, got {list(names)}"
+                    for need in fmu.needs if need not in names]
+    return out
+
+
+def connections(scenario: "Scenario") -> list[Connection]:
+    """The connections between the scene's FMUs (both ends present)."""
+    return [c for c in CONNECTIONS if c.start in scenario.fmus and c.end in scenario.fmus]
+
+
+def instances(scenario: "Scenario") -> list[Instance]:
+    """The scene's FMU instances in declaration order, with start values and the constant
+    inputs that no connection of the scene feeds."""
+    fed = {(c.end, c.input) for c in connections(scenario)}
+    return [Instance(fmu, fmu.start_values(scenario),
+                     {k: v for k, v in fmu.constant_inputs(scenario).items() if (fmu.name, k) not in fed})
+            for fmu in FMUS if fmu.name in scenario.fmus]
+
+
+def fmu_parameters(scenario: "Scenario") -> dict[str, dict[str, Value]]:
+    """Start values by FMU name, for the FMUs the scene uses; SI units."""
+    return {inst.fmu.name: inst.start_values for inst in instances(scenario)}
+
+
+def constant_inputs(scenario: "Scenario") -> dict[str, float]:
+    """The Friction FMU's constant inputs (n [Pa], T [K]), as the coupled system takes them
+    today (``CoupledSystem(conditions=...)``); every FMU's are in :func:`instances`."""
+    return next((inst.constant_inputs for inst in instances(scenario) if inst.fmu.name == "Friction"), {})

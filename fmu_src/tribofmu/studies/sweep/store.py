@@ -1,0 +1,220 @@
+"""The sweep's files in its output directory, as one small store object (:class:`SweepStore`).
+
+- ``sweep.csv``: the swept keys (one column each, named as the keys), ``status`` (ok /
+  failed), ``message``, the metrics (:data:`tribofmu.studies.metrics.METRICS`; empty = not
+  defined), ``wall_time`` (s spent simulating the point) and ``finished_at`` (local ISO time).
+  A row is appended (and fsynced) as each point finishes, so an interrupted sweep resumes:
+  the rows already there are skipped. At the start and the end the file is rewritten whole,
+  in grid order.
+- ``sweep.json``: what was swept and with which settings (a resumed sweep must match it).
+- ``points/<id>.npz`` and ``portraits.npz``: the window's phase portraits, per point and all
+  together (``labels``, ``status``, ``x``, ``v``: points x portrait points, NaN when failed;
+  ``grid:<key>``: the swept values).
+- ``.sweep.lock``: held while a sweep runs, so two sweeps never share a directory.
+"""
+from __future__ import annotations
+
+import contextlib
+import csv
+import datetime as _dt
+import io
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from ...atomic import atomic_write_bytes
+from ...errors import SweepError
+from ..metrics import METRICS
+from .grid import Plan, format_value, is_numeric, parse_value, point_id, point_key, point_label
+from .worker import PORTRAIT_POINTS, STATUS_FAILED, STATUS_OK
+
+EXTRA_COLUMNS = ("wall_time", "finished_at")
+CSV_NAME, META_NAME, PORTRAITS_NAME, POINTS_DIR = "sweep.csv", "sweep.json", "portraits.npz", "points"
+LOCK_NAME = ".sweep.lock"
+
+
+class SweepStore:
+    """The files of one sweep in ``out_dir``: what is done, recording points, the portraits.
+
+    ``done`` maps :func:`~.grid.point_key` to the row of every point finished (here or in an
+    earlier run of the same sweep)."""
+
+    def __init__(self, out_dir: Path, plan: Plan):
+        self.out_dir, self.plan, self.keys = Path(out_dir), plan, plan.keys
+        self.csv_path, self.meta_path = self.out_dir / CSV_NAME, self.out_dir / META_NAME
+        self.done: dict[tuple, dict[str, Any]] = {}
+        self._grid_keys = {point_key(p, self.keys) for p in plan.points}
+        self._fh = None
+
+    @contextlib.contextmanager
+    def locked(self):
+        """One sweep at a time in a directory (two would run the same points and interleave rows)."""
+        import fcntl
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        with open(self.out_dir / LOCK_NAME, "w") as fh:
+            try:
+                fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise SweepError(f"another sweep is running in {self.out_dir}/ (it holds {LOCK_NAME})") from None
+            try:
+                yield self
+            finally:
+                fcntl.flock(fh, fcntl.LOCK_UN)
+
+    def resume(self, retry_failed: bool) -> list[int]:
+        """Read what earlier runs finished; returns the indices of the points still to run.
+
+        Raises SweepError when the directory holds another sweep."""
+        previous = read_sweep_csv(self.csv_path, self.keys) if self.csv_path.is_file() else []
+        if previous and self.meta_path.is_file():
+            _check_meta(self.meta_path, self.plan.meta)
+        for row in previous:
+            if retry_failed and row["status"] != STATUS_OK:
+                continue
+            self.done[point_key(row, self.keys)] = row
+        return [i for i, p in enumerate(self.plan.points) if point_key(p, self.keys) not in self.done]
+
+    def start(self) -> None:
+        """Write sweep.json and sweep.csv whole (dropping a torn last line); ready to record."""
+        atomic_write_bytes(self.meta_path, (json.dumps(self.plan.meta, indent=2) + "\n").encode())
+        self.write_sorted()
+        (self.out_dir / POINTS_DIR).mkdir(exist_ok=True)
+
+    @contextlib.contextmanager
+    def appending(self):
+        """While inside, :meth:`record` appends rows to sweep.csv."""
+        with open(self.csv_path, "a", encoding="utf-8", newline="") as fh:
+            self._fh = fh
+            try:
+                yield self
+            finally:
+                self._fh = None
+
+    def record(self, i: int, out: dict[str, Any]) -> None:
+        """Point ``i``'s outcome (from :func:`~.worker.run_point`) as a row, on disk at once."""
+        point = self.plan.points[i]
+        row = {**point, "status": out["status"], "message": out["message"],
+               **{m: out["metrics"].get(m, math.nan) for m in METRICS},
+               "wall_time": out.get("wall_time", math.nan),
+               "finished_at": _dt.datetime.now().isoformat(timespec="microseconds")}
+        if out.get("x") is not None:
+            buf = io.BytesIO()
+            np.savez(buf, x=out["x"], v=out["v"])
+            atomic_write_bytes(self.out_dir / POINTS_DIR / f"{point_id(point)}.npz", buf.getvalue())
+        self._fh.write(_csv_line(row, self.keys))
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+        self.done[point_key(point, self.keys)] = row
+
+    def write_sorted(self) -> None:
+        """sweep.csv whole, atomically: the grid's rows in grid order, then rows of other grids."""
+        ordered = [self.done[k] for k in (point_key(p, self.keys) for p in self.plan.points) if k in self.done]
+        ordered += [r for k, r in self.done.items() if k not in self._grid_keys]
+        atomic_write_bytes(self.csv_path, _csv_text(ordered, self.keys).encode("utf-8"))
+
+    def rows(self) -> list[dict[str, Any]]:
+        """Every grid point's row, in grid order (all must be done)."""
+        return [self.done[point_key(p, self.keys)] for p in self.plan.points]
+
+    def write_portraits(self, rows: list[dict[str, Any]]) -> dict[str, np.ndarray]:
+        """portraits.npz from the points' files; returns its arrays."""
+        n = None
+        xs, vs = [], []
+        for point, row in zip(self.plan.points, rows):
+            data = None
+            path = self.out_dir / POINTS_DIR / f"{point_id(point)}.npz"
+            if row["status"] == STATUS_OK and path.is_file():
+                with np.load(path) as z:
+                    data = (z["x"], z["v"])
+                n = n or len(data[0])
+            xs.append(data[0] if data else None)
+            vs.append(data[1] if data else None)
+        n = n or PORTRAIT_POINTS
+        nan = np.full(n, np.nan)
+        portraits = {"labels": np.array([point_label(p) for p in self.plan.points]),
+                     "status": np.array([r["status"] for r in rows]),
+                     "x": np.array([x if x is not None and len(x) == n else nan for x in xs]),
+                     "v": np.array([v if v is not None and len(v) == n else nan for v in vs])}
+        for key in self.keys:
+            values = [p[key] for p in self.plan.points]
+            portraits[f"grid:{key}"] = np.array(values, dtype=float) if is_numeric(values) else np.array(
+                [format_value(v) for v in values])
+        buf = io.BytesIO()
+        np.savez(buf, **portraits)
+        atomic_write_bytes(self.out_dir / PORTRAITS_NAME, buf.getvalue())
+        return portraits
+
+
+# -- sweep.csv ---------------------------------------------------------------------------
+def _columns(keys: Iterable[str]) -> list[str]:
+    return [*keys, "status", "message", *METRICS, *EXTRA_COLUMNS]
+
+
+def _fmt_float(x: Any) -> str:
+    if x is None:
+        return ""
+    x = float(x)
+    return "" if math.isnan(x) else format(x, ".10g")
+
+
+def _csv_line(row: dict[str, Any], keys: Iterable[str]) -> str:
+    cells = [format_value(row[k]) for k in keys] + [row["status"], row["message"]]
+    cells += [_fmt_float(row.get(m)) for m in METRICS]
+    cells += [_fmt_float(row.get("wall_time")), row.get("finished_at", "")]
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerow(cells)
+    return buf.getvalue()
+
+
+def _csv_text(rows: Iterable[dict[str, Any]], keys: Iterable[str]) -> str:
+    keys = list(keys)
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerow(_columns(keys))
+    return buf.getvalue() + "".join(_csv_line(r, keys) for r in rows)
+
+
+def read_sweep_csv(path: Path, keys: list[str]) -> list[dict[str, Any]]:
+    """The complete rows of an existing sweep.csv (a torn last line is dropped).
+
+    Raises SweepError when its columns are not this sweep's.
+    """
+    with open(path, newline="", encoding="utf-8") as fh:
+        reader = csv.reader(fh)
+        header = next(reader, None)
+        if header is None:
+            return []
+        expected = _columns(keys)
+        if header != expected:
+            raise SweepError(f"{path} holds another sweep (columns {','.join(header[:len(keys) + 2])}...,"
+                             f" this one needs {','.join(expected[:len(keys) + 2])}...); "
+                             f"use another --out or remove it")
+        rows = []
+        for cells in reader:
+            if len(cells) != len(expected) or cells[len(keys)] not in (STATUS_OK, STATUS_FAILED):
+                continue
+            row: dict[str, Any] = {k: parse_value(c) for k, c in zip(keys, cells)}
+            row["status"], row["message"] = cells[len(keys)], cells[len(keys) + 1]
+            try:
+                for name, cell in zip((*METRICS, "wall_time"), cells[len(keys) + 2:]):
+                    row[name] = float(cell) if cell else math.nan
+            except ValueError:
+                continue
+            row["finished_at"] = cells[-1]
+            rows.append(row)
+    return rows
+
+
+def _check_meta(path: Path, meta: dict[str, Any]) -> None:
+    try:
+        old = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return
+    for field, what in (("keys", "swept keys"), ("base", "scenario (file and --set values)"),
+                        ("algorithm", "--algorithm"), ("step", "--step"), ("tol", "--tol")):
+        if old.get(field) != meta.get(field):
+            raise SweepError(f"{path.parent}/ holds a sweep with other {what} ({old.get(field)!r}, now "
+                             f"{meta.get(field)!r}); use another --out or remove it")

@@ -1,0 +1,104 @@
+"""What runs on a worker: one grid point simulated into its metrics and phase portrait.
+
+The FMUs reach a worker through Dask, not through a shared path: the client packs the
+built FMUs' bytes (:func:`pack_fmus`), Dask moves that bundle to each worker once, and
+:func:`unpack_fmus` writes it into the worker's own temp dir (once per worker and bundle,
+named by its content hash). A worker therefore needs tribofmu installed, not the client's disk.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ...errors import TriboFMUError
+from ...master.unzipped import forget_fmus_loaded_since
+from ...scene.scenario import Scenario
+from ..metrics import result_metrics
+
+PORTRAIT_POINTS = 400
+STATUS_OK, STATUS_FAILED = "ok", "failed"
+
+
+class PointTimeout(TriboFMUError):
+    """A point ran longer than the sweep's per-point time limit."""
+
+
+def run_point(scenario: Scenario, fmu_dir: str, algorithm: str | None = None, step: float | None = None,
+              tol: float | None = None, portrait_points: int = PORTRAIT_POINTS,
+              timeout: float | None = None) -> dict[str, Any]:
+    """Simulate one grid point; never raises: a failure is ``status = failed`` with a message.
+
+    Returns status, message, metrics (dict), wall_time, and the window's x, v resampled at
+    ``portrait_points`` uniform times (None when failed). timeout [s]: stop the run at the
+    first communication point past it (the master's progress callback), a failed point.
+    """
+    from ... import api
+
+    start = time.perf_counter()
+    progress = None
+    if timeout is not None:
+        def progress(status) -> None:
+            if time.perf_counter() - start > timeout:
+                raise PointTimeout(f"stopped after {timeout:g} s, {status.fraction:.0%} of the span done")
+    out: dict[str, Any] = {"status": STATUS_FAILED, "message": "", "metrics": {}, "x": None, "v": None,
+                           "pid": os.getpid()}
+    path_before = list(sys.path)
+    try:
+        result = api.simulate(scenario, algorithm=algorithm, step=step, tol=tol, fmu_dir=fmu_dir,
+                              build=False, progress=progress)
+        if not result.ok:
+            out["message"] = result.message
+        else:
+            out["metrics"] = result_metrics(result)
+            m = result.window_mask()
+            t = result.time[m]
+            grid = np.linspace(t[0], t[-1], portrait_points)
+            out["x"] = np.interp(grid, t, result.x[m])
+            out["v"] = np.interp(grid, t, result.v[m])
+            out["status"], out["message"] = STATUS_OK, result.message
+    except Exception as exc:  # a point's failure is data, never the sweep's end
+        out["message"] = f"{type(exc).__name__}: {exc}"
+    finally:
+        # An FMU whose instantiation failed is never closed: its unzipped copy and sys.path
+        # entry would pile up in a long-lived worker (~2 MB and 3 entries per point).
+        forget_fmus_loaded_since(path_before)
+    out["message"] = " ".join(str(out["message"]).split())
+    out["wall_time"] = time.perf_counter() - start
+    return out
+
+
+def pack_fmus(fmu_dir: Path, names) -> dict[str, bytes]:
+    """The built FMUs ``<fmu_dir>/<name>.fmu`` as ``{file name: bytes}``, to send to workers."""
+    return {f"{name}.fmu": (Path(fmu_dir) / f"{name}.fmu").read_bytes() for name in sorted(names)}
+
+
+def unpack_fmus(fmus: dict[str, bytes]) -> str:
+    """Write a bundle from :func:`pack_fmus` into this machine's temp dir (once: the folder is
+    named by the bundle's hash and renamed into place whole); returns the folder."""
+    digest = hashlib.sha1()
+    for name in sorted(fmus):
+        digest.update(name.encode() + b"\0" + hashlib.sha1(fmus[name]).digest())
+    target = Path(tempfile.gettempdir()) / f"tribofmu-fmus-{digest.hexdigest()[:16]}"
+    if not target.is_dir():
+        partial = Path(tempfile.mkdtemp(prefix=f".{target.name}-", dir=target.parent))
+        for name, data in fmus.items():
+            (partial / name).write_bytes(data)
+        try:
+            os.rename(partial, target)
+        except OSError:  # another worker on this machine got there first: same bytes
+            for name in fmus:
+                (partial / name).unlink()
+            partial.rmdir()
+    return str(target)
+
+
+def run_shipped_point(scenario: Scenario, fmus: dict[str, bytes], *args, **kwargs) -> dict[str, Any]:
+    """:func:`run_point` with the FMUs given as a bundle from :func:`pack_fmus` (the Dask task)."""
+    return run_point(scenario, unpack_fmus(fmus), *args, **kwargs)

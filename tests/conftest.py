@@ -1,0 +1,31 @@
+"""Fixtures shared by the test tiers.
+
+- ``unit/``: physics, scene and study code on its own (no FMUs);
+- ``master/``: the coupling algorithms against fake slaves (:mod:`fakes`);
+- ``integration/``: the built FMUs through fmpy, the master, the CLI and Dask;
+- ``external/``: the SSP export in third-party masters (fmpy's SSP master, libcosim, Ecos).
+
+The FMUs are built once per session from the working tree (:func:`fmu_dir`); a test that
+changes FMU files copies them first.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+
+@pytest.fixture(scope="session")
+def fmu_dir(tmp_path_factory) -> Path:
+    """The three FMUs built from the working tree into a fresh temporary directory."""
+    from tribofmu.build import build_fmus
+
+    out = tmp_path_factory.mktemp("fmus")
+    build_fmus(out)
+    return out
+
+
+@pytest.fixture(scope="session")
+def fmu_paths(fmu_dir) -> dict[str, Path]:
+    """The built FMUs by name: ``{"Friction": .../Friction.fmu, ...}``."""
+    return {path.stem: path for path in sorted(fmu_dir.glob("*.fmu"))}
