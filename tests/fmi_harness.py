@@ -26,12 +26,12 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
-FMU_NAMES = ("Friction", "Drive", "BlockSpring")
+FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load")
 
 
 @pytest.fixture(scope="session")
 def fmu_paths(tmp_path_factory) -> dict[str, Path]:
-    """The three FMUs built from the working tree into a fresh temporary directory."""
+    """The FMUs built from the working tree into a fresh temporary directory."""
     from tribofmu.build import build_fmus
 
     out = tmp_path_factory.mktemp("fmus")
