@@ -10,8 +10,8 @@ import pytest
 
 from tribofmu.build import build_fmus
 from tribofmu.master import Scales, Slave, make_algorithm, run, sample
-from tribofmu.scene.scenario import LoadTable, ThermalTable, load_scenario
-from tribofmu.scene.wiring import build_system, fmu_parameters, input_signals, scales
+from tribofmu.scene.scenario import LoadTable, ThermalTable, load_scenario, scales
+from tribofmu.scene.wiring import build_system, fmu_parameters, input_signals
 from tribofmu.studies.energy import energy_audit, heat_audit, step_dissipation, step_integrals
 from tribofmu.studies.reference import nrms, reference_solution
 

@@ -19,8 +19,8 @@ from .master import (CoupledSystem, FMUCallError, FMUFileError, Scales, Slave, m
                      sample)
 from .studies.energy import energy_audit
 from .master.run import COLUMNS
-from .scene.scenario import Scenario, ScenarioError, load_scenario
-from .scene.wiring import constant_inputs, fmu_parameters, scales
+from .scene.scenario import Scenario, ScenarioError, load_scenario, scales
+from .scene.wiring import constant_inputs, fmu_parameters
 
 DEFAULT_FMU_DIR = Path("build")
 

@@ -18,8 +18,8 @@ from ..physics.drive import drive_problems
 from ..physics.friction import DRY, REGIMES, Effects, FrictionLaw, LubricantConstants
 from ..physics.load import PROGRAMS, LoadProgram
 from ..physics.thermal import ThermalParams
+from .wiring import FMU_NAMES as KNOWN_FMUS, scene_problems
 
-KNOWN_FMUS = ("Drive", "BlockSpring", "Friction", "Thermal", "Load")
 # What a scene lists when it does not say: the paper's rig, n and T held constant.
 DEFAULT_FMUS = ("Drive", "BlockSpring", "Friction")
 
@@ -267,19 +267,8 @@ def from_dict(data: dict[str, dict[str, Any]], source: str) -> Scenario:
 
 def validate(scenario: Scenario) -> list[str]:
     """Every problem with the scenario, each as ``table.key must be ..., got value``."""
-    out = []
+    out = scene_problems(scenario.fmus)
     fr = scenario.friction
-    for name in scenario.fmus:
-        if name not in KNOWN_FMUS:
-            out.append(f"scenario.fmus names an unknown FMU {name!r} (known: {', '.join(KNOWN_FMUS)})")
-    if "BlockSpring" not in scenario.fmus:
-        out.append(f"scenario.fmus must include 'BlockSpring', got {list(scenario.fmus)}")
-    if "Friction" in scenario.fmus and "Drive" not in scenario.fmus:
-        out.append(f"scenario.fmus must include 'Drive' when it includes 'Friction', got {list(scenario.fmus)}")
-    for name in ("Thermal", "Load"):
-        if name in scenario.fmus and "Friction" not in scenario.fmus:
-            out.append(f"scenario.fmus must include 'Friction' when it includes {name!r} "
-                       f"(it feeds the friction), got {list(scenario.fmus)}")
     if len(set(scenario.fmus)) != len(scenario.fmus):
         out.append(f"scenario.fmus lists an FMU twice, got {list(scenario.fmus)}")
     out += [f"thermal.{p}" for p in scenario.thermal.params().problems()]
@@ -352,3 +341,12 @@ def _assign(data: dict[str, dict[str, Any]], key: str, value: Any, source: str) 
     if not name:
         raise ScenarioError(f"{source}: override key must be TABLE.KEY (e.g. drive.omega), got {key!r}")
     data.setdefault(table, {})[name] = value
+
+
+def scales(scenario: Scenario) -> tuple[float, float, float]:
+    """Position [m], velocity [m/s] and time [s] scales of the scene, for tolerances."""
+    b, d = scenario.block, scenario.drive
+    w0 = math.sqrt(2 * b.K / b.M)
+    position = max(abs(d.A) if "Drive" in scenario.fmus else 0.0, abs(b.x0), abs(b.v0) / max(w0, d.omega))
+    velocity = max(position * d.omega, abs(b.v0), abs(b.x0) * w0)
+    return position or 1e-9, velocity or 1e-9, d.period

@@ -1,66 +1,191 @@
-"""How a scenario maps onto the FMUs: start values of each FMU and the constant inputs.
+"""Which FMUs a scene instantiates and how they connect: the one description of the system.
 
-Shared by the master and the SSP export so both instantiate the same system.
+The master (:mod:`tribofmu.api` builds the coupled system from it), the SSP export
+(:mod:`tribofmu.scene.ssp`), the scenario's validation and the README's wiring list all read
+what is declared here. To add an FMU to scenes, declare it once in :data:`FMUS` (file, instance
+name, start values from the scenario, recorded outputs, constant inputs, which FMUs it needs)
+and its connections in :data:`CONNECTIONS`; a constant input that a connection feeds in a
+scene is left to the connection (e.g. a Load FMU's ``n`` replaces the constant ``n``).
+
+Today's system (SSP connections cannot subtract, so BlockSpring forms ``dv = V - v`` itself)::
+
+    Drive.V -> BlockSpring.V,  BlockSpring.dv -> Friction.dv,  Friction.F -> BlockSpring.F
+
+with Friction's ``n`` [Pa] and ``T`` [K] held constant at the scene's conditions. Beyond the
+paper, a scene may list a Load FMU (``Load.n -> Friction.n``, a normal-stress program) and a
+Thermal FMU (``Thermal.T -> Friction.T``, fed ``Friction.F -> Thermal.F`` and
+``BlockSpring.dv -> Thermal.dv``). The tribofmu master treats them apart from the dv -> F loop
+(:mod:`tribofmu.master.system`): Load steps with the drive (a function of time); Thermal
+follows the solved loop, its T exchanged explicitly, and it gets the step's exact mean
+friction power through its input ``P`` instead of the F and dv connections (which an SSP
+master, able only to connect variables, uses).
 """
 from __future__ import annotations
 
-import math
-from dataclasses import fields
-from typing import Any
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING, Callable
 
 from ..physics.friction import REGIMES, Effects, LubricantConstants
 from ..physics.load import PROGRAMS
-from .scenario import Scenario
 
-# Effects field -> Friction FMU parameter name
+if TYPE_CHECKING:  # the scenario module validates scenes with this one: no import at run time
+    from .scenario import Scenario
+
+Value = float | int | bool  # Python types carry the FMI types: Real, Integer, Boolean
+
+
+@dataclass(frozen=True)
+class FMU:
+    """One FMU a scene may instantiate.
+
+    name: the model name, also the file stem (``<fmu_dir>/<name>.fmu``) and the SSP component;
+    instance: the instance name the master gives it (named in its error messages);
+    start_values: the scenario -> the FMU's parameters (SI units, typed, in declaration order);
+    outputs: the outputs a host should record (the SSP export declares them as connectors);
+    constant_inputs: the scenario -> inputs held constant during the run, unless connected;
+    needs: FMUs that must be in a scene that has this one; required: in every scene.
+    """
+
+    name: str
+    instance: str
+    start_values: Callable[["Scenario"], dict[str, Value]]
+    outputs: tuple[str, ...]
+    constant_inputs: Callable[["Scenario"], dict[str, float]] = lambda scenario: {}
+    needs: tuple[str, ...] = ()
+    required: bool = False
+
+    @property
+    def file(self) -> str:
+        """The FMU's file name, ``<name>.fmu``."""
+        return f"{self.name}.fmu"
+
+
+@dataclass(frozen=True)
+class Connection:
+    """An output of one FMU feeding an input of another, e.g. ``Friction.F -> BlockSpring.F``."""
+
+    start: str
+    output: str
+    end: str
+    input: str
+
+    def __str__(self) -> str:
+        return f"{self.start}.{self.output} -> {self.end}.{self.input}"
+
+
+@dataclass(frozen=True)
+class Instance:
+    """What a scene makes of one FMU: its start values and the constant inputs left unconnected."""
+
+    fmu: FMU
+    start_values: dict[str, Value]
+    constant_inputs: dict[str, float]
+
+
+# Friction FMU parameter name for each field of the boundary model's Effects switches.
 EFFECT_PARAMETERS = {"melting": "melting", "pressure": "pressure_term",
                      "temperature": "temperature_term", "viscous": "viscous_term",
                      "elastic": "elastic_term"}
-CONNECTIONS = (("Drive", "V", "BlockSpring", "V"), ("BlockSpring", "dv", "Friction", "dv"),
-               ("Friction", "F", "BlockSpring", "F"),
-               # beyond the paper: a load program and the film's heat balance
-               ("Load", "n", "Friction", "n"), ("Thermal", "T", "Friction", "T"),
-               ("Friction", "F", "Thermal", "F"), ("BlockSpring", "dv", "Thermal", "dv"))
-# How the master treats each FMU beyond the dv -> F loop (see tribofmu.master.system):
-# Load steps with the drive (a function of time); Thermal follows the solved loop, its T
-# exchanged explicitly, and gets the step's exact mean friction power through its input P
-# (an SSP master, which can only connect variables, feeds F and dv instead).
 
 
-def fmu_parameters(scenario: Scenario) -> dict[str, dict[str, Any]]:
-    """Start values by FMU name (only the FMUs the scene uses); SI units."""
-    fr = scenario.friction
-    friction = {"regime": REGIMES[fr.regime], "mu_friction": fr.mu_friction, "S": fr.S, "m": fr.m,
-                "gamma": fr.gamma, "f0": fr.f0}
-    friction.update({f.name: getattr(fr.lubricant, f.name) for f in fields(LubricantConstants)})
-    friction.update({EFFECT_PARAMETERS[f.name]: getattr(fr.effects, f.name) for f in fields(Effects)})
-    every = {"Drive": {"A": scenario.drive.A, "omega": scenario.drive.omega},
-             "BlockSpring": {"M": scenario.block.M, "K": scenario.block.K,
-                             "x0": scenario.block.x0, "v0": scenario.block.v0},
-             "Friction": friction}
-    if "Thermal" in scenario.fmus:
-        th = scenario.thermal
-        every["Thermal"] = {"C": th.C, "q": th.q, "G": th.G, "T_ambient": th.T_ambient,
-                            "T0": scenario.conditions.T}
-    if "Load" in scenario.fmus:
-        ld = scenario.load_program
-        every["Load"] = {"program": PROGRAMS[ld.program], "n0": ld.n0, "n1": ld.n1, "t_start": ld.t_start,
-                         "t_end": ld.t_end, "amplitude": ld.amplitude, "period": ld.period, "phase": ld.phase}
-    return {name: every[name] for name in scenario.fmus}
+def _drive(sc: "Scenario") -> dict[str, Value]:
+    return {"A": float(sc.drive.A), "omega": float(sc.drive.omega)}
 
 
-def constant_inputs(scenario: Scenario) -> dict[str, float]:
-    """The friction FMU's inputs that a scene holds constant: n [Pa], T [K] (those not fed
-    by a Load or Thermal FMU)."""
-    held = {"n": scenario.conditions.n, "T": scenario.conditions.T}
-    fed = {end_var for start, _, end, end_var in CONNECTIONS
-           if end == "Friction" and start in scenario.fmus and end_var in held}
-    return {k: v for k, v in held.items() if k not in fed}
+def _block(sc: "Scenario") -> dict[str, Value]:
+    b = sc.block
+    return {"M": float(b.M), "K": float(b.K), "x0": float(b.x0), "v0": float(b.v0)}
 
 
-def build_system(scenario: Scenario, slaves: dict[str, Any]):
+def _friction(sc: "Scenario") -> dict[str, Value]:
+    fr = sc.friction
+    values: dict[str, Value] = {"regime": int(REGIMES[fr.regime])}
+    values.update({key: float(getattr(fr, key)) for key in ("mu_friction", "S", "m", "gamma", "f0")})
+    values.update({f.name: float(getattr(fr.lubricant, f.name)) for f in fields(LubricantConstants)})
+    values.update({EFFECT_PARAMETERS[f.name]: bool(getattr(fr.effects, f.name)) for f in fields(Effects)})
+    return values
+
+
+def _conditions(sc: "Scenario") -> dict[str, float]:
+    return {"n": float(sc.conditions.n), "T": float(sc.conditions.T)}
+
+
+def _thermal(sc: "Scenario") -> dict[str, Value]:
+    th = sc.thermal
+    return {"C": float(th.C), "q": float(th.q), "G": float(th.G), "T_ambient": float(th.T_ambient),
+            "T0": float(sc.conditions.T)}  # the film starts at the scene's T
+
+
+def _load(sc: "Scenario") -> dict[str, Value]:
+    ld = sc.load_program
+    return {"program": int(PROGRAMS[ld.program]), "n0": float(ld.n0), "n1": float(ld.n1),
+            "t_start": float(ld.t_start), "t_end": float(ld.t_end), "amplitude": float(ld.amplitude),
+            "period": float(ld.period), "phase": float(ld.phase)}
+
+
+# Declaration order is the order of instantiation and of the SSP components.
+FMUS: tuple[FMU, ...] = (
+    FMU("Drive", "drive", _drive, outputs=("X", "V", "a")),
+    FMU("BlockSpring", "blockspring", _block, outputs=("x", "v", "a", "dv"), required=True),
+    FMU("Friction", "friction", _friction, outputs=("F", "f"), constant_inputs=_conditions,
+        needs=("Drive",)),
+    FMU("Thermal", "thermal", _thermal, outputs=("T", "Q", "Q_lost"), needs=("Friction",)),
+    FMU("Load", "load", _load, outputs=("n",), needs=("Friction",)),
+)
+FMU_NAMES: tuple[str, ...] = tuple(f.name for f in FMUS)
+CONNECTIONS: tuple[Connection, ...] = (
+    Connection("Drive", "V", "BlockSpring", "V"),
+    Connection("BlockSpring", "dv", "Friction", "dv"),
+    Connection("Friction", "F", "BlockSpring", "F"),
+    Connection("Load", "n", "Friction", "n"),
+    Connection("Thermal", "T", "Friction", "T"),
+    Connection("Friction", "F", "Thermal", "F"),
+    Connection("BlockSpring", "dv", "Thermal", "dv"),
+)
+
+
+def scene_problems(names: tuple[str, ...] | list[str]) -> list[str]:
+    """What is wrong with a scene's list of FMU names, each as ``scenario.fmus ...``."""
+    known = [fmu.name for fmu in FMUS]
+    out = [f"scenario.fmus names an unknown FMU {name!r} (known: {', '.join(known)})"
+           for name in names if name not in known]
+    for fmu in FMUS:
+        if fmu.required and fmu.name not in names:
+            out.append(f"scenario.fmus must include {fmu.name!r}, got {list(names)}")
+        if fmu.name in names:
+            out += [f"scenario.fmus must include {need!r} when it includes {fmu.name!r}, got {list(names)}"
+                    for need in fmu.needs if need not in names]
+    return out
+
+
+def connections(scenario: "Scenario") -> list[Connection]:
+    """The connections between the scene's FMUs (both ends present)."""
+    return [c for c in CONNECTIONS if c.start in scenario.fmus and c.end in scenario.fmus]
+
+
+def instances(scenario: "Scenario") -> list[Instance]:
+    """The scene's FMU instances in declaration order, with start values and the constant
+    inputs that no connection of the scene feeds."""
+    fed = {(c.end, c.input) for c in connections(scenario)}
+    return [Instance(fmu, fmu.start_values(scenario),
+                     {k: v for k, v in fmu.constant_inputs(scenario).items() if (fmu.name, k) not in fed})
+            for fmu in FMUS if fmu.name in scenario.fmus]
+
+
+def fmu_parameters(scenario: "Scenario") -> dict[str, dict[str, Value]]:
+    """Start values by FMU name, for the FMUs the scene uses; SI units."""
+    return {inst.fmu.name: inst.start_values for inst in instances(scenario)}
+
+
+def constant_inputs(scenario: "Scenario") -> dict[str, float]:
+    """The Friction FMU's constant inputs (n [Pa], T [K]), as the coupled system takes them
+    today (``CoupledSystem(conditions=...)``); every FMU's are in :func:`instances`."""
+    return next((inst.constant_inputs for inst in instances(scenario) if inst.fmu.name == "Friction"), {})
+
+
+def build_system(scenario: "Scenario", slaves: dict):
     """The master's :class:`~tribofmu.master.system.CoupledSystem` of the scene, from its
-    slaves by FMU name (as instantiated from :func:`fmu_parameters`)."""
+    slaves by FMU name (instantiated with :func:`fmu_parameters`)."""
     from ..master.system import CoupledSystem
 
     friction = slaves.get("Friction")
@@ -69,20 +194,11 @@ def build_system(scenario: Scenario, slaves: dict[str, Any]):
                          load=slaves.get("Load"), thermal=slaves.get("Thermal"))
 
 
-def input_signals(points, grid) -> dict[str, Any]:
-    """The friction's inputs T [K], n [Pa] and the heat received Q [J] on the time grid [s],
-    interpolated linearly between communication points."""
+def input_signals(points, grid) -> dict:
+    """The friction's inputs T [K], n [Pa] and the heat the Thermal FMU received Q [J], on
+    the time grid [s], interpolated linearly between communication points."""
     import numpy as np
 
     t = np.array([p.t_ns for p in points], dtype=np.int64) / 1e9
     return {name: np.interp(grid, t, np.array([getattr(p, name) for p in points]))
             for name in ("T", "n", "Q")}
-
-
-def scales(scenario: Scenario) -> tuple[float, float, float]:
-    """Position [m], velocity [m/s] and time [s] scales of the scene, for tolerances."""
-    b, d = scenario.block, scenario.drive
-    w0 = math.sqrt(2 * b.K / b.M)
-    position = max(abs(d.A) if "Drive" in scenario.fmus else 0.0, abs(b.x0), abs(b.v0) / max(w0, d.omega))
-    velocity = max(position * d.omega, abs(b.v0), abs(b.x0) * w0)
-    return position or 1e-9, velocity or 1e-9, d.period

@@ -25,8 +25,7 @@ from ..master.algorithms import NS
 from ..physics.block import BlockState, advance_block
 from ..physics.drive import drive
 from ..physics.friction import DRY, FLUID
-from ..scene.scenario import Scenario
-from ..scene.wiring import scales
+from ..scene.scenario import Scenario, scales
 from .reference import nrms, reference_solution
 
 COLUMNS = ("algorithm", "step", "tol", "nrms_v", "max_err_v", "wall_time_s", "steps", "fmu_calls",

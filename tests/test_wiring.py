@@ -1,0 +1,84 @@
+"""The scene's wiring: one description that the master's inputs, the SSP export, the
+scenario's validation and the README all follow, so that a new FMU is added in one place."""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+from tribofmu.scene import wiring
+from tribofmu.scene.scenario import ScenarioError, load_scenario
+from tribofmu.scene.ssp import parameter_values, system_structure
+
+ROOT = Path(__file__).resolve().parents[1]
+FIG2 = ROOT / "scenarios" / "fig2_dry.toml"
+
+
+def test_todays_system_is_drive_block_friction_in_a_loop():
+    sc = load_scenario(FIG2)
+    assert [str(c) for c in wiring.connections(sc)] == [
+        "Drive.V -> BlockSpring.V", "BlockSpring.dv -> Friction.dv", "Friction.F -> BlockSpring.F"]
+    insts = {i.fmu.name: i for i in wiring.instances(sc)}
+    assert [i.fmu.instance for i in insts.values()] == ["drive", "blockspring", "friction"]
+    assert insts["Friction"].constant_inputs == {"n": -20.0, "T": 290.0}
+    assert insts["Drive"].constant_inputs == {} == insts["BlockSpring"].constant_inputs
+
+
+def test_start_values_follow_the_scenario_at_an_unused_point():
+    sc = load_scenario(FIG2, ["drive.omega=17.5", "block.x0=3e-4", "friction.regime=boundary",
+                              "effects.viscous=false", "friction.tau_f=0.02", "conditions.T=310"])
+    values = wiring.fmu_parameters(sc)
+    assert values["Drive"] == {"A": 2e-3, "omega": 17.5}
+    assert values["BlockSpring"]["x0"] == 3e-4
+    friction = values["Friction"]
+    assert friction["regime"] == 2 and isinstance(friction["regime"], int)
+    assert friction["viscous_term"] is False and friction["elastic_term"] is True
+    assert friction["tau_f"] == 0.02
+    assert wiring.constant_inputs(sc) == {"n": -20.0, "T": 310.0}
+    # The SSP export binds the same values, plus the constant inputs.
+    assert parameter_values(sc)["Friction"] == {**friction, "n": -20.0, "T": 310.0}
+
+
+def test_a_scene_without_friction_has_no_friction_wiring():
+    sc = load_scenario(ROOT / "scenarios" / "free_oscillator.toml")
+    assert [i.fmu.name for i in wiring.instances(sc)] == ["BlockSpring"]
+    assert wiring.connections(sc) == [] and wiring.constant_inputs(sc) == {}
+
+
+@pytest.mark.parametrize("fmus, message", [
+    (["BlockSpring", "Gearbox"], "scenario.fmus names an unknown FMU 'Gearbox'"),
+    (["Drive", "Friction"], "scenario.fmus must include 'BlockSpring'"),
+    (["BlockSpring", "Friction"], "scenario.fmus must include 'Drive' when it includes 'Friction'"),
+])
+def test_the_wiring_validates_a_scenes_fmu_list(fmus, message):
+    with pytest.raises(ScenarioError, match=message):
+        load_scenario(FIG2, {"scenario.fmus": fmus})
+
+
+def test_a_fourth_fmu_is_added_in_one_place(monkeypatch):
+    """A Load FMU whose n feeds Friction.n: declared once, the scene instantiates it, connects
+    it, stops holding n constant, and the SSP export declares it."""
+    load = wiring.FMU("Load", "load", lambda sc: {"n0": float(sc.conditions.n)}, outputs=("n",),
+                      needs=("Friction",))
+    monkeypatch.setattr(wiring, "FMUS", wiring.FMUS + (load,))
+    monkeypatch.setattr(wiring, "CONNECTIONS", wiring.CONNECTIONS + (wiring.Connection("Load", "n", "Friction", "n"),))
+    base = load_scenario(FIG2)
+    sc = dataclasses.replace(base, fmus=base.fmus + ("Load",))
+    assert wiring.scene_problems(sc.fmus) == []
+    assert wiring.scene_problems(("BlockSpring", "Load")) == [
+        "scenario.fmus must include 'Friction' when it includes 'Load', got ['BlockSpring', 'Load']"]
+    assert "Load.n -> Friction.n" in [str(c) for c in wiring.connections(sc)]
+    friction = next(i for i in wiring.instances(sc) if i.fmu.name == "Friction")
+    assert friction.constant_inputs == {"T": 290.0}  # n now comes through the connection
+    ssd = system_structure(sc).decode()
+    assert 'startElement="Load" startConnector="n" endElement="Friction" endConnector="n"' in ssd
+    assert 'source="resources/Load.fmu"' in ssd
+    # without the Load FMU the archive is unchanged
+    assert system_structure(base) == system_structure(dataclasses.replace(sc, fmus=base.fmus))
+
+
+def test_the_readme_lists_the_wiring():
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    for c in wiring.CONNECTIONS:
+        assert str(c).replace(" -> ", " → ") in readme
