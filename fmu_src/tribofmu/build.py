@@ -8,7 +8,7 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent
 SLAVES = PACKAGE / "fmu" / "slaves"
-FMU_NAMES = ("Friction", "Drive", "BlockSpring")
+FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load")
 # What an FMU needs at run time: the physics and the FMU framework, nothing that imports fmpy.
 SHIPPED = ("__init__.py", "physics", "fmu/__init__.py", "fmu/base.py")
 

@@ -25,7 +25,7 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
-FMU_NAMES = ("Friction", "Drive", "BlockSpring")
+FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load")
 
 
 class FmuFatal(AssertionError):

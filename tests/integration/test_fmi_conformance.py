@@ -25,6 +25,8 @@ DEPENDENCIES = {
     "Friction": {"F": {"dv", "n"}, "f": set()},
     "BlockSpring": {"x": set(), "v": set(), "a": set(), "dv": {"V"}},
     "Drive": {"X": set(), "V": set(), "a": set()},
+    "Thermal": {"T": set(), "Q": set(), "Q_lost": set()},
+    "Load": {"n": set()},
 }
 # The paper's boundary lubricant (Fig. 6): S [m^2], m [SI], gamma [1].
 BOUNDARY = dict(regime=2, S=3e-9, m=0.05, gamma=-2.0 / 3.0)
@@ -35,6 +37,9 @@ SCENARIOS = {
     "BlockSpring": (dict(M=0.7, K=1300.0, x0=1e-3),
                     lambda k: dict(F=0.5 * math.cos(0.3 * k), F_rate=0.1 * k, V=0.01 * k)),
     "Drive": (dict(A=1.4e-6, omega=30.0), lambda k: {}),
+    "Thermal": (dict(C=2e-11, q=0.7, G=3e-11, T_ambient=300.0, T0=310.0),
+                lambda k: dict(P=1e-8 * (1.0 + math.sin(k)), F=1e-3 * k, dv=1e-6 * math.cos(k))),
+    "Load": (dict(program=3, n0=-1e5, amplitude=2e4, period=0.05, phase=0.3), lambda k: {}),
 }
 H = 1e-3  # s, communication step
 
@@ -76,7 +81,8 @@ def test_fmus_are_built_fresh_and_carry_the_physics(fmu_paths):
         with zipfile.ZipFile(path) as z:
             names = set(z.namelist())
             assert "modelDescription.xml" in names
-            for rel in ("fmu/base.py", "physics/friction.py", "physics/block.py", "physics/drive.py"):
+            for rel in ("fmu/base.py", "physics/friction.py", "physics/block.py", "physics/drive.py",
+                        "physics/thermal.py", "physics/load.py"):
                 shipped = z.read(f"resources/tribofmu/{rel}")
                 assert shipped == (PACKAGE / rel).read_bytes(), f"{name}: stale {rel}"
 

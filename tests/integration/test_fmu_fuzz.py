@@ -31,6 +31,8 @@ VALID = {  # valid parameters and inputs each bad-value case starts from
     "Friction": (BOUNDARY, dict(dv=1e-3, n=-1e6, T=290.0)),
     "BlockSpring": (dict(M=0.7, K=1300.0), dict(F=0.1, F_rate=0.0, V=1e-3)),
     "Drive": (dict(A=1.4e-6, omega=30.0), {}),
+    "Thermal": (dict(C=8e-12, q=0.5, G=1e-11), dict(P=3e-8, F=1e-3, dv=1e-5)),
+    "Load": (dict(program=3, n0=-45.0, amplitude=30.0, period=2.0), {}),
 }
 H = 1e-3  # s
 
@@ -100,6 +102,10 @@ BAD_PARAMETERS = [
     ("Friction", "regime", 7), ("Friction", "regime", -1), ("Friction", "mu_friction", -0.5),
     ("Friction", "h", 0.0), ("Friction", "m", NAN), ("Friction", "lam", -INF),
     ("Drive", "omega", 0.0), ("Drive", "omega", -30.0), ("Drive", "A", INF),
+    ("Thermal", "C", 0.0), ("Thermal", "C", -8e-12), ("Thermal", "q", 1.5), ("Thermal", "q", -0.1),
+    ("Thermal", "G", -1e-11), ("Thermal", "T_ambient", -1.0), ("Thermal", "T0", NAN),
+    ("Load", "program", 4), ("Load", "program", -1), ("Load", "period", 0.0), ("Load", "n0", INF),
+    ("Load", "amplitude", NAN),
 ]
 
 
@@ -127,6 +133,7 @@ BAD_INPUTS = [
     ("Friction", "dv", NAN), ("Friction", "dv", INF), ("Friction", "n", -INF),
     ("Friction", "T", NAN), ("Friction", "T", -1.0),
     ("BlockSpring", "F", NAN), ("BlockSpring", "F_rate", INF), ("BlockSpring", "V", -INF),
+    ("Thermal", "P", NAN), ("Thermal", "F", INF), ("Thermal", "dv", -INF),
 ]
 
 
@@ -173,6 +180,7 @@ OVERFLOWS = [  # FMU, parameters, inputs, h [s], the output that would not be fi
     ("Friction", dict(regime=1, gamma=1.0), dict(dv=1e300), H, "F"),  # m dv^2
     ("Drive", dict(A=1e300, omega=13408.0), {}, 1.0, "a"),  # A omega^2
     ("BlockSpring", dict(M=1e-300, K=0.0), dict(F=1e10), H, "a"),  # F / M
+    ("Thermal", dict(C=1e-300, G=0.0), dict(P=1e300), 1.0, "T"),  # q P h / C
 ]
 
 
@@ -291,7 +299,7 @@ def _subset(variables) -> st.SearchStrategy[dict]:
 
 STEP_SIZES = st.one_of(st.sampled_from([0.0, -0.0, -1e-3, NAN, INF, -INF, 5e-324, 1e-3, 10.0, 1e6]),
                        st.floats(-1.0, 1.0), st.floats(1e-9, 1e3))
-FUZZ_EXAMPLES = {"Friction": 100, "BlockSpring": 60, "Drive": 40}
+FUZZ_EXAMPLES = {"Friction": 100, "BlockSpring": 60, "Drive": 40, "Thermal": 60, "Load": 40}
 # Deeper local runs: TRIBOFMU_FUZZ_SCALE=20 pytest tests/test_fmu_fuzz.py -k random
 FUZZ_SCALE = float(os.environ.get("TRIBOFMU_FUZZ_SCALE", "1"))
 

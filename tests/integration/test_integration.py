@@ -185,10 +185,11 @@ def test_cli_bad_scenario_file_names_file_and_key(tmp_path, fmu_dir):
     assert proc.stderr.strip() == "tribofmu: bad.toml: block.M must be > 0, got -0.6"
 
 
-def test_cli_build_writes_three_fmus(tmp_path):
+def test_cli_build_writes_every_fmu(tmp_path):
     proc = cli("build", "--out", tmp_path / "b")
     assert proc.returncode == 0, proc.stderr
-    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == ["BlockSpring.fmu", "Drive.fmu", "Friction.fmu"]
+    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == [
+        "BlockSpring.fmu", "Drive.fmu", "Friction.fmu", "Load.fmu", "Thermal.fmu"]
 
 
 def test_setup_failures_of_all_fmus_are_gathered(tmp_path):

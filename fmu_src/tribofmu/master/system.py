@@ -1,12 +1,27 @@
-"""The coupled system: Drive -> V, BlockSpring -> v, dv = V - v -> Friction -> F -> BlockSpring.
+"""The coupled system: Drive -> V, BlockSpring -> v, dv = V - v -> Friction -> F -> BlockSpring,
+and optionally Load -> n -> Friction and Friction power -> Thermal -> T -> Friction.
 
 :class:`CoupledSystem` knows which variable of which slave carries what, and offers the few
 primitives a coupling algorithm needs. It knows nothing of the physics inside the slaves:
 no mass, no friction law. A scene without a Friction slave has F = 0; without a Drive,
 X = V = 0.
+
+Which loops are iterated and which are exchanged:
+
+- dv -> F -> dv is stiff and fast (stick, a solid lubricant): the coupling algorithm solves
+  it implicitly in every step, with rollback.
+- Load -> n is a pure function of time, no loop: the Load slave is stepped with the drive,
+  before the coupled loop, and the friction gets n at the step's end (what the implicit
+  step evaluates the friction at).
+- Friction power -> Thermal -> T -> Friction is a loop, but a slow one (the film's time
+  constant C/G and its heating time are many steps long): it is exchanged explicitly. Once
+  a step's dv -> F loop is solved (:meth:`CoupledSystem.finish_step`), the Thermal slave
+  gets the exact mean friction power of that step, steps, and its T(t + h) is the
+  friction's T over the next step. A rejected step rolls the Thermal back with the rest.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -48,6 +63,9 @@ class Point:
     est_error: float = 0.0  # the algorithm's own error estimate of this step (0 if none)
     event: float = 1.0  # fraction of the step at which a stuck contact broke away (1: none)
     ramped: bool = False  # the step ramped the force while slipping (else held or stuck)
+    T: float = math.nan  # K, the friction's temperature input at this point (Thermal's output)
+    n: float = math.nan  # Pa, the friction's normal stress input at this point
+    Q: float = 0.0  # J, heat the Thermal slave received up to this point (0 without one)
 
     @property
     def dv(self) -> float:
@@ -65,12 +83,19 @@ class CoupledSystem:
     """Slaves plus wiring. drive and friction may be None (the scene does not need them).
 
     conditions: constant inputs of the friction slave, e.g. ``{"n": -20.0, "T": 290.0}``.
+    load: a slave whose output ``n`` [Pa] feeds the friction's input n (a function of time);
+    thermal: a slave with inputs ``P`` [W] and outputs ``T`` [K], ``Q`` [J] whose T feeds the
+    friction's input T and which is fed the friction power. Both need a friction slave.
     """
 
     def __init__(self, block: SlaveLike, drive: SlaveLike | None = None,
-                 friction: SlaveLike | None = None, conditions: dict[str, float] | None = None):
+                 friction: SlaveLike | None = None, conditions: dict[str, float] | None = None,
+                 load: SlaveLike | None = None, thermal: SlaveLike | None = None):
+        if friction is None and (load is not None or thermal is not None):
+            raise ValueError("a load or thermal slave feeds the friction: give a friction slave")
         self.block, self.drive, self.friction = block, drive, friction
-        self.slaves = [s for s in (drive, block, friction) if s is not None]
+        self.load, self.thermal = load, thermal
+        self.slaves = [s for s in (drive, load, block, friction, thermal) if s is not None]
         b = block.refs
         self._block_in = [b["F"], b["F_rate"]]
         self._block_out = [b["x"], b["v"], b["a"]]
@@ -80,8 +105,25 @@ class CoupledSystem:
             fr = friction.refs
             self._dv = [fr["dv"]]
             self._friction_out = [fr["F"], fr["f"]]
-            if conditions:
-                friction.set_reals([fr[k] for k in conditions], list(conditions.values()))
+            fed = {"n"} if load is not None else set()
+            fed |= {"T"} if thermal is not None else set()
+            held = {k: v for k, v in (conditions or {}).items() if k not in fed}
+            if held:
+                friction.set_reals([fr[k] for k in held], list(held.values()))
+            self._friction_n, self._friction_T = [fr["n"]], [fr["T"]]
+            self._n = friction.get_reals(self._friction_n)[0]
+            self._T = friction.get_reals(self._friction_T)[0]
+        if load is not None:
+            self._load_n = [load.refs["n"]]
+            self._n = load.get_reals(self._load_n)[0]
+            friction.set_reals(self._friction_n, [self._n])
+        if thermal is not None:
+            from ..studies.energy import step_dissipation  # the audit's own quadrature
+            self._step_dissipation = step_dissipation
+            self._thermal_P = [thermal.refs["P"]]
+            self._thermal_out = [thermal.refs["T"], thermal.refs["Q"]]
+            self._T, self._Q = thermal.get_reals(self._thermal_out)
+            friction.set_reals(self._friction_T, [self._T])
 
     # -- outputs ----------------------------------------------------------------------
     def drive_outputs(self) -> tuple[float, float, float]:
@@ -103,6 +145,12 @@ class CoupledSystem:
 
     # -- steps --------------------------------------------------------------------------
     def step_drive(self, t: float, h: float) -> tuple[float, float, float]:
+        """Step the drive (and the load program) to t + h [s]; the friction's n becomes the
+        load's n(t + h). Returns X, V, drive acceleration at t + h."""
+        if self.load is not None:
+            self.load.do_step(t, h)
+            self._n = self.load.get_reals(self._load_n)[0]
+            self.friction.set_reals(self._friction_n, [self._n])
         if self.drive is None:
             return 0.0, 0.0, 0.0
         self.drive.do_step(t, h)
@@ -126,7 +174,21 @@ class CoupledSystem:
         """Called once the coupled loop of a step t -> t + h [s] is solved (end holds its
         outcome, every slave of the loop stands at t + h): a place to step FMUs that only
         follow the loop (e.g. a heat balance fed by the friction power). Rolled back with
-        the rest when the step is rejected. Nothing to do in the three-FMU system."""
+        the rest when the step is rejected.
+
+        With a thermal slave: its power input is the step's mean friction power, the exact
+        integral of F (V - v) over the step as the energy audit computes it (so the heat it
+        receives is the audit's dissipation times q), then it steps, and its T(t + h) is
+        the friction's T for the next step. end gets T, n and Q."""
+        if self.friction is None:
+            return
+        if self.thermal is not None:
+            power = self._step_dissipation(start, end) / h
+            self.thermal.set_reals(self._thermal_P, [power])
+            self.thermal.do_step(t, h)
+            self._T, self._Q = self.thermal.get_reals(self._thermal_out)
+            self.friction.set_reals(self._friction_T, [self._T])
+        end.T, end.n, end.Q = self._T, self._n, self._Q if self.thermal is not None else 0.0
 
     # -- rollback -----------------------------------------------------------------------
     def save(self, *slaves: SlaveLike) -> States:
@@ -146,7 +208,10 @@ class CoupledSystem:
         X, V, aX = self.drive_outputs()
         x, v, a = self.block_outputs()
         F, f = self.friction_outputs(V - v)
-        return Point(0, X, V, aX, x, v, a, F, f, F_start=F)
+        if self.friction is None:
+            return Point(0, X, V, aX, x, v, a, F, f, F_start=F)
+        return Point(0, X, V, aX, x, v, a, F, f, F_start=F, T=self._T, n=self._n,
+                     Q=self._Q if self.thermal is not None else 0.0)
 
     @property
     def calls(self) -> dict[str, int]:

@@ -16,8 +16,13 @@ from typing import Any
 from ..errors import ScenarioError
 from ..physics.block import block_problems
 from ..physics.drive import drive_problems
-from ..physics.friction import REGIMES, Effects, FrictionLaw, LubricantConstants
+from ..physics.friction import DRY, REGIMES, Effects, FrictionLaw, LubricantConstants
+from ..physics.load import PROGRAMS, LoadProgram
+from ..physics.thermal import ThermalParams
 from .wiring import FMU_NAMES as KNOWN_FMUS, scene_problems
+
+# What a scene lists when it does not say: the paper's rig, n and T held constant.
+DEFAULT_FMUS = ("Drive", "BlockSpring", "Friction")
 
 
 @dataclass(frozen=True)
@@ -62,6 +67,43 @@ class Conditions:
 
 
 @dataclass(frozen=True)
+class ThermalTable:
+    """[thermal]: the Thermal FMU's heat balance C dT/dt = q F (V - v) - G (T - T_ambient).
+
+    The film starts at conditions.T."""
+
+    C: float = 6e-12  # J/K, heat capacity of the film
+    q: float = 1.0  # 1, share of the friction power that heats the film
+    G: float = 1e-11  # W/K, conductance to the surroundings
+    T_ambient: float = 290.0  # K
+
+    def params(self) -> ThermalParams:
+        return ThermalParams(C=self.C, q=self.q, G=self.G, T_ambient=self.T_ambient)
+
+
+@dataclass(frozen=True)
+class LoadTable:
+    """[load]: the Load FMU's normal-stress program n(t); replaces conditions.n.
+
+    program: constant | ramp | step | sine. n0, n1, amplitude [Pa] (negative n in
+    compression); t_start, t_end, period [s]; phase [rad]. See :mod:`tribofmu.physics.load`.
+    """
+
+    program: str = "constant"
+    n0: float = -20.0  # Pa
+    n1: float = -20.0  # Pa
+    t_start: float = 0.0  # s
+    t_end: float = 1.0  # s
+    amplitude: float = 0.0  # Pa
+    period: float = 1.0  # s
+    phase: float = 0.0  # rad
+
+    def program_(self) -> LoadProgram:
+        return LoadProgram(program=PROGRAMS[self.program], n0=self.n0, n1=self.n1, t_start=self.t_start,
+                           t_end=self.t_end, amplitude=self.amplitude, period=self.period, phase=self.phase)
+
+
+@dataclass(frozen=True)
 class TimeSpan:
     periods: float = 6.5  # simulate from 0 to this many drive periods
     window: tuple[float, float] = (5.0, 6.5)  # shown window, in periods
@@ -78,11 +120,13 @@ class SimulationSettings:
 class Scenario:
     name: str
     title: str = ""
-    fmus: tuple[str, ...] = KNOWN_FMUS
+    fmus: tuple[str, ...] = DEFAULT_FMUS
     drive: DriveParams = field(default_factory=DriveParams)
     block: BlockParams = field(default_factory=BlockParams)
     friction: FrictionParams = field(default_factory=FrictionParams)
     conditions: Conditions = field(default_factory=Conditions)
+    thermal: ThermalTable = field(default_factory=ThermalTable)
+    load_program: LoadTable = field(default_factory=LoadTable)
     time: TimeSpan = field(default_factory=TimeSpan)
     simulation: SimulationSettings = field(default_factory=SimulationSettings)
     source: str = "<scenario>"
@@ -99,8 +143,12 @@ class Scenario:
 
     @property
     def load(self) -> float:
-        """Dry load L = -n S [N]."""
-        return -self.conditions.n * self.friction.S
+        """Dry load L = -n S [N] at t = 0."""
+        return -self.normal_stress(0.0) * self.friction.S
+
+    def normal_stress(self, t: float) -> float:
+        """n [Pa] at time t [s]: the Load FMU's program if the scene lists it, else conditions.n."""
+        return self.load_program.program_().n(t) if "Load" in self.fmus else self.conditions.n
 
     def with_overrides(self, overrides: dict[str, Any] | list[str]) -> "Scenario":
         """A copy with ``{"drive.omega": 80}`` (or ``["drive.omega=80"]``) applied and validated."""
@@ -114,7 +162,8 @@ class Scenario:
 
 # -- the TOML layout: table -> dataclass ------------------------------------------------
 _TABLES = {"drive": DriveParams, "block": BlockParams, "conditions": Conditions,
-           "time": TimeSpan, "simulation": SimulationSettings}
+           "thermal": ThermalTable, "load": LoadTable, "time": TimeSpan, "simulation": SimulationSettings}
+_ATTRIBUTES = {"load": "load_program"}  # table -> Scenario attribute, where they differ
 _FRICTION_KEYS = ({f.name for f in fields(FrictionParams)} - {"lubricant", "effects"}
                   | {f.name for f in fields(LubricantConstants)})
 _EFFECT_KEYS = {f.name for f in fields(Effects)}
@@ -153,7 +202,7 @@ def to_dict(scenario: Scenario) -> dict[str, dict[str, Any]]:
            "friction": friction,
            "effects": {f.name: getattr(fr.effects, f.name) for f in fields(Effects)}}
     for table, cls in _TABLES.items():
-        obj = getattr(scenario, table)
+        obj = getattr(scenario, _ATTRIBUTES.get(table, table))
         out[table] = {f.name: getattr(obj, f.name) for f in fields(cls) if getattr(obj, f.name) is not None}
     out["time"]["window"] = list(scenario.time.window)
     return out
@@ -193,7 +242,7 @@ def from_dict(data: dict[str, dict[str, Any]], source: str) -> Scenario:
                 and all(isinstance(w, (int, float)) and not isinstance(w, bool) for w in window)):
             raise ScenarioError(f"{source}: time.window must be two numbers [start, end] in periods, got {window!r}")
         time = replace(time, window=(float(window[0]), float(window[1])))
-    fmus = sc.get("fmus", list(KNOWN_FMUS))
+    fmus = sc.get("fmus", list(DEFAULT_FMUS))
     if not (isinstance(fmus, (list, tuple)) and all(isinstance(f, str) for f in fmus)):
         raise ScenarioError(f"{source}: scenario.fmus must be a list of FMU names, got {fmus!r}")
     scenario = Scenario(
@@ -202,6 +251,8 @@ def from_dict(data: dict[str, dict[str, Any]], source: str) -> Scenario:
         block=typed("block", BlockParams, data.get("block", {})),
         friction=friction,
         conditions=typed("conditions", Conditions, data.get("conditions", {})),
+        thermal=typed("thermal", ThermalTable, data.get("thermal", {})),
+        load_program=typed("load", LoadTable, data.get("load", {})),
         time=time,
         simulation=typed("simulation", SimulationSettings, data.get("simulation", {})),
         source=source)
@@ -214,9 +265,24 @@ def from_dict(data: dict[str, dict[str, Any]], source: str) -> Scenario:
 def validate(scenario: Scenario) -> list[str]:
     """Every problem with the scenario, each as ``table.key must be ..., got value``."""
     out = scene_problems(scenario.fmus)
+    fr = scenario.friction
+    if len(set(scenario.fmus)) != len(scenario.fmus):
+        out.append(f"scenario.fmus lists an FMU twice, got {list(scenario.fmus)}")
+    out += [f"thermal.{p}" for p in scenario.thermal.params().problems()]
+    ld = scenario.load_program
+    if ld.program not in PROGRAMS:
+        out.append(f"load.program must be one of {', '.join(PROGRAMS)}, got {ld.program!r}")
+    else:
+        program = ld.program_()
+        out += [f"load.{p}" for p in program.problems()]
+        if (not program.problems() and "Load" in scenario.fmus and fr.regime in REGIMES
+                and REGIMES[fr.regime] == DRY and math.isfinite(scenario.stop_time)):
+            highest = program.extremes(0.0, scenario.stop_time)[1]
+            if highest > 0:
+                out.append(f"load.n0 = {ld.n0} with load.program = {ld.program!r} makes n reach "
+                           f"{highest:.6g} Pa > 0 within the run (dry friction needs compression, n <= 0)")
     out += [f"drive.{p}" for p in drive_problems(scenario.drive.A, scenario.drive.omega)]
     out += [f"block.{p}" for p in block_problems(scenario.block.M, scenario.block.K)]
-    fr = scenario.friction
     if fr.regime not in REGIMES:
         out.append(f"friction.regime must be one of {', '.join(REGIMES)}, got {fr.regime!r}")
     else:

@@ -11,7 +11,14 @@ Today's system (SSP connections cannot subtract, so BlockSpring forms ``dv = V -
 
     Drive.V -> BlockSpring.V,  BlockSpring.dv -> Friction.dv,  Friction.F -> BlockSpring.F
 
-with Friction's ``n`` [Pa] and ``T`` [K] held constant at the scene's conditions.
+with Friction's ``n`` [Pa] and ``T`` [K] held constant at the scene's conditions. Beyond the
+paper, a scene may list a Load FMU (``Load.n -> Friction.n``, a normal-stress program) and a
+Thermal FMU (``Thermal.T -> Friction.T``, fed ``Friction.F -> Thermal.F`` and
+``BlockSpring.dv -> Thermal.dv``). The tribofmu master treats them apart from the dv -> F loop
+(:mod:`tribofmu.master.system`): Load steps with the drive (a function of time); Thermal
+follows the solved loop, its T exchanged explicitly, and it gets the step's exact mean
+friction power through its input ``P`` instead of the F and dv connections (which an SSP
+master, able only to connect variables, uses).
 """
 from __future__ import annotations
 
@@ -19,6 +26,7 @@ from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Callable
 
 from ..physics.friction import REGIMES, Effects, LubricantConstants
+from ..physics.load import PROGRAMS
 
 if TYPE_CHECKING:  # the scenario module validates scenes with this one: no import at run time
     from .scenario import Scenario
@@ -102,18 +110,37 @@ def _conditions(sc: "Scenario") -> dict[str, float]:
     return {"n": float(sc.conditions.n), "T": float(sc.conditions.T)}
 
 
+def _thermal(sc: "Scenario") -> dict[str, Value]:
+    th = sc.thermal
+    return {"C": float(th.C), "q": float(th.q), "G": float(th.G), "T_ambient": float(th.T_ambient),
+            "T0": float(sc.conditions.T)}  # the film starts at the scene's T
+
+
+def _load(sc: "Scenario") -> dict[str, Value]:
+    ld = sc.load_program
+    return {"program": int(PROGRAMS[ld.program]), "n0": float(ld.n0), "n1": float(ld.n1),
+            "t_start": float(ld.t_start), "t_end": float(ld.t_end), "amplitude": float(ld.amplitude),
+            "period": float(ld.period), "phase": float(ld.phase)}
+
+
 # Declaration order is the order of instantiation and of the SSP components.
 FMUS: tuple[FMU, ...] = (
     FMU("Drive", "drive", _drive, outputs=("X", "V", "a")),
     FMU("BlockSpring", "blockspring", _block, outputs=("x", "v", "a", "dv"), required=True),
     FMU("Friction", "friction", _friction, outputs=("F", "f"), constant_inputs=_conditions,
         needs=("Drive",)),
+    FMU("Thermal", "thermal", _thermal, outputs=("T", "Q", "Q_lost"), needs=("Friction",)),
+    FMU("Load", "load", _load, outputs=("n",), needs=("Friction",)),
 )
 FMU_NAMES: tuple[str, ...] = tuple(f.name for f in FMUS)
 CONNECTIONS: tuple[Connection, ...] = (
     Connection("Drive", "V", "BlockSpring", "V"),
     Connection("BlockSpring", "dv", "Friction", "dv"),
     Connection("Friction", "F", "BlockSpring", "F"),
+    Connection("Load", "n", "Friction", "n"),
+    Connection("Thermal", "T", "Friction", "T"),
+    Connection("Friction", "F", "Thermal", "F"),
+    Connection("BlockSpring", "dv", "Thermal", "dv"),
 )
 
 
@@ -154,3 +181,24 @@ def constant_inputs(scenario: "Scenario") -> dict[str, float]:
     """The Friction FMU's constant inputs (n [Pa], T [K]), as the coupled system takes them
     today (``CoupledSystem(conditions=...)``); every FMU's are in :func:`instances`."""
     return next((inst.constant_inputs for inst in instances(scenario) if inst.fmu.name == "Friction"), {})
+
+
+def build_system(scenario: "Scenario", slaves: dict):
+    """The master's :class:`~tribofmu.master.system.CoupledSystem` of the scene, from its
+    slaves by FMU name (instantiated with :func:`fmu_parameters`)."""
+    from ..master.system import CoupledSystem
+
+    friction = slaves.get("Friction")
+    return CoupledSystem(block=slaves["BlockSpring"], drive=slaves.get("Drive"), friction=friction,
+                         conditions=constant_inputs(scenario) if friction is not None else None,
+                         load=slaves.get("Load"), thermal=slaves.get("Thermal"))
+
+
+def input_signals(points, grid) -> dict:
+    """The friction's inputs T [K], n [Pa] and the heat the Thermal FMU received Q [J], on
+    the time grid [s], interpolated linearly between communication points."""
+    import numpy as np
+
+    t = np.array([p.t_ns for p in points], dtype=np.int64) / 1e9
+    return {name: np.interp(grid, t, np.array([getattr(p, name) for p in points]))
+            for name in ("T", "n", "Q")}

@@ -90,3 +90,45 @@ def energy_audit(points: Sequence[Any], scenario) -> dict[str, Any]:
             "negative_dissipation_steps": negative,
             "most_negative_step_dissipation": float(min(0.0, D_step.min())),
             "steps": int(len(h))}
+
+
+def step_dissipation(start: Any, end: Any) -> float:
+    """int F (V - v) dt [J] over the communication step start -> end, the same quadrature
+    as :func:`step_integrals` for one step, in plain floats (called once per step by a
+    master that feeds the friction power to a heat balance)."""
+    h = (end.t_ns - start.t_ns) / NS
+    if h <= 0.0:
+        return 0.0
+    v0_slope, v1_slope = velocity_slopes(start, end)
+    total = 0.0
+    for s, w in zip(_GL_S_LIST, _GL_W_LIST):
+        s2, s3 = s * s, s * s * s
+        h00, h10, h01, h11 = 2 * s3 - 3 * s2 + 1, s3 - 2 * s2 + s, -2 * s3 + 3 * s2, s3 - s2
+        V = h00 * start.V + h10 * h * start.aX + h01 * end.V + h11 * h * end.aX
+        v = h00 * start.v + h10 * h * v0_slope + h01 * end.v + h11 * h * v1_slope
+        total += w * (end.F_start + end.F_rate * s * h) * (V - v)
+    return h * total
+
+
+_GL_S_LIST, _GL_W_LIST = [float(s) for s in _GL_S], [float(w) for w in _GL_W]
+
+
+def heat_audit(points: Sequence[Any], scenario) -> dict[str, Any]:
+    """The heat the Thermal FMU received against the friction dissipation of the run.
+
+    Q [J]: the Thermal FMU's own count of the heat it received (its output Q at the last
+    point); D [J]: the audit's dissipation int F (V - v) dt (:func:`energy_audit`);
+    q [1]: the share of the friction power that heats the film. relative_mismatch =
+    (Q - q D) / (q D). Empty when the scene has no Thermal FMU.
+    """
+    if "Thermal" not in scenario.fmus or len(points) < 2:
+        return {}
+    h, WV, Wv = step_integrals(points)
+    D = float((WV - Wv).sum())
+    q = scenario.thermal.q
+    Q = float(points[-1].Q - points[0].Q)
+    expected = q * D
+    return {"Q": Q, "D": D, "q": q, "mismatch": Q - expected,
+            "relative_mismatch": (Q - expected) / abs(expected) if expected != 0 else 0.0,
+            "T_start": float(points[0].T), "T_end": float(points[-1].T),
+            "T_max": float(max(p.T for p in points))}

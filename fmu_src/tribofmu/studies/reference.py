@@ -24,6 +24,15 @@ is not smooth:
   finite-difference Jacobian. The u-form always uses BDF.
   Fluid and boundary laws have no static friction (F(0) = 0), so ``dv = 0`` persists only
   where ``M V' + 2 K x`` vanishes identically; the u-form follows such a state as it is.
+
+Beyond the paper, a scene may list a Load FMU (the normal stress is a function of time
+n(t), :mod:`tribofmu.physics.load`) and a Thermal FMU (the film temperature T [K] is a state,
+``C T' = q F (V - v) - G (T - T_ambient)``, :mod:`tribofmu.physics.thermal`), solved together
+with the rest in one system (no exchange delay: the yardstick for the master's explicit T).
+Integration restarts at the load program's breakpoints. Dry friction under a varying load or
+with heating: stick is exact (x follows the drive, T relaxes in closed form as no power is
+dissipated), slip is integrated by DOP853 (the slip force mu S (-n(t)) is no longer constant),
+with the same brentq/event logic for stick and slip.
 """
 from __future__ import annotations
 
@@ -39,6 +48,7 @@ from scipy.optimize import brentq, minimize_scalar
 from ..physics.block import BlockState, acceleration, advance_block
 from ..physics.drive import drive
 from ..physics.friction import BOUNDARY, DRY, FLUID, FrictionLaw
+from ..physics.thermal import temperature_rate
 from ..scene.scenario import Scenario
 
 __all__ = ["ReferenceResult", "reference_solution", "nrms", "SAMPLES_PER_PERIOD"]
@@ -73,6 +83,8 @@ class ReferenceResult:
     stats: dict = field(default_factory=dict)
     ok: bool = True
     message: str = ""
+    T: np.ndarray | None = None  # K, film temperature (constant conditions.T without Thermal)
+    n: np.ndarray | None = None  # Pa, normal stress
 
 
 def nrms(t: np.ndarray, v: np.ndarray, t_ref: np.ndarray, v_ref: np.ndarray,
@@ -119,8 +131,22 @@ class _Problem:
         self.has_friction = "Friction" in scenario.fmus
         self.law: FrictionLaw = scenario.friction.law()
         self.n, self.T = scenario.conditions.n, scenario.conditions.T
+        self.program = scenario.load_program.program_() if "Load" in scenario.fmus else None
+        self.thermal = scenario.thermal.params() if "Thermal" in scenario.fmus else None
         # Block's own angular frequency [rad/s] (0 for a free mass).
         self.omega0 = math.sqrt(2.0 * self.K / self.M)
+
+    def n_at(self, t: float) -> float:
+        """Normal stress [Pa] at t [s]."""
+        return self.n if self.program is None else self.program.n(t)
+
+    def breakpoints(self, t0: float, t1: float) -> list[float]:
+        """Times in (t0, t1) [s] where n(t) is not smooth."""
+        return sorted(b for b in (self.program.breakpoints() if self.program else ()) if t0 < b < t1)
+
+    def heat_rate(self, T: float, power: float) -> float:
+        """dT/dt [K/s] of the film under friction power [W]."""
+        return temperature_rate(T, power, self.thermal)
 
     def drive(self, t: float) -> tuple[float, float, float]:
         """X [m], V [m/s], V' [m/s^2] of the upper block (all 0 without a Drive)."""
@@ -173,22 +199,26 @@ def reference_solution(scenario: Scenario, t_eval: np.ndarray | None = None, rto
 
     problem = _Problem(scenario)
     regime = problem.law.regime
-    n_state = 3 if (problem.has_friction and regime == BOUNDARY) else 2
+    n_state = 2 + (problem.has_friction and regime == BOUNDARY) + (problem.thermal is not None)
     if atol is not None:
         atol_arr = np.broadcast_to(np.asarray(atol, dtype=float), (n_state,)) if np.ndim(atol) == 0 \
             else np.asarray(atol, dtype=float)
         if atol_arr.shape != (n_state,) or not np.all(np.isfinite(atol_arr)) or np.any(atol_arr <= 0):
-            raise ValueError(f"atol must be > 0, a scalar or {n_state} values (x, v[, f]), got {atol!r}")
+            raise ValueError(f"atol must be > 0, a scalar or {n_state} values (x, v[, f][, T]), got {atol!r}")
     t_end = max(scenario.stop_time, float(t_eval[-1]))
 
     start = _time.perf_counter()
     if not problem.has_friction:
         out = _solve_free(problem, t_eval)
-    elif regime == DRY:
+    elif regime == DRY and problem.program is None and problem.thermal is None:
         out = _solve_dry(problem, t_eval, t_end)
+    elif regime == DRY:
+        out = _solve_dry_varying(problem, t_eval, t_end)
     elif regime in (FLUID, BOUNDARY):
         if atol is None:
-            scale = _state_scale(problem)[:n_state]
+            scale = _state_scale(problem)
+            scale = np.concatenate([scale[:n_state - 1], scale[3:]]) if problem.thermal is not None \
+                else scale[:n_state]
             atol_arr = rtol * scale
         out = _solve_ode(problem, t_eval, t_end, float(rtol), np.array(atol_arr, dtype=float))
     else:  # scenario validation rejects this; guard against a hand-built scenario
@@ -196,19 +226,26 @@ def reference_solution(scenario: Scenario, t_eval: np.ndarray | None = None, rto
     wall = _time.perf_counter() - start
 
     X, V = problem.output_drive(t_eval)
+    T = out.get("T")
+    if T is None:
+        T = np.full_like(t_eval, problem.T)
+    n = np.array([problem.n_at(float(ti)) for ti in t_eval]) if problem.program is not None \
+        else np.full_like(t_eval, problem.n)
     return ReferenceResult(time=t_eval, X=X, V=V, x=out["x"], v=out["v"], F=out["F"], f=out["f"],
-                           wall_time=wall, stats=out["stats"], ok=out["ok"], message=out["message"])
+                           wall_time=wall, stats=out["stats"], ok=out["ok"], message=out["message"],
+                           T=T, n=n)
 
 
 def _state_scale(p: _Problem) -> np.ndarray:
-    """Typical magnitudes of x [m], v [m/s], f [1] for absolute tolerances."""
+    """Typical magnitudes of x [m], v [m/s], f [1], T [K] for absolute tolerances."""
     b = p.scenario.block
     x_scale = max(abs(p.A) if p.driven else 0.0, abs(b.x0),
                   abs(b.v0) / p.omega0 if p.omega0 > 0 else 0.0)
     v_scale = max(abs(p.A) * p.omega if p.driven else 0.0, abs(b.v0), abs(b.x0) * p.omega0)
     x_scale = x_scale or v_scale * p.period or 1.0
     v_scale = v_scale or x_scale / p.period
-    return np.array([x_scale, v_scale, 1.0])
+    T_scale = max(p.T, p.thermal.T_ambient if p.thermal else 0.0, 1.0)
+    return np.array([x_scale, v_scale, 1.0, T_scale])
 
 
 # -- no friction: the free oscillator ------------------------------------------------------------
@@ -356,6 +393,123 @@ def _solve_dry(p: _Problem, t_eval: np.ndarray, t_end: float) -> dict:
             "message": message, "stats": stats}
 
 
+# -- dry friction under a varying load, or heating: exact stick, DOP853 slip ------------------
+def _solve_dry_varying(p: _Problem, t_eval: np.ndarray, t_end: float) -> dict:
+    """Dry friction with n = n(t) and/or the film temperature as a state.
+
+    Stick: x = x_s + X(t) - X(t_s), v = V, T relaxes exactly toward T_ambient (no power);
+    it ends where |F_stick| reaches mu L(t) (brentq on the exact margin). Slip: y = (x, v[, T])
+    by DOP853 (rtol 1e-12) with F = s mu S (-n(t)), ending where dv reaches 0 (event), then
+    stick or reversal as in :func:`_solve_dry`. Integration also stops at load breakpoints.
+    """
+    law, M, K = p.law, p.M, p.K
+    heated = p.thermal is not None
+    bound = lambda tt: abs(law.force(1.0, p.n_at(tt)))  # mu L(t) [N]
+    xtol = 4 * _EPS * max(t_end, p.period)
+    scale = _state_scale(p)
+    atol = np.array([1e-12 * scale[0], 1e-12 * scale[1]] + ([1e-12 * scale[3]] if heated else []))
+    b = p.scenario.block
+    segments: list[tuple] = []  # (t0, t1, "stick", x_s, X_s, T_s) or (t0, t1, "slip", dense, s)
+    events: list[tuple[float, str]] = []
+    ok, message = True, ""
+
+    def stick_T(tt: float, t_s: float, T_s: float) -> float:
+        if not heated:
+            return p.T
+        th = p.thermal
+        if th.G == 0.0:
+            return T_s
+        return th.T_ambient + (T_s - th.T_ambient) * math.exp(-th.G / th.C * (tt - t_s))
+
+    t, x, v, T = 0.0, b.x0, b.v0, p.T
+    dv = p.drive(0.0)[1] - v
+    mode, s = ("slip", 1 if dv > 0 else -1) if dv != 0.0 else ("stick", 0)
+    stalls = 0
+    while t < t_end - xtol:
+        if len(segments) > _MAX_EVENTS or stalls > _MAX_STALLS:
+            ok, message = False, (f"dry friction: gave up at t = {t:.6g} s after {len(segments)} "
+                                  f"segments ({stalls} of zero length in a row): chattering")
+            break
+        if mode == "stick":
+            X_s = p.drive(t)[0]
+            t_s, x_s, T_s = t, x, T
+            stick_x = lambda tt: x_s + p.drive(tt)[0] - X_s
+            t_next = _first_fall(lambda tt: bound(tt) - abs(p.stick_force(tt, stick_x(tt))),
+                                 t_s, t_end, p.period / 64, xtol)
+            segments.append((t_s, t_end if t_next is None else t_next, "stick", x_s, X_s, T_s))
+            if t_next is None:
+                break
+            x, v, T = stick_x(t_next), p.drive(t_next)[1], stick_T(t_next, t_s, T_s)
+            s = 1 if p.stick_force(t_next, x) > 0 else -1
+            mode = "slip"
+            events.append((t_next, "slip"))
+        else:
+            s_seg = s
+
+            def rhs(tt, y):
+                F = s_seg * bound(tt)
+                acc = acceleration(BlockState(y[0], y[1]), F, M, K)
+                if not heated:
+                    return [y[1], acc]
+                return [y[1], acc, p.heat_rate(y[2], F * (p.drive(tt)[1] - y[1]))]
+
+            def dv_zero(tt, y):
+                return p.drive(tt)[1] - y[1]
+            dv_zero.terminal, dv_zero.direction = True, -s_seg
+            t_stop = next(iter(p.breakpoints(t, t_end)), t_end)
+            y0 = [x, v] + ([T] if heated else [])
+            sol = solve_ivp(rhs, (t, t_stop), y0, method="DOP853", rtol=1e-12, atol=atol,
+                            events=[dv_zero], dense_output=True)
+            if sol.status == -1:
+                ok, message = False, f"DOP853 failed at t = {sol.t[-1]:.6g} s: {sol.message}"
+                break
+            t_new = float(sol.t[-1])
+            segments.append((t, t_new, "slip", sol.sol, s_seg))
+            x, v = float(sol.y[0, -1]), float(sol.y[1, -1])
+            T = float(sol.y[2, -1]) if heated else p.T
+            if sol.status == 1:  # dv reached 0
+                v = p.drive(t_new)[1]
+                F_stick = p.stick_force(t_new, x)
+                if abs(F_stick) <= bound(t_new):
+                    mode = "stick"
+                    events.append((t_new, "stick"))
+                else:
+                    s = 1 if F_stick > 0 else -1
+                    events.append((t_new, "reversal"))
+        stalls = stalls + 1 if segments[-1][1] - segments[-1][0] <= xtol else 0
+        t = segments[-1][1]
+
+    x_out = np.full_like(t_eval, np.nan)
+    v_out, F_out, T_out = x_out.copy(), x_out.copy(), x_out.copy()
+    starts = np.array([seg[0] for seg in segments])
+    index = np.searchsorted(starts, t_eval, side="right") - 1
+    covered_until = segments[-1][1] if segments else 0.0
+    for i, tt in enumerate(t_eval):
+        if index[i] < 0 or tt > covered_until + xtol:
+            continue
+        seg = segments[index[i]]
+        if seg[2] == "stick":
+            t_s, _, _, x_s, X_s, T_s = seg
+            x_out[i] = x_s + p.drive(tt)[0] - X_s
+            v_out[i] = p.drive(tt)[1]
+            F_out[i] = p.stick_force(tt, x_out[i])
+            T_out[i] = stick_T(tt, t_s, T_s)
+        else:
+            y = seg[3](min(tt, seg[1]))
+            x_out[i], v_out[i] = y[0], y[1]
+            F_out[i] = seg[4] * bound(tt)
+            T_out[i] = y[2] if heated else p.T
+    stick_intervals = [(seg[0], seg[1]) for seg in segments if seg[2] == "stick" and seg[1] > seg[0]]
+    stats = {"solver": "exact stick, DOP853 slip (rtol 1e-12), brentq/event stick-slip",
+             "n_rhs": 0, "n_segments": len(segments), "event_times": events,
+             "stick_intervals": stick_intervals,
+             "n_stick": sum(1 for _, k in events if k == "stick"),
+             "n_slip": sum(1 for _, k in events if k == "slip"),
+             "n_reversal": sum(1 for _, k in events if k == "reversal")}
+    return {"x": x_out, "v": v_out, "F": F_out, "f": np.zeros_like(t_eval), "ok": ok,
+            "message": message, "stats": stats, "T": T_out if heated else None}
+
+
 # -- fluid and boundary friction: solve_ivp between events ---------------------------------------
 # Mode switches on r = |M dv'| / |F_visc| (inertial over viscous force). q/r, q = gamma + 1, is the
 # viscous relaxation rate times the time dv takes to change: r small = stiff, near-equilibrium
@@ -382,6 +536,7 @@ class _SmoothSystem:
         law = p.law
         self.law = law
         self.boundary = law.regime == BOUNDARY
+        self.heated = p.thermal is not None
         self.melting = self.boundary and law.effects.melting
         self.has_viscous = (law.regime == FLUID or law.effects.viscous) and law.m > 0
         self.q = law.gamma + 1.0
@@ -395,7 +550,8 @@ class _SmoothSystem:
             if lub.lam_bar > 0:
                 self.kinks.append(("melt_lambda", "solidify_lambda", lub.lam / lub.lam_bar))
         self.atol_v = atol
-        self.scale = _state_scale(p)
+        scale = _state_scale(p)
+        self.scale = np.concatenate([scale[:2 + self.boundary], scale[3:4] if self.heated else []])
         v_scale = self.scale[1]
         # Same relative accuracy in u as in v: u_scale = v_scale^q.
         self.atol_u = atol.copy()
@@ -413,18 +569,29 @@ class _SmoothSystem:
     def u_of_dv(self, dv: float) -> float:
         return math.copysign(abs(dv) ** self.q, dv)
 
-    def friction(self, dv: float, f: float) -> float:
-        return self.law.force(float(dv), self.p.n, float(f))
+    def friction(self, t: float, dv: float, f: float) -> float:
+        return self.law.force(float(dv), self.p.n_at(t), float(f))
 
     def viscous(self, dv: float) -> float:
         return self.law.viscous_force(float(dv)) if self.has_viscous else 0.0
 
     def inertial_and_viscous(self, t: float, x: float, dv: float, f: float) -> tuple[float, float]:
         """(M dv', F_visc) [N]: M dv' = F_stick - F, F_stick the force that would keep v = V."""
-        return self.p.stick_force(t, x) - self.friction(dv, f), self.viscous(dv)
+        return self.p.stick_force(t, x) - self.friction(t, dv, f), self.viscous(dv)
 
-    def f_rate(self, f: float, dv: float) -> float:
-        return self.law.kinetics_rate(float(f), float(dv), self.p.n, self.p.T) if self.melting else 0.0
+    def f_rate(self, t: float, f: float, dv: float, T: float) -> float:
+        return self.law.kinetics_rate(float(f), float(dv), self.p.n_at(t), T) if self.melting else 0.0
+
+    def temperature(self, y) -> float:
+        """T [K] of a state (the scene's constant T without a Thermal FMU)."""
+        return float(y[-1]) if self.heated else self.p.T
+
+    def tail(self, t: float, f: float, dv: float, T: float, F: float) -> list[float]:
+        """The derivatives of the state after (x, v|u): f' (boundary), T' (heated)."""
+        out = [self.f_rate(t, f, dv, T)] if self.boundary else []
+        if self.heated:
+            out.append(self.p.heat_rate(T, F * dv))
+        return out
 
     def unpack(self, t: float, y: np.ndarray, form: str) -> tuple[float, float, float, float]:
         """(x, v, dv, f) from a state in either form."""
@@ -437,21 +604,22 @@ class _SmoothSystem:
         dv = self.dv_of_u(float(y[1]))
         return x, V - dv, dv, f
 
-    def pack(self, x: float, v: float, dv: float, f: float, form: str) -> np.ndarray:
+    def pack(self, x: float, v: float, dv: float, f: float, form: str, T: float | None = None) -> np.ndarray:
         second = v if form == "v" else self.u_of_dv(dv)
-        return np.array([x, second, f] if self.boundary else [x, second])
+        return np.array([x, second] + ([f] if self.boundary else []) + ([T] if self.heated else []))
 
     # -- right-hand sides --------------------------------------------------------------------
     def rhs_v(self, t, y):
         x, v, dv, f = self.unpack(t, y, "v")
-        acc = acceleration(BlockState(x, v), self.friction(dv, f), self.p.M, self.p.K)
-        return [v, acc, self.f_rate(f, dv)] if self.boundary else [v, acc]
+        F = self.friction(t, dv, f)
+        acc = acceleration(BlockState(x, v), F, self.p.M, self.p.K)
+        return [v, acc] + self.tail(t, f, dv, self.temperature(y), F)
 
     def _rhs_v_without_viscous(self, t, y):
         x, v, dv, f = self.unpack(t, y, "v")
-        F = self.friction(dv, f) - self.viscous(dv)
-        acc = acceleration(BlockState(x, v), F, self.p.M, self.p.K)
-        return np.array([v, acc, self.f_rate(f, dv)] if self.boundary else [v, acc])
+        F_all = self.friction(t, dv, f)
+        acc = acceleration(BlockState(x, v), F_all - self.viscous(dv), self.p.M, self.p.K)
+        return np.array([v, acc] + self.tail(t, f, dv, self.temperature(y), F_all))
 
     def jac_v(self, t, y):
         """Jacobian of the v-form without the viscous term, by forward differences.
@@ -474,13 +642,14 @@ class _SmoothSystem:
 
     def rhs_u(self, t, y):
         x, v, dv, f = self.unpack(t, y, "u")
-        acc = acceleration(BlockState(x, v), self.friction(dv, f), self.p.M, self.p.K)
+        F = self.friction(t, dv, f)
+        acc = acceleration(BlockState(x, v), F, self.p.M, self.p.K)
         dv_dot = self.p.drive(t)[2] - acc
         # du/dt = q |dv|^(q-1) dv'; |dv|^(q-1) = |u|^((q-1)/q). The floor keeps a stage value
         # that lands on u = 0 finite (the step is then rejected, not poisoned by inf).
         u_abs = max(abs(float(y[1])), 1e-100)
         u_dot = self.q * u_abs ** ((self.q - 1.0) / self.q) * dv_dot
-        return [v, u_dot, self.f_rate(f, dv)] if self.boundary else [v, u_dot]
+        return [v, u_dot] + self.tail(t, f, dv, self.temperature(y), F)
 
     # -- events ------------------------------------------------------------------------------
     def ratio_event(self, form: str, r: float):
@@ -511,9 +680,10 @@ def _solve_ode(p: _Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol:
     form = "u" if (sys_.u_form_available and dv != 0.0
                    and sys_.ratio_below(0.0, x, dv, f, _R_TO_U_FORM)) else "v"
     s = (1 if dv > 0 else -1) if dv != 0.0 else sys_.dv_sign_at_zero(0.0, x, f)
-    y = sys_.pack(x, v, dv, f, form)
+    T = p.T
+    y = sys_.pack(x, v, dv, f, form, T)
     # For each kink: +1 while f is above it, -1 below (at it: the side f moves to).
-    rate0 = sys_.f_rate(f, dv)
+    rate0 = sys_.f_rate(0.0, f, dv, T)
     sides = [(1 if f > k else -1) if f != k else (1 if rate0 > 0 else -1) for *_, k in sys_.kinks]
 
     segments = []  # (t_start, t_end, dense solution, form)
@@ -554,7 +724,9 @@ def _solve_ode(p: _Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol:
             event_funcs.append(kink)
             kinds.append(("kink", j))
 
-        sol = solve_ivp(rhs, (t, t_end), y, method=method, rtol=rtol, atol=tol_abs,
+        # the load program's kinks and jumps end a segment, like events
+        t_stop = next(iter(p.breakpoints(t, t_end)), t_end)
+        sol = solve_ivp(rhs, (t, t_stop), y, method=method, rtol=rtol, atol=tol_abs,
                         events=event_funcs, dense_output=True, **options)
         counters["n_rhs"] += sol.nfev
         counters["n_jac"] += sol.njev
@@ -571,9 +743,13 @@ def _solve_ode(p: _Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol:
         if form == "u":
             events += [(float(te), "dv_zero") for te in sol.t_events[kinds.index("u_zero")]]
         t = t_new
-        if sol.status == 0:
+        if sol.status == 0 and t_stop >= t_end:
             break
         x, v, dv, f = sys_.unpack(t, sol.y[:, -1], form)
+        T = sys_.temperature(sol.y[:, -1])
+        if sol.status == 0:  # a load breakpoint: restart from the same state
+            y = sys_.pack(x, v, dv, f, form, T)
+            continue
         fired = [kinds[i] for i, te in enumerate(sol.t_events)
                  if kinds[i] != "u_zero" and te.size and te[-1] >= t - 1e-12 * t_end]
         for kind in fired:
@@ -591,10 +767,10 @@ def _solve_ode(p: _Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol:
                 f = sys_.kinks[j][2]
                 sides[j] = -sides[j]
                 events.append((t, sys_.kinks[j][0] if sides[j] > 0 else sys_.kinks[j][1]))
-        y = sys_.pack(x, v, dv, f, form)
+        y = sys_.pack(x, v, dv, f, form, T)
 
     x_out = np.full_like(t_eval, np.nan)
-    v_out, F_out, f_out = x_out.copy(), x_out.copy(), x_out.copy()
+    v_out, F_out, f_out, T_out = x_out.copy(), x_out.copy(), x_out.copy(), x_out.copy()
     if segments:
         starts = np.array([seg[0] for seg in segments])
         index = np.searchsorted(starts, t_eval, side="right") - 1
@@ -606,7 +782,8 @@ def _solve_ode(p: _Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol:
             for i, yy in zip(np.flatnonzero(mask), dense(t_eval[mask]).T):
                 xi, vi, dvi, fi = sys_.unpack(float(t_eval[i]), yy, seg_form)
                 x_out[i], v_out[i], f_out[i] = xi, vi, fi
-                F_out[i] = sys_.friction(dvi, fi)
+                T_out[i] = sys_.temperature(yy)
+                F_out[i] = sys_.friction(float(t_eval[i]), dvi, fi)
     events.sort()
     stats = {"solver": (f"solve_ivp {sys_.v_method}" + (f" / {sys_.u_method} (u-form)"
                                                          if sys_.u_form_available else "")
@@ -617,4 +794,4 @@ def _solve_ode(p: _Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol:
              "n_melt": sum(1 for _, k in events if k == "melt"),
              "n_solidify": sum(1 for _, k in events if k == "solidify")}
     return {"x": x_out, "v": v_out, "F": F_out, "f": f_out, "ok": ok, "message": message,
-            "stats": stats}
+            "stats": stats, "T": T_out if sys_.heated else None}

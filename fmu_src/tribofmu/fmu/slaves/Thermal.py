@@ -1,0 +1,68 @@
+"""Thermal FMU: lumped heat balance of the lubricant film, C dT/dt = q P - G (T - T_ambient).
+
+The heating power is ``P + F dv`` held over the step: a master that knows the step's mean
+friction power (the tribofmu master integrates it exactly) sets ``P`` and leaves ``F`` and
+``dv`` at 0; a master that can only connect variables (an SSP master) connects the
+friction force and the relative velocity to ``F`` and ``dv`` instead. Outputs: the film
+temperature ``T`` (for the friction's input T) and the heat received and conducted away so
+far, for energy bookkeeping.
+"""
+from pythonfmu import Fmi2Causality
+from pythonfmu.default_experiment import DefaultExperiment
+
+# pythonfmu finds the model class by the literal text "(Fmi2Slave)" in this file.
+from tribofmu.fmu.base import TriboSlave as Fmi2Slave, non_negative, positive
+from tribofmu.physics.thermal import ThermalParams, advance_thermal
+
+PARAMETER, INPUT, OUTPUT = Fmi2Causality.parameter, Fmi2Causality.input, Fmi2Causality.output
+
+
+def _share(value):
+    return None if 0.0 <= value <= 1.0 else f"must be in [0, 1], got {value}"
+
+
+class Thermal(Fmi2Slave):
+    description = "Lumped heat balance of the lubricant film heated by friction"
+    default_experiment = DefaultExperiment(start_time=0.0, stop_time=1.0, step_size=1e-4)
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self._params = None
+        defaults = ThermalParams()
+        self.declare("C", defaults.C, PARAMETER, "J/K", "heat capacity of the film", check=positive)
+        self.declare("q", defaults.q, PARAMETER, "1", "share of the friction power that heats the film",
+                     check=_share)
+        self.declare("G", defaults.G, PARAMETER, "W/K", "thermal conductance from the film to the surroundings",
+                     check=non_negative)
+        self.declare("T_ambient", defaults.T_ambient, PARAMETER, "K", "temperature of the surroundings",
+                     check=non_negative)
+        self.declare("T0", 290.0, PARAMETER, "K", "film temperature at the start", check=non_negative)
+        self.declare("P", 0.0, INPUT, "W", "friction power over the step (a master's exact mean)")
+        self.declare("F", 0.0, INPUT, "N", "friction force, for masters that connect variables")
+        self.declare("dv", 0.0, INPUT, "m/s", "relative velocity V - v, for masters that connect variables")
+        self.declare("T", 290.0, OUTPUT, "K", "film temperature")
+        self.declare("Q", 0.0, OUTPUT, "J", "heat received by the film so far, q int (P + F dv) dt")
+        self.declare("Q_lost", 0.0, OUTPUT, "J", "heat conducted to the surroundings so far")
+
+    def params(self) -> ThermalParams:
+        if self._params is None or self._params[0] != self._parameter_token:
+            self._params = self._parameter_token, ThermalParams(C=self.C, q=self.q, G=self.G,
+                                                                T_ambient=self.T_ambient)
+        return self._params[1]
+
+    def model_problems(self):
+        return self.params().problems()
+
+    def changed(self, name):
+        if name == "T0":
+            self.T = self.T0
+
+    def initialize(self):
+        self.T, self.Q, self.Q_lost = self.T0, 0.0, 0.0
+
+    def advance(self, t, h):
+        step = advance_thermal(self.T, self.P + self.F * self.dv, h, self.params())
+        self.T = step.T
+        self.Q += step.received
+        self.Q_lost += step.lost
+        return None
