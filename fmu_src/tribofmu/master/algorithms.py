@@ -131,6 +131,14 @@ class ImplicitCoupling(CouplingAlgorithm):
         step (the block's response to a force change grows with the step)."""
         return self.loop_gain * h / self.loop_gain_step
 
+    # The slip root is solved to this fraction of the step's error allowance: tighter buys
+    # nothing the error control can see, and each iteration is a friction and a block step.
+    root_tol_fraction = 1e-3
+
+    def root_tolerance(self) -> float:
+        """How far [m/s] the coupling loop may miss its root while slipping."""
+        return self.root_tol_fraction * self.tol * self.scales.velocity
+
     def measured_gain(self, gain: float, h: float) -> None:
         self.loop_gain, self.loop_gain_step = gain, h
 
@@ -186,6 +194,7 @@ class ImplicitStep:
         self.block_state = [v for v in saved.handles.values() if v[0] is system.block]
         self.friction_state = [v for v in saved.handles.values() if v[0] is system.friction]
         self.delta = 1e-10 * algorithm.scales.velocity  # "zero" relative velocity [m/s]
+        self.root_tol = max(self.delta, algorithm.root_tolerance())  # m/s
         self.counters = algorithm.counters
         self.friction_last = None  # (dv, F, f) of the friction's latest step; None: not stepped
         self.block_last = None  # (F_end, x, v, a, F0, rate) of the block's latest step
@@ -321,9 +330,11 @@ class ImplicitStep:
         gain = max(0.0, -(h_hi - h_lo) / (hi - lo) - 1.0) if hi != lo else 0.0
         if h_hi == 0:
             return hi, gain
-        if abs(h_lo) <= delta:
+        if abs(h_lo) <= self.root_tol:
             return lo, gain
-        return illinois(loop, lo, hi, h_lo, h_hi, xtol=delta, rtol=0.0, ftol=delta,
+        if abs(h_hi) <= self.root_tol:
+            return hi, gain
+        return illinois(loop, lo, hi, h_lo, h_hi, xtol=delta, rtol=0.0, ftol=self.root_tol,
                         max_iterations=max_iterations), gain
 
     def stick_force(self) -> float:
@@ -463,7 +474,10 @@ class AdaptiveCoupling(ImplicitCoupling):
         return max(abs(v_mid - mid.v) / (16 * self.tol * self._v_scale or 1.0),
                    abs(x_mid - mid.x) / (16 * self.tol * self._x_scale or 1.0))
 
-    f_tol_factor = 0.1
+    f_tol_factor = 1.0
+
+    def root_tolerance(self) -> float:
+        return self.root_tol_fraction * self.tol * self._v_scale
 
     def _error(self, full: Point, halves: Point, h_ns: int) -> float:
         """The step's error relative to what tol allows: the difference between one step

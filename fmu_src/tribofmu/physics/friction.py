@@ -208,7 +208,7 @@ class FrictionLaw:
         pieces = self.DV_PIECES
         sub = h / pieces
         for k in range(1, pieces + 1):
-            dv_k = dv if k == pieces else dv_start + (dv - dv_start) * k / pieces
+            dv_k = dv_start + (dv - dv_start) * (k - 0.5) / pieces
             f, sub = self._advance_held(f, dv_k, n, T, h / pieces, sub, rtol, atol)
         return f
 
