@@ -22,7 +22,6 @@ from .master.run import COLUMNS
 from .scenario import Scenario, ScenarioError, load_scenario
 from .wiring import constant_inputs, fmu_parameters, scales
 
-DEFAULT_FMU_DIR = Path("build")
 
 
 class FMUSetupError(RuntimeError):
@@ -61,12 +60,13 @@ def load(path: str | Path, overrides: dict[str, Any] | list[str] | None = None) 
 
 def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[str] | None = None,
              algorithm: str | None = None, step: float | None = None, tol: float | None = None,
-             fmu_dir: str | Path = DEFAULT_FMU_DIR, build: bool | None = None,
+             fmu_dir: str | Path | None = None, build: bool | None = None,
              progress=None) -> SimulationResult:
     """Co-simulate a scenario with the FMUs in fmu_dir.
 
     algorithm/step/tol default to the scenario's [simulation] table, then to the
-    algorithm's own defaults. build: True rebuilds the FMUs, None builds only missing ones,
+    algorithm's own defaults. fmu_dir defaults to the per-user cache of FMUs built from
+    this source (:func:`tribofmu.build.default_fmu_dir`). build: True rebuilds the FMUs, None builds only missing ones,
     False never builds (a missing FMU is then an FMUFileError).
     """
     if not isinstance(scenario, Scenario):
@@ -80,6 +80,9 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
                                   tol=tol if tol is not None else sim.tol)
     except ValueError as exc:
         raise ScenarioError(f"{scenario.source}: {exc}") from None
+    if fmu_dir is None:
+        from .build import default_fmu_dir
+        fmu_dir = default_fmu_dir()
     fmu_dir = Path(fmu_dir)
     ensure_fmus(fmu_dir, scenario.fmus, build)
     slaves: dict[str, Slave] = {}
@@ -113,7 +116,9 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
              "coupling_iterations": outcome.counters["iterations"],
              "stick_steps": outcome.counters["stick_steps"], "forced_steps": outcome.counters["forced"],
              "fmu_calls": outcome.calls, "fmu_calls_total": sum(outcome.calls.values()),
-             "output_points": int(len(grid))}
+             "output_points": int(len(grid)),
+             "fmus": {name: {"file": str((fmu_dir / f"{name}.fmu").resolve()), "guid": getattr(slave, "guid", None)}
+                      for name, slave in slaves.items()}}
     stats["energy"] = energy_audit(outcome.points, scenario)
     return SimulationResult(scenario, grid, *(signals[k] for k in COLUMNS), outcome.ok,
                             outcome.message, stats, outcome.points)
