@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
-import signal
 import sys
 from pathlib import Path
 
@@ -36,17 +35,11 @@ class UsageError(Exception):
     """Bad input from the command line: reported as one line, exit code 2."""
 
 
-def _terminate(_signum, _frame):
-    raise KeyboardInterrupt  # a kill (SIGTERM) stops like Ctrl-C: clean up, write nothing half
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
-    try:
-        signal.signal(signal.SIGTERM, _terminate)
-    except ValueError:  # not the main thread: leave signals to the host
-        pass
+    from .progress import install_signal_handlers
+    install_signal_handlers()  # Ctrl-C and SIGTERM: stop between steps, write nothing half
     try:
         return args.run(args)
     except KeyboardInterrupt:
@@ -123,6 +116,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="a comma-separated subset of fig2,fig3,fig4,fig5,fig6")
     p.add_argument("--scenarios", default=None, help="the scenes' folder (default: the repository's)")
     p.add_argument("--fmu-dir", default=None, help=fmu_help)
+    p.add_argument("--data", default=None, help="where the runs' results are kept for reuse (default: OUT/data)")
     p.add_argument("--rerun", action="store_true", help="simulate again even where saved results match")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=cmd_figures)
@@ -176,7 +170,11 @@ def check_algorithm_options(scenario, algorithm: str | None, step: float | None,
 
 def require(module: str, install: str, purpose: str) -> None:
     """A missing optional piece is one line naming what to install."""
-    if importlib.util.find_spec(module) is None:
+    try:
+        found = importlib.util.find_spec(module) is not None
+    except (ImportError, ValueError):  # a broken install counts as missing
+        found = False
+    if not found:
         raise UsageError(f"{purpose} needs the package {install!r}: python -m pip install '{install}'")
 
 
@@ -320,8 +318,10 @@ def cmd_figures(args) -> int:
             raise UsageError(f"--only {args.only}: unknown figure {unknown[0] if unknown else '(none)'!r} "
                              f"(known: {', '.join(FIGURES)})")
     out = check_out_dir(Path(args.out))
+    if args.data:
+        check_out_dir(Path(args.data), "--data")
     paths = make_figures(out, only=only, scenarios_dir=args.scenarios, fmu_dir=args.fmu_dir,
-                         rerun=args.rerun, quiet=args.quiet)
+                         rerun=args.rerun, quiet=args.quiet, data_dir=args.data)
     for path in paths:
         print(path)
     return 0

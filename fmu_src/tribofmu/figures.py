@@ -11,9 +11,10 @@
 - Fig. 6 (``fig6_boundary``): X, x and V, v, plus the lubricant's excess volume f(t) with
   the melting point f = mu/mub.
 
-Each run's signals on the window are saved in ``OUT/data/<run>.npz`` together with a key
-made of the scene file, the overrides and the hash of the installed tribofmu sources: a
-second call redraws from them when nothing changed (``--rerun`` simulates again).
+Each run's signals on the window are saved in ``OUT/data/<run>.npz`` (or ``--data DIR``)
+with a key made of the scene file, the overrides, the hash of the sources a result depends
+on and the versions of fmpy and pythonfmu: a second call redraws from them when nothing
+changed (``--rerun`` simulates again).
 """
 from __future__ import annotations
 
@@ -71,11 +72,21 @@ class Signals:
             setattr(self, name, arrays[name])
 
 
+# The sources a simulated result depends on (not the drawing code): saved results are
+# reused only when these are unchanged.
+RESULT_SOURCES = ("physics", "fmu", "master", "api.py", "scenario.py", "wiring.py", "energy.py", "build.py")
+
+
 def code_hash() -> str:
-    """Hash of every tribofmu source file: saved results are reused only by the same code."""
+    """Hash of the sources in :data:`RESULT_SOURCES` and the versions of fmpy and pythonfmu."""
+    from .provenance import versions
     package = Path(__file__).resolve().parent
-    digest = hashlib.sha256()
-    for path in sorted(package.rglob("*.py")):
+    digest = hashlib.sha256(json.dumps(versions(), sort_keys=True).encode())
+    files = []
+    for rel in RESULT_SOURCES:
+        path = package / rel
+        files += sorted(path.rglob("*.py")) if path.is_dir() else [path]
+    for path in files:
         digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()[:16]
 
@@ -117,21 +128,27 @@ def _load_or_simulate(run: Run, scenarios_dir: Path, data_dir: Path, fmu_dir, re
 
 def make_figures(out_dir: str | Path = "out/figures", only: list[str] | None = None,
                  scenarios_dir: str | Path | None = None, fmu_dir: str | Path | None = None,
-                 rerun: bool = False, quiet: bool = False) -> list[Path]:
-    """Write ``OUT/fig2.png`` .. ``fig6.png`` (or the ``only`` ones); returns their paths."""
+                 rerun: bool = False, quiet: bool = False, data_dir: str | Path | None = None) -> list[Path]:
+    """Write ``OUT/fig2.png`` .. ``fig6.png`` (or the ``only`` ones); returns their paths.
+
+    data_dir: where the runs' signals are saved and reused (default ``OUT/data``)."""
     from .cli import resolve_fmu_dir
 
     out_dir = Path(out_dir)
     scenarios_dir = Path(scenarios_dir) if scenarios_dir else SCENARIOS_DIR
+    if not scenarios_dir.is_dir():
+        raise FileNotFoundError(f"scenes folder not found: {scenarios_dir} (pass --scenarios DIR, "
+                                "the repository's scenarios/)")
     names = list(only) if only else list(FIGURES)
     fmu_dir = resolve_fmu_dir(str(fmu_dir) if fmu_dir else None, ("Drive", "BlockSpring", "Friction"), quiet)
+    data_dir = Path(data_dir) if data_dir else out_dir / "data"
     code = code_hash()
     results: dict[str, Signals] = {}
     paths = []
     for name in names:
         for run in FIGURES[name]:
             if run.label not in results:
-                results[run.label] = _load_or_simulate(run, scenarios_dir, out_dir / "data", fmu_dir, rerun,
+                results[run.label] = _load_or_simulate(run, scenarios_dir, data_dir, fmu_dir, rerun,
                                                        quiet, code)
         runs = [results[run.label] for run in FIGURES[name]]
         paths.append(DRAW[name](runs, out_dir / f"{name}.png"))
