@@ -185,20 +185,20 @@ def _time_pair(axes, r: Signals, first: str, second: str) -> None:
 
 
 def draw_fig2(runs, path: Path) -> Path:
-    from .plots import finish_axes, scene_label
+    from .plots import finish_axes, scene_label, title
     plt = _plt()
     (r,) = runs
     fig, axes = plt.subplots(2, 1, figsize=(7.5, 6), sharex=True)
     _time_pair(axes, r, "X, x", "V, v")
     axes[-1].set_xlabel("t [s]")
     finish_axes(axes)
-    fig.suptitle("Fig. 2 — " + scene_label(r.scenario), fontsize=9)
+    title(fig, "Fig. 2 — " + scene_label(r.scenario))
     fig.tight_layout()
     return _save(fig, path)
 
 
 def draw_fig3(runs, path: Path) -> Path:
-    from .plots import finish_axes, scene_label, unit_scale
+    from .plots import finish_axes, scene_label, title, unit_scale
     plt = _plt()
     (r,) = runs
     fig, axes = plt.subplots(2, 1, figsize=(7.5, 6), sharex=True)
@@ -212,13 +212,13 @@ def draw_fig3(runs, path: Path) -> Path:
         ax.axhline(0.0, color="0.5", lw=0.7)
     axes[-1].set_xlabel("t [s]")
     finish_axes(axes)
-    fig.suptitle("Fig. 3 — relative motion; " + scene_label(r.scenario), fontsize=9)
+    title(fig, "Fig. 3 — relative motion; " + scene_label(r.scenario))
     fig.tight_layout()
     return _save(fig, path)
 
 
 def draw_fig4(runs, path: Path) -> Path:
-    from .plots import unit_scale
+    from .plots import title, unit_scale
     plt = _plt()
     fig, axes = plt.subplots(2, 3, figsize=(11, 7))
     for ax, r, letter in zip(axes.ravel(), runs, "abcdef"):
@@ -231,14 +231,14 @@ def draw_fig4(runs, path: Path) -> Path:
         ax.grid(alpha=0.3)
         ax.locator_params(nbins=5)
     sc = runs[0].scenario
-    fig.suptitle(f"Fig. 4 — phase portraits v(x), dry friction: A = {sc.drive.A:g} m, L = {sc.load:g} N, "
-                 f"M = {sc.block.M:g} kg, K = {sc.block.K:g} N/m, μ = {sc.friction.mu_friction:g}", fontsize=10)
+    title(fig, f"Fig. 4 — phase portraits v(x), dry friction: A = {sc.drive.A:g} m, L = {sc.load:g} N, "
+               f"M = {sc.block.M:g} kg, K = {sc.block.K:g} N/m, μ = {sc.friction.mu_friction:g}", 130, 10)
     fig.tight_layout()
     return _save(fig, path)
 
 
 def draw_fig5(runs, path: Path) -> Path:
-    from .plots import draw_pair, finish_axes, unit_scale
+    from .plots import draw_pair, finish_axes, title, unit_scale
     plt = _plt()
     fig, axes = plt.subplots(3, 1, figsize=(7.5, 8.5), sharex=True)
     names = ("pseudoplastic", "Newtonian", "dilatant")
@@ -249,24 +249,24 @@ def draw_fig5(runs, path: Path) -> Path:
         ax.set_title(f"{name}, γ = {r.scenario.friction.gamma:.3g}", fontsize=9, loc="left")
     r = runs[-1]
     k, unit = unit_scale(r.v, "m/s")
-    inset = axes[-1].inset_axes([0.07, 0.06, 0.3, 0.34])
+    # between the drive's troughs, below v: the inset hides no curve
+    inset = axes[-1].inset_axes([0.37, 0.06, 0.27, 0.3])
     inset.plot(r.time, r.v * k, color="C3", lw=1.0)
-    inset.set_ylabel(f"v [{unit}]", fontsize=7)
-    inset.set_xlabel("t [s] (v enlarged)", fontsize=7, labelpad=1)
+    inset.set_title(f"v enlarged [{unit}] vs t [s]", fontsize=7, pad=2)
     inset.tick_params(labelsize=6)
     inset.locator_params(nbins=3)
     inset.patch.set_alpha(0.9)
     axes[-1].set_xlabel("t [s]")
     finish_axes(axes)
     sc = runs[0].scenario
-    fig.suptitle(f"Fig. 5 — fluid friction: A = {sc.drive.A:g} m, ω = {sc.drive.omega:g} rad/s, "
-                 f"M = {sc.block.M:g} kg, K = {sc.block.K:g} N/m, m = {sc.friction.m:g}", fontsize=9)
+    title(fig, f"Fig. 5 — fluid friction: A = {sc.drive.A:g} m, ω = {sc.drive.omega:g} rad/s, "
+               f"M = {sc.block.M:g} kg, K = {sc.block.K:g} N/m, m = {sc.friction.m:g}")
     fig.tight_layout()
     return _save(fig, path)
 
 
 def draw_fig6(runs, path: Path) -> Path:
-    from .plots import finish_axes, scene_label
+    from .plots import finish_axes, scene_label, title
     plt = _plt()
     (r,) = runs
     fig, axes = plt.subplots(3, 1, figsize=(7.5, 8.5), sharex=True)
@@ -277,7 +277,7 @@ def draw_fig6(runs, path: Path) -> Path:
     axes[2].set_ylabel("f [1]")
     axes[-1].set_xlabel("t [s]")
     finish_axes(axes)
-    fig.suptitle("Fig. 6 — " + scene_label(r.scenario), fontsize=9)
+    title(fig, "Fig. 6 — " + scene_label(r.scenario))
     fig.tight_layout()
     return _save(fig, path)
 

@@ -73,7 +73,13 @@ def finish_axes(axes) -> None:
     for ax in np.ravel(axes):
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
-            ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
+            ax.legend(loc="best", fontsize=8, framealpha=0.85)
+
+
+def title(fig, text: str, width: int = 90, fontsize: float = 9) -> None:
+    """A figure title wrapped to the figure's width (long parameter lists must not be cut)."""
+    import textwrap
+    fig.suptitle(textwrap.fill(text, width), fontsize=fontsize)
 
 
 def plot_result(result, out_dir: Path) -> list[Path]:
@@ -101,7 +107,7 @@ def plot_result(result, out_dir: Path) -> list[Path]:
         axes[2].set_ylabel("f [1]")
     finish_axes(axes)
     axes[-1].set_xlabel("t [s]")
-    fig.suptitle(scene_label(sc), fontsize=9)
+    title(fig, scene_label(sc))
     fig.tight_layout()
     paths.append(out_dir / "time.png")
     fig.savefig(paths[-1], dpi=110)
@@ -113,8 +119,8 @@ def plot_result(result, out_dir: Path) -> list[Path]:
     ax.plot(result.x[m] * kx, result.v[m] * kv, color="C0")
     ax.set_xlabel(f"x [{ux}]")
     ax.set_ylabel(f"v [{uv}]")
-    title = f"phase portrait v(x), ω = {_fmt(sc.drive.omega)} rad/s" if drive else "phase portrait v(x)"
-    ax.set_title(title, fontsize=10)
+    label = f"phase portrait v(x), ω = {_fmt(sc.drive.omega)} rad/s" if drive else "phase portrait v(x)"
+    ax.set_title(label, fontsize=10)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     paths.append(out_dir / "phase.png")
