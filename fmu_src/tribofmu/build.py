@@ -72,7 +72,7 @@ def default_fmu_dir() -> Path:
     return Path(root) / "fmus" / f"{__version__}-{source_hash()}"
 
 
-def _rewrite_imports(text: str, private: str) -> str:
+def rewrite_imports(text: str, private: str) -> str:
     return _IMPORT.sub(lambda m: f"{m.group(1)}{m.group(2)}{m.group(3)}{private}", text)
 
 
@@ -86,13 +86,13 @@ def _stage_package(root: Path, private: str) -> Path:
         else:
             shutil.copy2(src, dst)
     for path in target.rglob("*.py"):
-        path.write_text(_rewrite_imports(path.read_text(), private))
+        path.write_text(rewrite_imports(path.read_text(), private))
     return target
 
 
 def _stage_slave(root: Path, name: str, private: str) -> Path:
     """The slave script under its private module name, importing the private package."""
-    text = _rewrite_imports((SLAVES / f"{name}.py").read_text(), private)
+    text = rewrite_imports((SLAVES / f"{name}.py").read_text(), private)
     if re.search(r"\btribofmu\.", "\n".join(l for l in text.splitlines() if "import" in l)):
         raise RuntimeError(f"{name}.py imports tribofmu in a form the build cannot rename")
     script = root / f"{private}_{name}.py"
