@@ -289,3 +289,20 @@ def test_stuck_mask_episodes_at_a_point_no_scene_uses():
     assert metrics.stuck_fraction(t, stuck) == pytest.approx(0.30, abs=2e-3)
     # phase > 0.95 continues into phase < 0.0 of the next period: one episode across the wrap
     assert metrics.stuck_episodes_per_period(t, stuck, T) == 3
+
+
+def test_a_signal_during_a_run_is_deferred_to_the_next_step_and_a_second_one_is_not():
+    from tribofmu import progress
+    reached = []
+    with pytest.raises(KeyboardInterrupt):
+        with progress.deferred_interrupts():
+            progress._handler(signal.SIGINT, None)  # inside FMU code this must not raise
+            reached.append("after the first signal")
+    assert reached == ["after the first signal"]
+    with pytest.raises(KeyboardInterrupt):
+        with progress.deferred_interrupts():
+            progress._handler(signal.SIGINT, None)
+            progress._handler(signal.SIGINT, None)  # asked twice: stop now
+    with pytest.raises(KeyboardInterrupt):
+        progress._handler(signal.SIGTERM, None)  # outside a run: at once
+    progress.check_interrupt()  # nothing pending is left behind

@@ -295,14 +295,19 @@ def cmd_sweep(args) -> int:
 def cmd_accuracy(args) -> int:
     from . import api
     from .accuracy import accuracy_study, write_study
+    from .progress import check_interrupt, deferred_interrupts
     from .provenance import default_out_dir, overrides_dict
     scenario = api.load(args.scenario, args.overrides)
     out = Path(args.out) if args.out else default_out_dir(scenario.name, overrides_dict(args.overrides),
                                                           "-accuracy")
     check_out_dir(out)
     fmu_dir = resolve_fmu_dir(args.fmu_dir, scenario.fmus, args.quiet)
-    log = (lambda message: None) if args.quiet else (lambda message: print(message, file=sys.stderr))
-    rows, summary = accuracy_study(scenario, fmu_dir=fmu_dir, quick=args.quick, log=log)
+    def log(message: str) -> None:  # called between runs: where a Ctrl-C may stop the study
+        if not args.quiet:
+            print(message, file=sys.stderr)
+        check_interrupt()
+    with deferred_interrupts():  # never inside FMU code (pythonfmu would make it fmi2Fatal)
+        rows, summary = accuracy_study(scenario, fmu_dir=fmu_dir, quick=args.quick, log=log)
     write_study(rows, summary, scenario, out)
     print(f"{len(rows)} runs, {summary['total_wall_time_s']:.1f} s -> {out}/")
     return 0

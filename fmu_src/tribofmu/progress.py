@@ -13,6 +13,7 @@ FMU) raises :class:`KeyboardInterrupt` there. Outside a run the handler raises a
 """
 from __future__ import annotations
 
+import contextlib
 import signal
 import sys
 import time
@@ -24,6 +25,7 @@ def _handler(signum, _frame):
     if _state["running"] and not _state["requested"]:
         _state["requested"] = True  # stop at the next communication point
         return
+    _state["requested"] = False
     raise KeyboardInterrupt  # outside a run, or a second signal: stop now
 
 
@@ -41,6 +43,19 @@ def check_interrupt() -> None:
     if _state["requested"]:
         _state["requested"] = False
         raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def deferred_interrupts():
+    """Inside: a first Ctrl-C/SIGTERM only requests a stop, which :func:`check_interrupt`
+    (called between steps or runs) turns into KeyboardInterrupt; a second one stops at once.
+    On leaving normally, a pending request raises KeyboardInterrupt."""
+    _state["running"] += 1
+    try:
+        yield
+    finally:
+        _state["running"] -= 1
+    check_interrupt()
 
 
 class RunBar:
@@ -83,11 +98,10 @@ class RunBar:
             self._bar = None
 
     def __enter__(self) -> "RunBar":
-        _state["running"] += 1
+        self._deferred = deferred_interrupts()
+        self._deferred.__enter__()
         return self
 
     def __exit__(self, *exc) -> None:
-        _state["running"] -= 1
         self.close()
-        if exc[0] is None:
-            check_interrupt()  # asked to stop during the last step: stop now
+        self._deferred.__exit__(*exc)  # asked to stop during the last step: stop now
