@@ -16,6 +16,7 @@ checked before anything runs; results are written whole or not at all.
 from __future__ import annotations
 
 import argparse
+import atexit
 import importlib.util
 import json
 import sys
@@ -38,8 +39,10 @@ class UsageError(Exception):
 def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
+    from .master.slave import remove_orphan_extractions
     from .progress import install_signal_handlers
     install_signal_handlers()  # Ctrl-C and SIGTERM: stop between steps, write nothing half
+    atexit.register(remove_orphan_extractions)  # unzipped FMUs of finished (Dask) workers
     try:
         return args.run(args)
     except KeyboardInterrupt:

@@ -44,7 +44,8 @@ class FMUFileError(FileNotFoundError):
 # One folder per process, ``<tmp>/tribofmu-fmus-<pid>-<random>``, removed at exit; each FMU
 # file is unzipped into it once (keyed by its content) and shared by all its instances.
 # A process killed before its exit handlers run leaves its folder behind: the next process
-# that unzips an FMU removes the folders of processes that no longer exist.
+# that unzips an FMU, and every process that exits after unzipping one (or the tribofmu
+# command, whose Dask workers unzip), removes the folders of processes that no longer exist.
 EXTRACT_PREFIX = "tribofmu-fmus-"
 _extract_lock = threading.Lock()
 _extract_root: tuple[int, Path] | None = None  # (pid that made it, folder)
@@ -61,8 +62,10 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def _remove_orphans(tmp: Path) -> None:
-    """Remove the extraction folders of processes that are gone (killed, crashed)."""
+def remove_orphan_extractions(tmp: Path | None = None) -> None:
+    """Remove the extraction folders of processes that are gone (killed, crashed, or
+    terminated without exit handlers, as Dask stops its worker processes)."""
+    tmp = Path(tmp) if tmp is not None else Path(tempfile.gettempdir())
     for folder in tmp.glob(EXTRACT_PREFIX + "*"):
         pid = folder.name[len(EXTRACT_PREFIX):].split("-", 1)[0]
         if pid.isdigit() and int(pid) != os.getpid() and not _pid_alive(int(pid)):
@@ -72,6 +75,7 @@ def _remove_orphans(tmp: Path) -> None:
 def _remove_root(pid: int, folder: Path) -> None:
     if os.getpid() == pid:  # a forked child inherits the handler, not the folder
         shutil.rmtree(folder, ignore_errors=True)
+        remove_orphan_extractions(folder.parent)  # e.g. the folders of finished worker processes
 
 
 def extraction_root() -> Path:
@@ -80,7 +84,7 @@ def extraction_root() -> Path:
     with _extract_lock:
         if _extract_root is None or _extract_root[0] != os.getpid():
             tmp = Path(tempfile.gettempdir())
-            _remove_orphans(tmp)
+            remove_orphan_extractions(tmp)
             folder = Path(tempfile.mkdtemp(prefix=f"{EXTRACT_PREFIX}{os.getpid()}-", dir=tmp))
             _extract_root = (os.getpid(), folder)
             _extracted.clear()
