@@ -16,14 +16,14 @@ from typing import Any
 import numpy as np
 
 from .errors import FMUError
-from .master import (CoupledSystem, FMUCallError, FMUFileError, Scales, Slave, make_algorithm, run,
-                     sample)
-from .studies.energy import energy_audit
+from .master import (FMUCallError, FMUFileError, GridRecorder, PointList, RunLimits, Scales, Slave,
+                     make_algorithm, run, sample)
+from .studies.energy import EnergyAudit
+from .master.interpolation import INPUT_SIGNALS
 from .master.run import COLUMNS
 from .scene.scenario import Scenario, ScenarioError, load_scenario, scales
-from .scene.wiring import constant_inputs, fmu_parameters
+from .scene.wiring import build_system, fmu_parameters
 
-DEFAULT_FMU_DIR = Path("build")
 
 
 class FMUSetupError(FMUError, RuntimeError):
@@ -47,7 +47,9 @@ class SimulationResult:
     ok: bool
     message: str
     stats: dict[str, Any] = field(default_factory=dict)
-    points: list = field(default_factory=list, repr=False)  # the communication points
+    points: list = field(default_factory=list, repr=False)  # every communication point (keep_points)
+    inputs: dict[str, np.ndarray] = field(default_factory=dict)  # T [K], n [Pa], Q [J] on the grid, when
+    # other FMUs (Thermal, Load) feed the friction
 
     def window_mask(self) -> np.ndarray:
         """Boolean mask of the shown window [5T, 6.5T] (or the scene's)."""
@@ -62,13 +64,19 @@ def load(path: str | Path, overrides: dict[str, Any] | list[str] | None = None) 
 
 def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[str] | None = None,
              algorithm: str | None = None, step: float | None = None, tol: float | None = None,
-             fmu_dir: str | Path = DEFAULT_FMU_DIR, build: bool | None = None,
-             progress=None) -> SimulationResult:
+             fmu_dir: str | Path | None = None, build: bool | None = None,
+             progress=None, keep_points: bool = False, max_wall: float | None = -1.0,
+             notice=None) -> SimulationResult:
     """Co-simulate a scenario with the FMUs in fmu_dir.
 
     algorithm/step/tol default to the scenario's [simulation] table, then to the
-    algorithm's own defaults. build: True rebuilds the FMUs, None builds only missing ones,
-    False never builds (a missing FMU is then an FMUFileError).
+    algorithm's own defaults. fmu_dir defaults to the per-user cache of FMUs built from
+    this source (:func:`tribofmu.build.default_fmu_dir`). build: True rebuilds the FMUs,
+    None builds only missing ones, False never builds (a missing FMU is then an
+    FMUFileError). keep_points: keep every communication point in ``result.points``
+    (memory grows with the run); otherwise only the output grid is kept. max_wall [s]: stop
+    a run whose projected wall time exceeds it (None: never; default: the scene's
+    ``simulation.max_wall``). notice(text): told once when a run will take long.
     """
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario, overrides)
@@ -81,8 +89,17 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
                                   tol=tol if tol is not None else sim.tol)
     except ValueError as exc:
         raise ScenarioError(f"{scenario.source}: {exc}") from None
+    if fmu_dir is None:
+        from .build import default_fmu_dir
+        fmu_dir = default_fmu_dir()
     fmu_dir = Path(fmu_dir)
     ensure_fmus(fmu_dir, scenario.fmus, build)
+    n = max(1, math.ceil(round(scenario.time.periods * SAMPLES_PER_PERIOD, 6)))
+    grid = np.linspace(0.0, scenario.stop_time, n + 1)
+    audit = EnergyAudit(scenario)
+    inputs = bool({"Thermal", "Load"} & set(scenario.fmus))
+    recorder = PointList() if keep_points else GridRecorder(grid, [audit], inputs=inputs)
+    limits = RunLimits(max_wall=(sim.max_wall if max_wall == -1.0 else max_wall) or None)
     slaves: dict[str, Slave] = {}
     try:
         failures = []  # every instance's failure, in one message
@@ -93,20 +110,24 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
                 failures.append(str(exc))
         if failures:
             raise FMUSetupError("; ".join(failures))
-        system = CoupledSystem(block=slaves["BlockSpring"], drive=slaves.get("Drive"),
-                               friction=slaves.get("Friction"), conditions=constant_inputs(scenario)
-                               if "Friction" in slaves else None)
+        system = build_system(scenario, slaves)
         position, velocity, period = scales(scenario)
-        outcome = run(system, coupling, scenario.stop_time, Scales(position, velocity, period), progress)
+        outcome = run(system, coupling, scenario.stop_time, Scales(position, velocity, period), progress,
+                      recorder=recorder, limits=limits, notice=notice)
     finally:
         for slave in slaves.values():
             slave.close()
-    n = max(1, math.ceil(round(scenario.time.periods * SAMPLES_PER_PERIOD, 6)))
-    t_end = outcome.points[-1].t_ns / 1e9
-    grid = np.linspace(0.0, scenario.stop_time, n + 1)
-    grid = grid[grid <= t_end + 1e-9]  # the run ends on the whole nanosecond nearest the stop
-    signals = sample(outcome.points, grid) if len(outcome.points) > 1 else {
-        k: np.array([getattr(outcome.points[0], k)]) for k in COLUMNS}
+    if keep_points:
+        t_end = outcome.points[-1].t_ns / 1e9
+        grid = grid[grid <= t_end + 1e-9]  # the run ends on the whole nanosecond nearest the stop
+        signals = sample(outcome.points, grid, inputs) if len(outcome.points) > 1 else {
+            k: np.array([float(outcome.points[0].mode == 0) if k == "stuck" else getattr(outcome.points[0], k)])
+            for k in COLUMNS}
+        audit.add(outcome.points)
+        grid = grid[:len(signals["v"])]
+    else:
+        signals = recorder.sampled()
+        grid = grid[:len(signals["v"])]
     stats = {"algorithm": coupling.name, "step": coupling.step_ns / 1e9 if name != "adaptive" else None,
              "tol": coupling.tol if name == "adaptive" else None,
              "ok": outcome.ok, "message": outcome.message, "wall_time": outcome.wall_time,
@@ -114,10 +135,16 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
              "coupling_iterations": outcome.counters["iterations"],
              "stick_steps": outcome.counters["stick_steps"], "forced_steps": outcome.counters["forced"],
              "fmu_calls": outcome.calls, "fmu_calls_total": sum(outcome.calls.values()),
-             "output_points": int(len(grid))}
-    stats["energy"] = energy_audit(outcome.points, scenario)
-    return SimulationResult(scenario, grid, *(signals[k] for k in COLUMNS), outcome.ok,
-                            outcome.message, stats, outcome.points)
+             "output_points": int(len(grid)),
+             "fmus": {name: {"file": str((fmu_dir / f"{name}.fmu").resolve()), "guid": getattr(slave, "guid", None)}
+                      for name, slave in slaves.items()}}
+    stats["energy"] = audit.result()
+    heat = audit.heat()
+    if heat:
+        stats["heat"] = heat
+    return SimulationResult(scenario, grid, *(signals[k] for k in COLUMNS), outcome.ok, outcome.message,
+                            stats, outcome.points if keep_points else [],
+                            {k: signals[k] for k in INPUT_SIGNALS if k in signals})
 
 
 def ensure_fmus(fmu_dir: Path, names, build: bool | None) -> None:

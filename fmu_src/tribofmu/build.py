@@ -1,20 +1,83 @@
-"""Build the three FMUs with pythonfmu, each carrying the physics package inside itself."""
+"""Build the three FMUs with pythonfmu, each carrying the physics package inside itself.
+
+The copy an FMU carries is renamed: pythonfmu puts the FMU's ``resources`` folder first on
+``sys.path`` of the process that loads it, so a copy named ``tribofmu`` would shadow the
+installed package (``import tribofmu.api`` then fails in that process), and two FMUs built
+from different sources would share whichever copy was imported first. The shipped copy is
+therefore a private package, ``_tribofmu_fmu_<version>_<source hash>``, and the slave
+modules are ``<that name>_<FMU>``: the staged sources' ``tribofmu`` imports are rewritten
+to it at build time, so a built FMU never imports the name ``tribofmu``.
+
+Where FMUs live by default (:func:`default_fmu_dir`): a per-user cache keyed by the
+package version and the hash of the shipped sources, so every working directory finds
+(or builds once) the FMUs matching the installed code, and a changed source never runs a
+stale FMU.
+"""
 from __future__ import annotations
 
+import hashlib
 import os
+import re
 import shutil
+import sys
 import tempfile
+from functools import lru_cache
 from pathlib import Path
+
+from . import __version__
 
 PACKAGE = Path(__file__).resolve().parent
 SLAVES = PACKAGE / "fmu" / "slaves"
 FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load")
 # What an FMU needs at run time: the physics and the FMU framework, nothing that imports fmpy.
 SHIPPED = ("__init__.py", "physics", "fmu/__init__.py", "fmu/base.py")
+PRIVATE_PREFIX = "_tribofmu_fmu_"
+CACHE_ENV = "TRIBOFMU_CACHE"  # overrides the cache folder (default: $XDG_CACHE_HOME/tribofmu)
+
+# ``from tribofmu.x import y`` / ``import tribofmu.x`` at the start of a line (any indent).
+_IMPORT = re.compile(r"^(\s*)(from|import)(\s+)tribofmu\b", re.MULTILINE)
 
 
-def _stage_package(root: Path) -> Path:
-    target = root / "tribofmu"
+def _shipped_sources() -> list[Path]:
+    """Every file whose content ends up in an FMU: the shipped package and the slave scripts."""
+    files = []
+    for rel in SHIPPED:
+        src = PACKAGE / rel
+        files += sorted(p for p in src.rglob("*.py")) if src.is_dir() else [src]
+    files += [SLAVES / f"{name}.py" for name in FMU_NAMES]
+    return files
+
+
+@lru_cache(maxsize=1)
+def source_hash() -> str:
+    """12 hex digits of sha256 over the shipped sources (paths and contents) and pythonfmu's version."""
+    import pythonfmu
+    digest = hashlib.sha256(f"pythonfmu {pythonfmu.__version__}\n".encode())
+    for path in _shipped_sources():
+        digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0")
+        digest.update(path.read_bytes() + b"\0")
+    return digest.hexdigest()[:12]
+
+
+def private_package_name() -> str:
+    """The name the shipped copy of the physics has inside the FMUs built from this source."""
+    return f"{PRIVATE_PREFIX}{__version__.replace('.', '_')}_{source_hash()}"
+
+
+def default_fmu_dir() -> Path:
+    """Per-user cache of the FMUs built from this exact source: ``<cache>/fmus/<version>-<hash>``."""
+    root = os.environ.get(CACHE_ENV)
+    if not root:
+        root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "tribofmu"
+    return Path(root) / "fmus" / f"{__version__}-{source_hash()}"
+
+
+def rewrite_imports(text: str, private: str) -> str:
+    return _IMPORT.sub(lambda m: f"{m.group(1)}{m.group(2)}{m.group(3)}{private}", text)
+
+
+def _stage_package(root: Path, private: str) -> Path:
+    target = root / private
     for rel in SHIPPED:
         src, dst = PACKAGE / rel, target / rel
         dst.parent.mkdir(parents=True, exist_ok=True)
@@ -22,27 +85,50 @@ def _stage_package(root: Path) -> Path:
             shutil.copytree(src, dst, ignore=shutil.ignore_patterns("__pycache__"))
         else:
             shutil.copy2(src, dst)
+    for path in target.rglob("*.py"):
+        path.write_text(rewrite_imports(path.read_text(), private))
     return target
 
 
-def build_fmus(out_dir: str | Path = "build", names: tuple[str, ...] = FMU_NAMES) -> list[Path]:
-    """Build ``out_dir/<Name>.fmu`` for each name; returns their paths.
+def _stage_slave(root: Path, name: str, private: str) -> Path:
+    """The slave script under its private module name, importing the private package."""
+    text = rewrite_imports((SLAVES / f"{name}.py").read_text(), private)
+    if re.search(r"\btribofmu\.", "\n".join(l for l in text.splitlines() if "import" in l)):
+        raise RuntimeError(f"{name}.py imports tribofmu in a form the build cannot rename")
+    script = root / f"{private}_{name}.py"
+    script.write_text(text)
+    return script
+
+
+def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] = FMU_NAMES) -> list[Path]:
+    """Build ``out_dir/<Name>.fmu`` for each name (default: :func:`default_fmu_dir`); returns their paths.
 
     Each file appears whole or not at all (built aside, then renamed into place).
     """
     from pythonfmu.builder import FmuBuilder  # build-time only dependency
 
-    out_dir = Path(out_dir)
+    out_dir = Path(out_dir) if out_dir is not None else default_fmu_dir()
     out_dir.mkdir(parents=True, exist_ok=True)
+    private = private_package_name()
     built = []
-    with tempfile.TemporaryDirectory(prefix="tribofmu_build_") as tmp:
-        package = _stage_package(Path(tmp))
-        for name in names:
-            partial = FmuBuilder.build_FMU(
-                SLAVES / f"{name}.py", dest=Path(tmp) / f"{name}.fmu", project_files=[package],
-                canGetAndSetFMUstate=True, canSerializeFMUstate=True)
-            final = out_dir / f"{name}.fmu"
-            os.replace(partial, final) if Path(partial).stat().st_dev == out_dir.stat().st_dev \
-                else shutil.move(str(partial), final)
-            built.append(final)
+    path_before = list(sys.path)
+    try:
+        with tempfile.TemporaryDirectory(prefix="tribofmu_build_") as tmp:
+            package = _stage_package(Path(tmp), private)
+            for name in names:
+                partial = FmuBuilder.build_FMU(
+                    _stage_slave(Path(tmp), name, private), dest=Path(tmp) / f"{name}.fmu",
+                    project_files=[package], canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+                final = out_dir / f"{name}.fmu"
+                # same file system: an atomic rename; otherwise copy beside the target first
+                aside = out_dir / f".{name}.fmu.partial-{os.getpid()}"
+                shutil.copyfile(partial, aside)
+                os.replace(aside, final)
+                built.append(final)
+    finally:
+        # The builder imported the staged modules from a folder that is now gone: forget them,
+        # so an FMU loaded later in this process imports its own copy.
+        sys.path[:] = path_before
+        for module in [m for m in sys.modules if m.startswith(PRIVATE_PREFIX)]:
+            del sys.modules[module]
     return built

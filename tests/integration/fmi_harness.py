@@ -19,10 +19,13 @@ import math
 import struct
 from pathlib import Path
 
-from fmpy import calloc, extract, free, read_model_description
+import pytest
+from fmpy import calloc, free, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+
+from tribofmu.master.slave import extract as extract_once
 
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load")
@@ -41,7 +44,8 @@ class Instance:
     def __init__(self, fmu_path: Path, name: str = "inst", unzip_dir: str | None = None,
                  logging_on: bool = True):
         self.md = read_model_description(str(fmu_path))
-        self.unzip_dir = unzip_dir or extract(str(fmu_path))
+        # the master's per-process extraction folder: removed when the test process exits
+        self.unzip_dir = unzip_dir or str(extract_once(fmu_path))
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.reals = [v.name for v in self.md.modelVariables if v.type == "Real"]
         self.outputs = [v.name for v in self.md.modelVariables if v.causality == "output"]

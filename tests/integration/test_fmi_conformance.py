@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
+from tribofmu.build import private_package_name, rewrite_imports
 
 from fmi_harness import FMU_NAMES, OK, Instance, bits
 from scenes import ROOT
@@ -81,10 +82,11 @@ def test_fmus_are_built_fresh_and_carry_the_physics(fmu_paths):
         with zipfile.ZipFile(path) as z:
             names = set(z.namelist())
             assert "modelDescription.xml" in names
+            private = private_package_name()  # the shipped copy's name: never shadows tribofmu
             for rel in ("fmu/base.py", "physics/friction.py", "physics/block.py", "physics/drive.py",
-                        "physics/thermal.py", "physics/load.py"):
-                shipped = z.read(f"resources/tribofmu/{rel}")
-                assert shipped == (PACKAGE / rel).read_bytes(), f"{name}: stale {rel}"
+                        "physics/thermal.py", "physics/load.py", "physics/roots.py"):
+                shipped = z.read(f"resources/{private}/{rel}").decode()
+                assert shipped == rewrite_imports((PACKAGE / rel).read_text(), private), f"{name}: stale {rel}"
 
 
 # -- model description ----------------------------------------------------------------------

@@ -213,11 +213,12 @@ def test_log_messages_escape_percent_signs(fmu_paths):
 
 FORMATTING_HOST = """
 import sys
-from fmpy import extract, read_model_description
+from tribofmu.master.slave import extract
+from fmpy import read_model_description
 from fmpy.fmi2 import FMU2Slave
 path, name = sys.argv[1], sys.argv[2]
 md = read_model_description(path)
-fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
+fmu = FMU2Slave(guid=md.guid, unzipDirectory=str(extract(path)), modelIdentifier=md.coSimulation.modelIdentifier,
                 instanceName=name)
 fmu.instantiate(loggingOn=True)  # fmpy's default logger formats each message with vsnprintf
 fmu.setupExperiment(startTime=0.0)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from tribofmu.master import CoupledSystem, Scales, make_algorithm, run, sample
-from tribofmu.master.algorithms import NS
+from tribofmu.master.interpolation import NS
 from tribofmu.physics import DRY, FLUID, FrictionLaw
 
 from fakes import FakeBlock, FakeDrive, FakeFriction

@@ -1,6 +1,7 @@
 """The fmpy-based co-simulation master: slaves, coupled system, coupling algorithms, run loop."""
 from .algorithms import ALGORITHMS, CouplingAlgorithm, Scales, make_algorithm
-from .run import RunOutcome, run, sample
+from .interpolation import NS, sample
+from .run import GridRecorder, PointList, RunLimits, RunOutcome, run
 from .slave import FMUCallError, FMUFileError, Slave
 from .system import CoupledSystem, Point
 

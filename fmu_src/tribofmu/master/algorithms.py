@@ -24,15 +24,10 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
 from ..physics.roots import illinois
+from .interpolation import NS, hermite_mid, velocity_slopes
 from .system import CoupledSystem, Point, States
 
 
-def velocity_slopes(start: Point, end: Point) -> tuple[float, float]:
-    """dv/dt at both ends of the step start -> end, as results are interpolated: over a
-    step that ends stuck, v follows V, so the slope is the drive's acceleration."""
-    return (start.aX, end.aX) if end.mode == 0 else (start.a, end.a)
-
-NS = 1_000_000_000  # nanoseconds per second
 
 
 @dataclass
@@ -468,9 +463,8 @@ class AdaptiveCoupling(ImplicitCoupling):
         midpoint, relative to tol: results are sampled between communication points, and
         this bounds that error (halves interpolate 16 times better)."""
         s, h = self.scales, h_ns / NS
-        hermite_mid = lambda y0, dy0, dy1, y1: 0.5 * (y0 + y1) + h / 8.0 * (dy0 - dy1)
-        v_mid = hermite_mid(start.v, *velocity_slopes(start, end), end.v)
-        x_mid = hermite_mid(start.x, start.v, end.v, end.x)
+        v_mid = hermite_mid(start.v, end.v, *velocity_slopes(start, end), h)
+        x_mid = hermite_mid(start.x, end.x, start.v, end.v, h)
         return max(abs(v_mid - mid.v) / (16 * self.tol * self._v_scale or 1.0),
                    abs(x_mid - mid.x) / (16 * self.tol * self._x_scale or 1.0))
 

@@ -1,16 +1,28 @@
-"""Run a coupling algorithm over a time span and sample the result on a uniform grid."""
+"""Run a coupling algorithm over a time span: the loop, what it keeps, and when it gives up.
+
+The loop hands every accepted communication point to a recorder. :class:`PointList` keeps
+them all (for studies of the points themselves); :class:`GridRecorder` samples them on the
+output grid and audits energy chunk by chunk, so a long run holds only its output, not its
+communication points. The loop also watches its own pace: a run whose projected wall time
+goes past ``limits.max_wall`` stops with a message saying where it was and what to change,
+and one past ``limits.notice_after`` says up front what it will cost.
+"""
 from __future__ import annotations
 
+import math
 import time as _time
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
-from .algorithms import NS, CouplingAlgorithm, Scales, velocity_slopes
+from ..errors import NumericalError
+from .algorithms import CouplingAlgorithm, Scales
+from .interpolation import INPUT_SIGNALS, NS, SIGNALS, sample
 from .slave import FMUCallError
 from .system import CoupledSystem, Point
 
-COLUMNS = ("X", "V", "x", "v", "F", "f", "stuck")
+COLUMNS = SIGNALS
 
 
 @dataclass(frozen=True)
@@ -28,11 +40,23 @@ class RunProgress:
         return self.t / self.stop_time if self.stop_time > 0 else 1.0
 
 
+@dataclass(frozen=True)
+class RunLimits:
+    """When a run speaks up about its cost, and when it gives up (wall-clock seconds).
+
+    The pace is judged once the run has gone for ``judge_after`` seconds: the projected
+    total is the wall time so far scaled by the share of the span still to go."""
+
+    max_wall: float | None = 1800.0  # stop when the projected total exceeds this (None: never)
+    notice_after: float = 120.0  # say what the run will cost when its projection exceeds this
+    judge_after: float = 3.0
+
+
 @dataclass
 class RunOutcome:
-    """Communication points of a run, how it ended, and what it cost."""
+    """How a run ended, what it cost, and what its recorder kept."""
 
-    points: list[Point]
+    points: list[Point]  # every point (PointList), or only the first and last (GridRecorder)
     ok: bool
     message: str
     wall_time: float  # s
@@ -40,75 +64,153 @@ class RunOutcome:
     calls: dict = field(default_factory=dict)
 
 
+class PointList:
+    """Keeps every communication point."""
+
+    def __init__(self):
+        self.points: list[Point] = []
+
+    def add(self, point: Point) -> None:
+        self.points.append(point)
+
+    def finish(self) -> None:
+        pass
+
+    def kept(self) -> list[Point]:
+        return self.points
+
+
+class GridRecorder:
+    """Samples the points on the time grid [s] as they come and feeds them, in chunks, to
+    ``audits`` (objects with ``add(points)``, e.g. the energy audit); memory stays bounded
+    by the grid, whatever the number of communication points.
+
+    inputs: also sample T, n, Q (the friction's inputs from other FMUs)."""
+
+    CHUNK = 4096  # points held before they are sampled and dropped
+
+    def __init__(self, grid: np.ndarray, audits=(), inputs: bool = False):
+        self.grid = np.asarray(grid, dtype=float)
+        self.audits, self.inputs = list(audits), inputs
+        names = SIGNALS + (INPUT_SIGNALS if inputs else ())
+        self.signals = {k: np.full(len(self.grid), np.nan) for k in names}
+        self.filled = 0  # grid samples done
+        self.buffer: list[Point] = []
+        self.first: Point | None = None
+
+    def add(self, point: Point) -> None:
+        if self.first is None:
+            self.first = point
+        self.buffer.append(point)
+        if len(self.buffer) >= self.CHUNK:
+            self._flush()
+
+    def _flush(self) -> None:
+        chunk = self.buffer
+        if len(chunk) >= 2:
+            t_end = chunk[-1].t_ns / NS
+            stop = int(np.searchsorted(self.grid, t_end + 1e-12, side="right"))
+            if stop > self.filled:
+                part = sample(chunk, self.grid[self.filled:stop], self.inputs)
+                for k, values in part.items():
+                    self.signals[k][self.filled:stop] = values
+                self.filled = stop
+            for audit in self.audits:
+                audit.add(chunk)
+        self.buffer = chunk[-1:]  # the next chunk starts where this one ended
+
+    def finish(self) -> None:
+        if len(self.buffer) >= 2:
+            self._flush()
+        elif self.first is not None and self.filled == 0 and len(self.grid):  # never stepped
+            for k in self.signals:
+                self.signals[k][0] = float(self.first.mode == 0) if k == "stuck" else getattr(self.first, k)
+            self.filled = 1
+            for audit in self.audits:
+                audit.add([self.first])
+
+    def sampled(self) -> dict[str, np.ndarray]:
+        """The signals on the part of the grid the run reached."""
+        return {k: v[:self.filled] for k, v in self.signals.items()}
+
+    def kept(self) -> list[Point]:
+        """The first and the last point."""
+        last = self.buffer[-1] if self.buffer else self.first
+        if self.first is None:
+            return []
+        return [self.first] if last is self.first else [self.first, last]
+
+
 def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, scales: Scales,
-        progress=None) -> RunOutcome:
+        progress: Callable[[RunProgress], None] | None = None, recorder=None,
+        limits: RunLimits = RunLimits(), notice: Callable[[str], None] | None = None) -> RunOutcome:
     """Advance from t = 0 to stop_time [s] in integer nanoseconds.
 
-    A numerical failure (an FMU discarding a step that no smaller step fixes, a NaN) ends
-    the run with ok=False and a message naming the instance; the points so far are kept.
+    recorder: where accepted points go (default :class:`PointList`). A numerical failure
+    (an FMU discarding a step that no smaller step fixes, a NaN) or a pace that would take
+    past ``limits.max_wall`` ends the run with ok=False and a message naming the instance
+    or the cost; what was recorded so far is kept. notice(text) is told once, up front,
+    when the projected wall time exceeds ``limits.notice_after``.
     """
+    recorder = PointList() if recorder is None else recorder
     stop_ns = int(round(stop_time * NS))
     algorithm.prepare(system, scales)
     begin = _time.perf_counter()
-    points = [system.start_point()]
+    current = system.start_point()
+    recorder.add(current)
     ok, message = True, "completed"
+    noticed = False
     try:
-        while points[-1].t_ns < stop_ns:
-            new = algorithm.advance(system, points[-1], stop_ns)
+        while current.t_ns < stop_ns:
+            new = algorithm.advance(system, current, stop_ns)
             for p in new:
                 if not all(np.isfinite((p.x, p.v, p.F, p.f))):
                     raise FloatingPointError(f"non-finite state at t = {p.t_ns / NS:.9g} s: "
                                              f"x={p.x}, v={p.v}, F={p.F}, f={p.f}")
-            points.extend(new)
-            if progress is not None and new:
-                c = algorithm.counters
-                progress(RunProgress(new[-1].t_ns / NS, stop_ns / NS, c.steps, c.rejected,
-                                     _time.perf_counter() - begin))
+                recorder.add(p)
+            if not new:
+                continue
+            h_ns = new[-1].t_ns - current.t_ns if len(new) == 1 else new[-1].t_ns - new[-2].t_ns
+            current = new[-1]
+            wall = _time.perf_counter() - begin
+            c = algorithm.counters
+            if progress is not None:
+                progress(RunProgress(current.t_ns / NS, stop_ns / NS, c.steps, c.rejected, wall))
+            if wall >= limits.judge_after and current.t_ns < stop_ns:
+                projected = wall * stop_ns / current.t_ns
+                pace = (f"step now {h_ns / NS:.3g} s, {c.steps} steps and {c.rejected} rejections "
+                        f"so far")
+                if limits.max_wall is not None and projected > limits.max_wall:
+                    raise RunawayError(
+                        f"stopped at t = {current.t_ns / NS:.6g} s of {stop_time:.6g} s after "
+                        f"{wall:.0f} s: at this pace the run would take {_duration(projected)} "
+                        f"({pace}); loosen --tol, shorten time.periods, or allow more with "
+                        f"--max-wall")
+                if notice is not None and not noticed and projected > limits.notice_after:
+                    noticed = True
+                    notice(f"this run will take about {_duration(projected)} at its present pace "
+                           f"({pace}); to shorten it, loosen --tol or reduce time.periods")
     except FMUCallError as exc:
-        ok, message = False, f"stopped at t = {points[-1].t_ns / NS:.9g} s: {exc}"
-    except FloatingPointError as exc:
+        ok, message = False, f"stopped at t = {current.t_ns / NS:.9g} s: {exc}"
+    except (FloatingPointError, RunawayError) as exc:
         ok, message = False, str(exc)
+    recorder.finish()
     wall = _time.perf_counter() - begin
     c = algorithm.counters
-    return RunOutcome(points, ok, message, wall,
+    return RunOutcome(recorder.kept(), ok, message, wall,
                       counters=dict(steps=c.steps, rejected=c.rejected, iterations=c.iterations,
                                     forced=c.forced, stick_steps=c.stick_steps),
                       calls=system.calls)
 
 
-def sample(points: list[Point], grid: np.ndarray) -> dict[str, np.ndarray]:
-    """The run's signals on the time grid [s].
-
-    Positions and velocities are cubic Hermite interpolants between communication points
-    (each has its derivative at both ends: V for X, v for x, the accelerations for V and v;
-    over a step that ends stuck, v follows V, so its slope is the drive's acceleration);
-    F and f, which may jump, are interpolated linearly. ``stuck`` is 1.0 where the coupling
-    held the blocks together over the step containing the sample (its own state, exact, not
-    a velocity threshold), else 0.0.
-    """
-    t = np.array([p.t_ns for p in points], dtype=np.int64) / NS
-    get = lambda name: np.array([getattr(p, name) for p in points])
-    X, V, aX, x, v, a = (get(k) for k in ("X", "V", "aX", "x", "v", "a"))
-    slopes = np.array([velocity_slopes(p0, p1) for p0, p1 in zip(points, points[1:])])
-    v_left, v_right = slopes[:, 0], slopes[:, 1]
-    return {"X": _hermite(t, X, V[:-1], V[1:], grid), "V": _hermite(t, V, aX[:-1], aX[1:], grid),
-            "x": _hermite(t, x, v[:-1], v[1:], grid), "v": _hermite(t, v, v_left, v_right, grid),
-            "F": np.interp(grid, t, get("F")), "f": np.interp(grid, t, get("f")),
-            "stuck": _stuck(t, get("mode"), grid)}
+class RunawayError(NumericalError):
+    """Raised inside :func:`run` when the pace projects past the wall-time limit."""
 
 
-def _stuck(t: np.ndarray, mode: np.ndarray, grid: np.ndarray) -> np.ndarray:
-    """1.0 where the step (t[i], t[i+1]] holding the sample ended stuck (mode 0)."""
-    i = np.clip(np.searchsorted(t, grid, side="left"), 1, len(t) - 1)
-    return (mode[i] == 0).astype(float)
-
-
-def _hermite(t: np.ndarray, y: np.ndarray, dy_left: np.ndarray, dy_right: np.ndarray,
-             grid: np.ndarray) -> np.ndarray:
-    """Cubic Hermite interpolation; dy_left[i], dy_right[i]: slopes at the ends of step i."""
-    i = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, len(t) - 2)
-    h = t[i + 1] - t[i]
-    s = (grid - t[i]) / h
-    h00, h10 = 2 * s ** 3 - 3 * s ** 2 + 1, s ** 3 - 2 * s ** 2 + s
-    h01, h11 = -2 * s ** 3 + 3 * s ** 2, s ** 3 - s ** 2
-    return h00 * y[i] + h10 * h * dy_left[i] + h01 * y[i + 1] + h11 * h * dy_right[i]
+def _duration(seconds: float) -> str:
+    if not math.isfinite(seconds):
+        return "forever"
+    for unit, size in (("years", 3.15e7), ("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= 2 * size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.0f} s"

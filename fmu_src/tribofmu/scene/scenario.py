@@ -114,6 +114,8 @@ class SimulationSettings:
     algorithm: str = "adaptive"
     step: float | None = None  # s; None: the algorithm's default
     tol: float | None = None  # nRMS-like tolerance for adaptive coupling
+    # s: a run whose projected wall time exceeds this stops with a message (0: no limit)
+    max_wall: float = 1800.0
 
 
 @dataclass(frozen=True)
@@ -302,6 +304,8 @@ def validate(scenario: Scenario) -> list[str]:
         out.append(f"simulation.step must be > 0, got {sim.step}")
     if sim.tol is not None and not (math.isfinite(sim.tol) and sim.tol > 0):
         out.append(f"simulation.tol must be > 0, got {sim.tol}")
+    if not (math.isfinite(sim.max_wall) and sim.max_wall >= 0):
+        out.append(f"simulation.max_wall must be >= 0 s (0: no limit), got {sim.max_wall}")
     return out
 
 

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import NumericalError
-from ..master.algorithms import NS
+from ..master.interpolation import NS
 from ..physics.block import BlockState, advance_block
 from ..physics.drive import drive
 from ..physics.friction import DRY, FLUID

@@ -15,7 +15,7 @@ from tribofmu.scene.wiring import build_system, fmu_parameters, input_signals
 from tribofmu.studies.energy import energy_audit, heat_audit, step_dissipation, step_integrals
 from tribofmu.studies.reference import nrms, reference_solution
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+from scenes import SCENARIOS
 pytestmark = pytest.mark.integration
 
 

@@ -15,7 +15,7 @@ from tribofmu.scene.scenario import LoadTable, ScenarioError, ThermalTable, load
 from tribofmu.scene.wiring import constant_inputs, fmu_parameters
 from tribofmu.studies.reference import reference_solution
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+from scenes import SCENARIOS
 # A parameter point no scene uses: C [J/K], q [1], G [W/K], T_ambient [K]
 PARAMS = ThermalParams(C=3.7e-9, q=0.3, G=2.9e-9, T_ambient=305.0)
 

@@ -1,0 +1,76 @@
+"""The one time base and the one interpolation of a run's communication points.
+
+Time in the master is integer nanoseconds (``NS`` per second): steps are added as integers,
+never ``t += dt``. Between communication points, positions and velocities are cubic
+Hermite interpolants (each has its derivative at both ends: V for X, v for x, the
+accelerations for V and v); F, f and the friction's inputs, which may jump, are linear.
+The sampler, the energy audit and the adaptive algorithm's interpolation check all use
+these functions, so what is checked is what is delivered.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+NS = 1_000_000_000  # nanoseconds per second
+
+
+def velocity_slopes(start, end) -> tuple[float, float]:
+    """dv/dt [m/s^2] at both ends of the step start -> end, as results are interpolated:
+    over a step that ends stuck, v follows V, so the slope is the drive's acceleration."""
+    return (start.aX, end.aX) if end.mode == 0 else (start.a, end.a)
+
+
+def hermite_basis(s):
+    """The cubic Hermite basis h00, h10, h01, h11 at s in [0, 1] (floats or arrays)."""
+    s2, s3 = s * s, s * s * s
+    return 2 * s3 - 3 * s2 + 1, s3 - 2 * s2 + s, -2 * s3 + 3 * s2, s3 - s2
+
+
+def hermite(y0, y1, dy0, dy1, h, s):
+    """The cubic through (0, y0) and (h, y1) with slopes dy0, dy1, at s*h (s in [0, 1])."""
+    h00, h10, h01, h11 = hermite_basis(s)
+    return h00 * y0 + h10 * h * dy0 + h01 * y1 + h11 * h * dy1
+
+
+def hermite_mid(y0, y1, dy0, dy1, h):
+    """:func:`hermite` at the middle of the step (s = 1/2)."""
+    return 0.5 * (y0 + y1) + h / 8.0 * (dy0 - dy1)
+
+
+SIGNALS = ("X", "V", "x", "v", "F", "f", "stuck")  # what sample() returns
+INPUT_SIGNALS = ("T", "n", "Q")  # the friction's inputs from other FMUs, and the heat received
+
+
+def sample(points, grid: np.ndarray, inputs: bool = False) -> dict[str, np.ndarray]:
+    """The run's signals on the time grid [s] (grid inside the points' span).
+
+    ``stuck`` is 1.0 where the coupling held the blocks together over the step containing
+    the sample (its own state, exact, not a velocity threshold), else 0.0. With inputs,
+    also T [K], n [Pa] and Q [J] (linear).
+    """
+    t = np.array([p.t_ns for p in points], dtype=np.int64) / NS
+    get = lambda name: np.array([getattr(p, name) for p in points])
+    X, V, aX, x, v, a = (get(k) for k in ("X", "V", "aX", "x", "v", "a"))
+    slopes = np.array([velocity_slopes(p0, p1) for p0, p1 in zip(points, points[1:])])
+    v_left, v_right = slopes[:, 0], slopes[:, 1]
+    out = {"X": _hermite_on(t, X, V[:-1], V[1:], grid), "V": _hermite_on(t, V, aX[:-1], aX[1:], grid),
+           "x": _hermite_on(t, x, v[:-1], v[1:], grid), "v": _hermite_on(t, v, v_left, v_right, grid),
+           "F": np.interp(grid, t, get("F")), "f": np.interp(grid, t, get("f")),
+           "stuck": _stuck(t, get("mode"), grid)}
+    if inputs:
+        out.update({k: np.interp(grid, t, get(k)) for k in INPUT_SIGNALS})
+    return out
+
+
+def _stuck(t: np.ndarray, mode: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """1.0 where the step (t[i], t[i+1]] holding the sample ended stuck (mode 0)."""
+    i = np.clip(np.searchsorted(t, grid, side="left"), 1, len(t) - 1)
+    return (mode[i] == 0).astype(float)
+
+
+def _hermite_on(t: np.ndarray, y: np.ndarray, dy_left: np.ndarray, dy_right: np.ndarray,
+                grid: np.ndarray) -> np.ndarray:
+    """Piecewise cubic Hermite on the grid; dy_left[i], dy_right[i]: slopes of step i."""
+    i = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, len(t) - 2)
+    h = t[i + 1] - t[i]
+    return hermite(y[i], y[i + 1], dy_left[i], dy_right[i], h, (grid - t[i]) / h)

@@ -1,0 +1,107 @@
+"""Progress and interruption of long runs.
+
+:class:`RunBar` is a progress callback for ``api.simulate(progress=...)``: a bar on stderr
+with simulated time, accepted and rejected steps, quiet when stderr is not a terminal
+(logs, pipes, tests) or when asked to be.
+
+Ctrl-C and SIGTERM during a run: the FMUs run Python code in this same interpreter, and
+pythonfmu turns any exception raised inside that code (a KeyboardInterrupt included) into
+``fmi2Fatal``, which loses the instance and reads as a numerical failure. So while a run is
+in progress the signal handler installed by :func:`install_signal_handlers` only records
+the request, and the progress callback (called by the master between steps, outside any
+FMU) raises :class:`KeyboardInterrupt` there. Outside a run the handler raises at once.
+"""
+from __future__ import annotations
+
+import contextlib
+import signal
+import sys
+import time
+
+_state = {"running": 0, "requested": False}
+
+
+def _handler(signum, _frame):
+    if _state["running"] and not _state["requested"]:
+        _state["requested"] = True  # stop at the next communication point
+        return
+    _state["requested"] = False
+    raise KeyboardInterrupt  # outside a run, or a second signal: stop now
+
+
+def install_signal_handlers() -> None:
+    """Ctrl-C (SIGINT) and SIGTERM stop cleanly; call from the main thread."""
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            signal.signal(sig, _handler)
+        except ValueError:  # not the main thread: leave signals to the host
+            return
+
+
+def check_interrupt() -> None:
+    """Raise KeyboardInterrupt if a stop was requested during the run (call between steps)."""
+    if _state["requested"]:
+        _state["requested"] = False
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def deferred_interrupts():
+    """Inside: a first Ctrl-C/SIGTERM only requests a stop, which :func:`check_interrupt`
+    (called between steps or runs) turns into KeyboardInterrupt; a second one stops at once.
+    On leaving normally, a pending request raises KeyboardInterrupt."""
+    _state["running"] += 1
+    try:
+        yield
+    finally:
+        _state["running"] -= 1
+    check_interrupt()
+
+
+class RunBar:
+    """A progress callback for ``api.simulate(progress=...)``; use as a context manager.
+
+    The bar counts simulated seconds; its text shows accepted steps and rejected
+    (rolled-back) steps. Redraws at most every ``interval`` seconds, so a run of 10^5
+    steps pays nothing for it. Inside the ``with`` block a Ctrl-C is deferred to the next
+    communication point (see the module docstring).
+    """
+
+    def __init__(self, desc: str, stop_time: float, enabled: bool | None = None, interval: float = 0.2,
+                 stream=None):
+        stream = stream if stream is not None else sys.stderr
+        self.enabled = stream.isatty() if enabled is None else enabled
+        self.interval = interval
+        self._last = 0.0
+        self._bar = None
+        if self.enabled:
+            from tqdm import tqdm
+            self._bar = tqdm(total=stop_time, desc=desc, unit="s", file=stream, leave=False,
+                             bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g}/{total:.4g} s "
+                                        "[{elapsed}<{remaining}] {postfix}")
+
+    def __call__(self, status) -> None:
+        check_interrupt()
+        if self._bar is None:
+            return
+        now = time.perf_counter()
+        if now - self._last < self.interval and status.t < status.stop_time:
+            return
+        self._last = now
+        self._bar.n = min(status.t, status.stop_time)
+        self._bar.set_postfix_str(f"{status.steps} steps, {status.rejected} rejected", refresh=False)
+        self._bar.refresh()
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+    def __enter__(self) -> "RunBar":
+        self._deferred = deferred_interrupts()
+        self._deferred.__enter__()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+        self._deferred.__exit__(*exc)  # asked to stop during the last step: stop now

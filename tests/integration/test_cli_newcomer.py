@@ -1,0 +1,308 @@
+"""A newcomer's first hour: the CLI from any folder, provenance, no silent overwrites, options
+that do not apply, clean interruption, FMUs and package in one process, no leftovers."""
+import dataclasses
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tribofmu import api, cli
+from tribofmu.build import PRIVATE_PREFIX, build_fmus, private_package_name
+from tribofmu.master.slave import EXTRACT_PREFIX
+
+from scenes import ROOT
+SCENES = ROOT / "scenarios"
+FIG2 = SCENES / "fig2_dry.toml"
+SHORT = ["--set", "time.periods=1", "--set", "time.window=[0,1]"]  # one period: a quick run
+pytestmark = pytest.mark.integration
+
+
+@pytest.fixture(scope="module")
+def fmu_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("newcomer-fmus")
+    build_fmus(out)
+    return out
+
+
+@pytest.fixture
+def env(tmp_path):
+    """A subprocess environment with its own FMU cache and temp folder."""
+    cache, tmp = tmp_path / "cache", tmp_path / "tmpdir"
+    tmp.mkdir()
+    return dict(os.environ, TRIBOFMU_CACHE=str(cache), TMPDIR=str(tmp), PYTHONDONTWRITEBYTECODE="1")
+
+
+def tribofmu(*args, cwd, env, timeout=600):
+    return subprocess.run([sys.executable, "-m", "tribofmu", *map(str, args)], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def one_line(proc) -> str:
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr
+    return lines[0]
+
+
+# -- item 4: finds or builds its FMUs from any folder; --version; python -m; options --------------
+def test_version_and_python_m(tmp_path, env):
+    from tribofmu import __version__
+    proc = tribofmu("--version", cwd=tmp_path, env=env)
+    assert proc.returncode == 0 and proc.stdout.strip() == f"tribofmu {__version__}"
+
+
+def test_simulate_and_export_ssp_from_another_folder_build_missing_fmus(tmp_path, env):
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    proc = tribofmu("simulate", FIG2, *SHORT, "--no-plots", cwd=elsewhere, env=env)
+    assert proc.returncode == 0, proc.stderr
+    cache = Path(env["TRIBOFMU_CACHE"]) / "fmus"
+    (built,) = list(cache.iterdir())
+    assert sorted(p.name for p in built.iterdir()) == ["BlockSpring.fmu", "Drive.fmu", "Friction.fmu"]
+    (run_dir,) = list((elsewhere / "out").iterdir())
+    assert (run_dir / "result.csv").is_file()
+    proc = tribofmu("export-ssp", SCENES / "fig5_newtonian.toml", "--out", "n.ssp", cwd=elsewhere, env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert "resources/Friction.fmu" in zipfile.ZipFile(elsewhere / "n.ssp").namelist()
+    assert list(cache.iterdir()) == [built]  # found, not rebuilt elsewhere
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--algorithm", "jacobi", "--tol", "1e-5"], "--tol applies to the adaptive algorithm only, not jacobi"),
+    (["--algorithm", "implicit", "--tol", "1e-3"], "--tol applies to the adaptive algorithm only, not implicit"),
+    (["--tol", "0"], "--tol must be > 0"),
+])
+def test_options_that_do_not_apply_are_one_line_exit_2(tmp_path, env, fmu_dir, args, message):
+    out = tmp_path / "o"
+    proc = tribofmu("simulate", FIG2, "--fmu-dir", fmu_dir, "--out", out, *args, cwd=tmp_path, env=env)
+    assert proc.returncode == 2 and message in one_line(proc)
+    assert not out.exists()
+
+
+def test_sweep_without_dask_names_the_package(tmp_path, env):
+    block = ("import sys, importlib.abc\n"
+             "class Block(importlib.abc.MetaPathFinder):\n"
+             "    def find_spec(self, name, path=None, target=None):\n"
+             "        if name.split('.')[0] == 'distributed': raise ModuleNotFoundError(name)\n"
+             "sys.meta_path.insert(0, Block())\n"
+             "from tribofmu.cli import main\n"
+             f"sys.exit(main(['sweep', {str(FIG2)!r}, '--grid', 'drive.omega=20,30', '--out', 'sw']))\n")
+    proc = subprocess.run([sys.executable, "-c", block], cwd=tmp_path, env=env, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 2
+    assert "python -m pip install 'dask[distributed]'" in one_line(proc)
+    assert not (tmp_path / "sw").exists()
+
+
+# -- item 3: provenance and no silent overwrites -------------------------------------------------
+def test_default_out_dirs_differ_by_overrides_and_stats_say_what_ran(tmp_path, env, fmu_dir):
+    first = tribofmu("simulate", FIG2, "--fmu-dir", fmu_dir, *SHORT, "--no-plots", cwd=tmp_path, env=env)
+    second = tribofmu("simulate", FIG2, "--fmu-dir", fmu_dir, *SHORT, "--set", "drive.omega=80",
+                      "--algorithm", "implicit", "--step", "2e-4", "--no-plots", cwd=tmp_path, env=env)
+    assert first.returncode == 0 and second.returncode == 0, first.stderr + second.stderr
+    runs = sorted((tmp_path / "out").iterdir())
+    assert len(runs) == 2 and all(p.name.startswith("fig2_dry--") for p in runs)
+    by_omega = {}
+    for run in runs:
+        stats = json.loads((run / "stats.json").read_text())
+        by_omega[stats["provenance"]["overrides"].get("drive.omega")] = stats
+    stats = by_omega["80"]
+    prov = stats["provenance"]
+    assert prov["scene"] == {"file": str(FIG2), "sha256": hashlib.sha256(FIG2.read_bytes()).hexdigest()}
+    assert prov["overrides"] == {"time.periods": "1", "time.window": "[0,1]", "drive.omega": "80"}
+    assert prov["settings"]["algorithm"] == "implicit" and prov["settings"]["step"] == pytest.approx(2e-4)
+    assert set(prov["versions"]) >= {"tribofmu", "fmpy", "pythonfmu", "python"}
+    import fmpy
+    for name in ("Drive", "BlockSpring", "Friction"):
+        guid = fmpy.read_model_description(str(fmu_dir / f"{name}.fmu")).guid
+        assert prov["fmus"][name]["guid"] == guid
+    assert by_omega[None]["provenance"]["settings"]["algorithm"] == "adaptive"
+
+
+def test_plot_titles_show_the_simulated_values():
+    from tribofmu.plots import scene_label
+    label = scene_label(api.load(FIG2, {"drive.omega": 80.0, "conditions.n": -33.0}))
+    assert "ω = 80 rad/s" in label and "L = 33 N" in label and "30" not in label
+
+
+def test_out_naming_a_file_is_refused_before_simulating(tmp_path, env):
+    target = tmp_path / "existing.txt"
+    target.write_text("keep me")
+    # a missing --fmu-dir would fail too: the --out check comes first, before any FMU or run
+    proc = tribofmu("simulate", FIG2, "--out", target, "--fmu-dir", tmp_path / "none", cwd=tmp_path, env=env)
+    assert proc.returncode == 2 and f"--out {target}: {target} is a file" in one_line(proc)
+    assert target.read_text() == "keep me"
+    proc = tribofmu("export-ssp", FIG2, "--out", tmp_path, cwd=tmp_path, env=env)
+    assert proc.returncode == 2 and "is a folder, not a file" in one_line(proc)
+
+
+def _short_result(fmu_dir):
+    return api.simulate(FIG2, {"time.periods": 1, "time.window": [0, 1]}, fmu_dir=fmu_dir, build=False)
+
+
+def test_a_failed_run_does_not_leave_older_results_beside_its_stats(tmp_path, fmu_dir, monkeypatch, capsys):
+    out = tmp_path / "run"
+    argv = ["simulate", str(FIG2), "--out", str(out), "--fmu-dir", str(fmu_dir), "-q", *SHORT]
+    assert cli.main(argv) == 0
+    assert {p.name for p in out.iterdir()} == {"stats.json", "result.csv", "time.png", "phase.png"}
+    good = _short_result(fmu_dir)
+    failed = dataclasses.replace(good, ok=False, message="stopped at t = 0.1 s: friction: fmi2DoStep")
+    failed.stats = dict(good.stats, ok=False, message=failed.message)
+    monkeypatch.setattr(api, "simulate", lambda *a, **k: failed)
+    assert cli.main(argv) == cli.EXIT_FAILED
+    assert {p.name for p in out.iterdir()} == {"stats.json"}
+    assert json.loads((out / "stats.json").read_text())["message"] == failed.message
+
+
+def test_ctrl_c_leaves_the_previous_results_untouched(tmp_path, fmu_dir, monkeypatch, capsys):
+    out = tmp_path / "run"
+    argv = ["simulate", str(FIG2), "--out", str(out), "--fmu-dir", str(fmu_dir), "-q", "--no-plots", *SHORT]
+    assert cli.main(argv) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(api, "simulate", interrupted)
+    assert cli.main(argv) == 130
+    assert "interrupted; nothing was written" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+# -- item 2 and 9: progress, kill, and nothing left in the temp folder ---------------------------
+def test_progress_bar_reports_time_steps_and_rejections():
+    import io
+    from tribofmu.master.run import RunProgress
+    from tribofmu.progress import RunBar
+    stream = io.StringIO()
+    with RunBar("scene", 2.0, enabled=True, interval=0.0, stream=stream) as bar:
+        bar(RunProgress(t=0.5, stop_time=2.0, steps=123, rejected=4, wall_time=0.1))
+        text = stream.getvalue()
+    assert "25%" in text and "123 steps, 4 rejected" in text and "t = 0.5/2 s" in text
+    assert RunBar("scene", 1.0, enabled=False)._bar is None
+
+
+def test_killed_run_writes_nothing_and_removes_its_extracted_fmus(tmp_path, env, fmu_dir):
+    tmp = Path(env["TMPDIR"])
+    orphan = tmp / f"{EXTRACT_PREFIX}999999999-dead"  # left by a process that no longer exists
+    orphan.mkdir()
+    out = tmp_path / "long"
+    proc = subprocess.Popen([sys.executable, "-m", "tribofmu", "simulate", SCENES / "fig5_pseudoplastic.toml",
+                             "--fmu-dir", fmu_dir, "--out", out, "--set", "time.periods=400"],
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not list(tmp.glob(f"{EXTRACT_PREFIX}{proc.pid}-*")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert list(tmp.glob(f"{EXTRACT_PREFIX}{proc.pid}-*")), "the run never unzipped its FMUs"
+    assert not orphan.exists()  # reaped by the new process
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines()[-1] == "tribofmu: interrupted; nothing was written"
+    assert not out.exists() or not any(out.iterdir())
+    assert list(tmp.iterdir()) == []
+
+
+def test_instances_of_one_fmu_share_one_extraction_removed_at_exit(tmp_path, env, fmu_dir):
+    code = ("import sys, tempfile\nfrom pathlib import Path\nfrom tribofmu.master.slave import Slave\n"
+            f"fmu = Path({str(fmu_dir)!r}) / 'Drive.fmu'\n"
+            "a, b = Slave(fmu, 'a'), Slave(fmu, 'b')\n"
+            "assert a._unzipped == b._unzipped\n"
+            "a.close(); b.close()\n"
+            "print(len(list(Path(tempfile.gettempdir()).iterdir())))\n")
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "1"  # one folder while running
+    assert list(Path(env["TMPDIR"]).iterdir()) == []  # none after exit
+
+
+# -- item 5: our FMUs and our package in one process ---------------------------------------------
+def test_fmu_loaded_in_process_does_not_shadow_the_package(tmp_path, env, fmu_dir):
+    code = ("import sys, fmpy\n"
+            f"r = fmpy.simulate_fmu({str(fmu_dir / 'Drive.fmu')!r}, stop_time=0.01, step_size=1e-3,\n"
+            "                      start_values={'A': 1e-3, 'omega': 20.0})\n"
+            "assert abs(r['X'][-1] - 1e-3 * __import__('math').cos(0.2)) < 1e-12\n"
+            "import tribofmu.api as api\n"
+            "assert 'resources' not in api.__file__\n"
+            f"res = api.simulate({str(FIG2)!r}, {{'time.periods': 1, 'time.window': [0, 1]}},\n"
+            f"                   fmu_dir={str(fmu_dir)!r}, build=False)\n"
+            "assert res.ok, res.message\n"
+            "print(sorted({m.split('.')[0] for m in sys.modules if 'tribofmu' in m}))\n")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    private = private_package_name()
+    assert proc.stdout.strip() == str(sorted([private, f"{private}_Drive", f"{private}_BlockSpring",
+                                              f"{private}_Friction", "tribofmu"]))
+
+
+def test_built_fmus_never_import_the_name_tribofmu(fmu_dir):
+    for name in ("Drive", "BlockSpring", "Friction"):
+        with zipfile.ZipFile(fmu_dir / f"{name}.fmu") as zf:
+            names = zf.namelist()
+            assert not [n for n in names if n.startswith("resources/tribofmu/")]
+            module = zf.read("resources/slavemodule.txt").decode().strip()
+            assert module.startswith(PRIVATE_PREFIX) and module.endswith(f"_{name}")
+            for source in [n for n in names if n.endswith(".py") and "/pythonfmu/" not in n]:
+                for line in zf.read(source).decode().splitlines():
+                    words = line.split()
+                    if words[:1] in (["import"], ["from"]):
+                        assert words[1].split(".")[0] != "tribofmu", (source, line)
+
+
+# -- item 8: stick from the coupling's own state --------------------------------------------------
+def test_stick_fraction_comes_from_the_coupling_state(fmu_dir):
+    from tribofmu import metrics
+    result = api.simulate(SCENES / "fig4_dry_w130.toml", fmu_dir=fmu_dir, build=False)
+    m = result.window_mask()
+    got = metrics.result_metrics(result)
+    threshold = metrics.stick_fraction(result.time[m], result.V[m], result.v[m])
+    assert got["stick_fraction"] == pytest.approx(0.91, abs=0.02)
+    assert threshold == pytest.approx(0.958, abs=0.01)  # creeping slip counted as stick
+    assert got["stick_episodes_per_period"] == 1
+
+
+def test_boundary_friction_is_never_stuck_and_says_so_through_melting(fmu_dir):
+    from tribofmu import metrics
+    result = api.simulate(SCENES / "fig6_boundary.toml", {"time.periods": 1.5, "time.window": [0.5, 1.5],
+                                                          "drive.omega": 35.0},
+                          algorithm="implicit", step=2e-4, fmu_dir=fmu_dir, build=False)
+    assert result.ok, result.message
+    got = metrics.result_metrics(result)
+    assert got["stick_fraction"] == 0 and got["stick_episodes_per_period"] == 0
+    assert 0 < got["melt_fraction"] < 1
+
+
+def test_stuck_mask_episodes_at_a_point_no_scene_uses():
+    from tribofmu import metrics
+    T = 0.37
+    t = np.linspace(0, 3 * T, 3001)
+    phase = (t / T) % 1.0
+    stuck = ((phase > 0.1) & (phase < 0.3)) | ((phase > 0.6) & (phase < 0.65)) | (phase > 0.95)
+    assert metrics.stuck_fraction(t, stuck) == pytest.approx(0.30, abs=2e-3)
+    # phase > 0.95 continues into phase < 0.0 of the next period: one episode across the wrap
+    assert metrics.stuck_episodes_per_period(t, stuck, T) == 3
+
+
+def test_a_signal_during_a_run_is_deferred_to_the_next_step_and_a_second_one_is_not():
+    from tribofmu import progress
+    reached = []
+    with pytest.raises(KeyboardInterrupt):
+        with progress.deferred_interrupts():
+            progress._handler(signal.SIGINT, None)  # inside FMU code this must not raise
+            reached.append("after the first signal")
+    assert reached == ["after the first signal"]
+    with pytest.raises(KeyboardInterrupt):
+        with progress.deferred_interrupts():
+            progress._handler(signal.SIGINT, None)
+            progress._handler(signal.SIGINT, None)  # asked twice: stop now
+    with pytest.raises(KeyboardInterrupt):
+        progress._handler(signal.SIGTERM, None)  # outside a run: at once
+    progress.check_interrupt()  # nothing pending is left behind
