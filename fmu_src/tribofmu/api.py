@@ -29,6 +29,8 @@ from .scene.wiring import build_system, fmu_parameters
 class FMUSetupError(FMUError, RuntimeError):
     """One or more FMUs could not be loaded or initialized; the message names each instance."""
 SAMPLES_PER_PERIOD = 1000
+# The output grid is held in memory (8 bytes a value): 1e7 samples are 0.6 GB of results.
+MAX_OUTPUT_SAMPLES = 10_000_000
 
 
 @dataclass
@@ -95,6 +97,11 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     fmu_dir = Path(fmu_dir)
     ensure_fmus(fmu_dir, scenario.fmus, build)
     n = max(1, math.ceil(round(scenario.time.periods * SAMPLES_PER_PERIOD, 6)))
+    if n > MAX_OUTPUT_SAMPLES:
+        raise ScenarioError(
+            f"{scenario.source}: time.periods = {scenario.time.periods:g} asks for {n:.3g} output samples "
+            f"({n * 8 * (len(COLUMNS) + 1) / 1e9:.3g} GB of results); at most {MAX_OUTPUT_SAMPLES:.0e} "
+            f"({MAX_OUTPUT_SAMPLES // SAMPLES_PER_PERIOD} periods): simulate fewer periods")
     grid = np.linspace(0.0, scenario.stop_time, n + 1)
     audit = EnergyAudit(scenario)
     inputs = bool({"Thermal", "Load"} & set(scenario.fmus))

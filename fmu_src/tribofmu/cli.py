@@ -49,13 +49,10 @@ def main(argv: list[str] | None = None) -> int:
         print("tribofmu: interrupted; nothing was written", file=sys.stderr)
         return 130
     except Exception as exc:  # every expected failure becomes one line, never a traceback
-        from .api import FMUSetupError
-        from .master.slave import FMUCallError, FMUFileError
-        from .scene.scenario import ScenarioError
-        if isinstance(exc, (UsageError, ScenarioError, FMUFileError, FileNotFoundError, FMUSetupError,
-                            FMUCallError)):
+        from .errors import NumericalError, TriboFMUError
+        if isinstance(exc, (UsageError, TriboFMUError, FileNotFoundError)):
             print(f"tribofmu: {exc}", file=sys.stderr)
-            return EXIT_BAD_INPUT
+            return EXIT_FAILED if isinstance(exc, NumericalError) else EXIT_BAD_INPUT
         raise
 
 
@@ -75,6 +72,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="output directory (default: out/<scenario name>[--<overrides>])")
     _add_set(p)
     _add_algorithm(p)
+    p.add_argument("--max-wall", type=float, default=None, metavar="S",
+                   help="stop a run whose projected wall time exceeds S seconds (0: no limit; "
+                        "default: the scene's simulation.max_wall, 1800)")
     p.add_argument("--fmu-dir", default=None, help=fmu_help)
     p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -157,12 +157,15 @@ def check_out_file(path: Path, option: str = "--out") -> Path:
     return path
 
 
-def check_algorithm_options(scenario, algorithm: str | None, step: float | None, tol: float | None) -> str:
+def check_algorithm_options(scenario, algorithm: str | None, step: float | None, tol: float | None,
+                            max_wall: float | None = None) -> str:
     """The algorithm that will run; a --step/--tol it does not use is an error."""
     from .master.algorithms import ALGORITHMS
     for name, value in (("--step", step), ("--tol", tol)):
         if value is not None and not value > 0:
             raise UsageError(f"{name} must be > 0, got {value}")
+    if max_wall is not None and not max_wall >= 0:
+        raise UsageError(f"--max-wall must be >= 0 s (0: no limit), got {max_wall}")
     name = algorithm or scenario.simulation.algorithm
     if name not in ALGORITHMS:
         raise UsageError(f"unknown algorithm {name!r} (known: {', '.join(ALGORITHMS)})")
@@ -227,7 +230,7 @@ def cmd_simulate(args) -> int:
     from .provenance import default_out_dir, overrides_dict, record
 
     scenario = api.load(args.scenario, args.overrides)
-    algorithm = check_algorithm_options(scenario, args.algorithm, args.step, args.tol)
+    algorithm = check_algorithm_options(scenario, args.algorithm, args.step, args.tol, args.max_wall)
     out = Path(args.out) if args.out else default_out_dir(
         scenario.name, label_overrides(args.overrides, args.algorithm, args.step, args.tol))
     check_out_dir(out)
@@ -235,7 +238,8 @@ def cmd_simulate(args) -> int:
     quiet = True if args.quiet else None
     with RunBar(scenario.name, scenario.stop_time, enabled=False if quiet else None) as bar:
         result = api.simulate(scenario, algorithm=args.algorithm, step=args.step, tol=args.tol,
-                              fmu_dir=fmu_dir, build=False, progress=bar)
+                              fmu_dir=fmu_dir, build=False, progress=bar, notice=bar.notice,
+                              max_wall=-1.0 if args.max_wall is None else args.max_wall)
     stats = dict(result.stats)
     settings = {"algorithm": algorithm, "step": stats.get("step"), "tol": stats.get("tol"),
                 "requested": {"algorithm": args.algorithm, "step": args.step, "tol": args.tol}}

@@ -70,6 +70,7 @@ class RunBar:
     def __init__(self, desc: str, stop_time: float, enabled: bool | None = None, interval: float = 0.2,
                  stream=None):
         stream = stream if stream is not None else sys.stderr
+        self._stream = stream
         self.enabled = stream.isatty() if enabled is None else enabled
         self.interval = interval
         self._last = 0.0
@@ -91,6 +92,14 @@ class RunBar:
         self._bar.n = min(status.t, status.stop_time)
         self._bar.set_postfix_str(f"{status.steps} steps, {status.rejected} rejected", refresh=False)
         self._bar.refresh()
+
+    def notice(self, text: str) -> None:
+        """A one-line message on the bar's stream (above the bar, which stays)."""
+        line = f"tribofmu: {text}"
+        if self._bar is not None:
+            self._bar.write(line, file=self._stream)
+        else:
+            print(line, file=self._stream, flush=True)
 
     def close(self) -> None:
         if self._bar is not None:

@@ -259,7 +259,7 @@ def test_built_fmus_never_import_the_name_tribofmu(fmu_dir):
 
 # -- item 8: stick from the coupling's own state --------------------------------------------------
 def test_stick_fraction_comes_from_the_coupling_state(fmu_dir):
-    from tribofmu import metrics
+    from tribofmu.studies import metrics
     result = api.simulate(SCENES / "fig4_dry_w130.toml", fmu_dir=fmu_dir, build=False)
     m = result.window_mask()
     got = metrics.result_metrics(result)
@@ -270,7 +270,7 @@ def test_stick_fraction_comes_from_the_coupling_state(fmu_dir):
 
 
 def test_boundary_friction_is_never_stuck_and_says_so_through_melting(fmu_dir):
-    from tribofmu import metrics
+    from tribofmu.studies import metrics
     result = api.simulate(SCENES / "fig6_boundary.toml", {"time.periods": 1.5, "time.window": [0.5, 1.5],
                                                           "drive.omega": 35.0},
                           algorithm="implicit", step=2e-4, fmu_dir=fmu_dir, build=False)
@@ -281,7 +281,7 @@ def test_boundary_friction_is_never_stuck_and_says_so_through_melting(fmu_dir):
 
 
 def test_stuck_mask_episodes_at_a_point_no_scene_uses():
-    from tribofmu import metrics
+    from tribofmu.studies import metrics
     T = 0.37
     t = np.linspace(0, 3 * T, 3001)
     phase = (t / T) % 1.0
