@@ -108,8 +108,10 @@ class GridRecorder:
     def _flush(self) -> None:
         chunk = self.buffer
         if len(chunk) >= 2:
+            # the run ends on the whole nanosecond nearest the stop: a grid time within a
+            # nanosecond past the last point still belongs to it
             t_end = chunk[-1].t_ns / NS
-            stop = int(np.searchsorted(self.grid, t_end + 1e-12, side="right"))
+            stop = int(np.searchsorted(self.grid, t_end + 1e-9, side="right"))
             if stop > self.filled:
                 part = sample(chunk, self.grid[self.filled:stop], self.inputs)
                 for k, values in part.items():
