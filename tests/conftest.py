@@ -26,6 +26,16 @@ def fmu_dir(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
+def fmu3_dir(tmp_path_factory) -> Path:
+    """The same FMUs built as FMI 3.0 co-simulation FMUs (``tribofmu build --fmi 3``)."""
+    from tribofmu.build import build_fmus
+
+    out = tmp_path_factory.mktemp("fmus3")
+    build_fmus(out, fmi=3)
+    return out
+
+
+@pytest.fixture(scope="session")
 def fmu_paths(fmu_dir) -> dict[str, Path]:
     """The built FMUs by name: ``{"Friction": .../Friction.fmu, ...}``."""
     return {path.stem: path for path in sorted(fmu_dir.glob("*.fmu"))}

@@ -12,6 +12,12 @@ Where FMUs live by default (:func:`default_fmu_dir`): a per-user cache keyed by 
 package version and the hash of the shipped sources, so every working directory finds
 (or builds once) the FMUs matching the installed code, and a changed source never runs a
 stale FMU.
+
+FMI 3.0 (``fmi=3``, ``tribofmu build --fmi 3``): the same adapters built with pythonfmu3. The
+shipped copy is then ``_tribofmu_fmu_fmi3_<version>_<hash>`` with ``fmu/fmi_version.py``
+saying 3, so :mod:`tribofmu.fmu.base` derives from pythonfmu3's ``Fmi3Slave``, and each
+adapter's base-class alias ``Fmi2Slave`` is renamed ``Fmi3Slave`` (pythonfmu3 finds the
+model class by that text). They go to their own cache folder, ``<version>-<hash>-fmi3``.
 """
 from __future__ import annotations
 
@@ -30,7 +36,8 @@ PACKAGE = Path(__file__).resolve().parent
 SLAVES = PACKAGE / "fmu" / "slaves"
 FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load")
 # What an FMU needs at run time: the physics and the FMU framework, nothing that imports fmpy.
-SHIPPED = ("__init__.py", "physics", "fmu/__init__.py", "fmu/base.py")
+SHIPPED = ("__init__.py", "physics", "fmu/__init__.py", "fmu/base.py", "fmu/fmi_version.py")
+FMI_VERSIONS = (2, 3)
 PRIVATE_PREFIX = "_tribofmu_fmu_"
 CACHE_ENV = "TRIBOFMU_CACHE"  # overrides the cache folder (default: $XDG_CACHE_HOME/tribofmu)
 
@@ -48,35 +55,43 @@ def _shipped_sources() -> list[Path]:
     return files
 
 
-@lru_cache(maxsize=1)
-def source_hash() -> str:
-    """12 hex digits of sha256 over the shipped sources (paths and contents) and pythonfmu's version."""
-    import pythonfmu
-    digest = hashlib.sha256(f"pythonfmu {pythonfmu.__version__}\n".encode())
+@lru_cache(maxsize=2)
+def source_hash(fmi: int = 2) -> str:
+    """12 hex digits of sha256 over the shipped sources (paths and contents) and the version of
+    the pythonfmu (FMI 2.0) or pythonfmu3 (FMI 3.0) that builds them."""
+    if fmi == 3:
+        import pythonfmu3
+        digest = hashlib.sha256(f"pythonfmu3 {pythonfmu3.__version__}\n".encode())
+    else:
+        import pythonfmu
+        digest = hashlib.sha256(f"pythonfmu {pythonfmu.__version__}\n".encode())
     for path in _shipped_sources():
         digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0")
         digest.update(path.read_bytes() + b"\0")
     return digest.hexdigest()[:12]
 
 
-def private_package_name() -> str:
+def private_package_name(fmi: int = 2) -> str:
     """The name the shipped copy of the physics has inside the FMUs built from this source."""
-    return f"{PRIVATE_PREFIX}{__version__.replace('.', '_')}_{source_hash()}"
+    version = "fmi3_" if fmi == 3 else ""  # FMI 2.0 and 3.0 FMUs may share a process
+    return f"{PRIVATE_PREFIX}{version}{__version__.replace('.', '_')}_{source_hash(fmi)}"
 
 
-def default_fmu_dir() -> Path:
-    """Per-user cache of the FMUs built from this exact source: ``<cache>/fmus/<version>-<hash>``."""
+def default_fmu_dir(fmi: int = 2) -> Path:
+    """Per-user cache of the FMUs built from this exact source: ``<cache>/fmus/<version>-<hash>``
+    (FMI 3.0: ``<version>-<hash>-fmi3``)."""
     root = os.environ.get(CACHE_ENV)
     if not root:
         root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "tribofmu"
-    return Path(root) / "fmus" / f"{__version__}-{source_hash()}"
+    suffix = "-fmi3" if fmi == 3 else ""
+    return Path(root) / "fmus" / f"{__version__}-{source_hash(fmi)}{suffix}"
 
 
 def rewrite_imports(text: str, private: str) -> str:
     return _IMPORT.sub(lambda m: f"{m.group(1)}{m.group(2)}{m.group(3)}{private}", text)
 
 
-def _stage_package(root: Path, private: str) -> Path:
+def _stage_package(root: Path, private: str, fmi: int = 2) -> Path:
     target = root / private
     for rel in SHIPPED:
         src, dst = PACKAGE / rel, target / rel
@@ -87,12 +102,20 @@ def _stage_package(root: Path, private: str) -> Path:
             shutil.copy2(src, dst)
     for path in target.rglob("*.py"):
         path.write_text(rewrite_imports(path.read_text(), private))
+    if fmi == 3:
+        version_file = target / "fmu" / "fmi_version.py"
+        text, count = re.subn(r"^FMI_VERSION = 2$", "FMI_VERSION = 3", version_file.read_text(), flags=re.M)
+        if count != 1:
+            raise RuntimeError(f"{version_file.name} has no line 'FMI_VERSION = 2' to switch to FMI 3.0")
+        version_file.write_text(text)
     return target
 
 
-def _stage_slave(root: Path, name: str, private: str) -> Path:
+def _stage_slave(root: Path, name: str, private: str, fmi: int = 2) -> Path:
     """The slave script under its private module name, importing the private package."""
     text = rewrite_imports((SLAVES / f"{name}.py").read_text(), private)
+    if fmi == 3:
+        text = re.sub(r"\bFmi2Slave\b", "Fmi3Slave", text)
     if re.search(r"\btribofmu\.", "\n".join(l for l in text.splitlines() if "import" in l)):
         raise RuntimeError(f"{name}.py imports tribofmu in a form the build cannot rename")
     script = root / f"{private}_{name}.py"
@@ -100,25 +123,38 @@ def _stage_slave(root: Path, name: str, private: str) -> Path:
     return script
 
 
-def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] = FMU_NAMES) -> list[Path]:
-    """Build ``out_dir/<Name>.fmu`` for each name (default: :func:`default_fmu_dir`); returns their paths.
+def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] = FMU_NAMES,
+               fmi: int = 2) -> list[Path]:
+    """Build ``out_dir/<Name>.fmu`` for each name (default: :func:`default_fmu_dir`) as FMI 2.0
+    or (fmi=3) FMI 3.0 co-simulation FMUs; returns their paths.
 
     Each file appears whole or not at all (built aside, then renamed into place).
     """
-    from pythonfmu.builder import FmuBuilder  # build-time only dependency
+    if fmi not in FMI_VERSIONS:
+        raise ValueError(f"FMI version must be 2 or 3, got {fmi!r}")
+    if fmi == 3:  # build-time only dependencies
+        from pythonfmu3.builder import FmuBuilder
+        options = dict(canGetAndSetFMUState=True, canSerializeFMUState=True,
+                       canHandleVariableCommunicationStepSize=True)
+    else:
+        from pythonfmu.builder import FmuBuilder
+        options = dict(canGetAndSetFMUstate=True, canSerializeFMUstate=True)
 
-    out_dir = Path(out_dir) if out_dir is not None else default_fmu_dir()
+    out_dir = Path(out_dir) if out_dir is not None else default_fmu_dir(fmi)
     out_dir.mkdir(parents=True, exist_ok=True)
-    private = private_package_name()
+    private = private_package_name(fmi)
     built = []
     path_before = list(sys.path)
     try:
         with tempfile.TemporaryDirectory(prefix="tribofmu_build_") as tmp:
-            package = _stage_package(Path(tmp), private)
+            package = _stage_package(Path(tmp), private, fmi)
             for name in names:
+                _forget_private_modules()  # imported by the previous build from a folder now gone
+                # pythonfmu3 takes a folder as dest and names the file after the model
+                dest = Path(tmp) / f"{name}.fmu" if fmi == 2 else Path(tmp) / f"fmi3-{name}"
                 partial = FmuBuilder.build_FMU(
-                    _stage_slave(Path(tmp), name, private), dest=Path(tmp) / f"{name}.fmu",
-                    project_files=[package], canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+                    _stage_slave(Path(tmp), name, private, fmi), dest=dest,
+                    project_files=[package], **options)
                 final = out_dir / f"{name}.fmu"
                 # same file system: an atomic rename; otherwise copy beside the target first
                 aside = out_dir / f".{name}.fmu.partial-{os.getpid()}"
@@ -129,6 +165,10 @@ def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] = FMU_N
         # The builder imported the staged modules from a folder that is now gone: forget them,
         # so an FMU loaded later in this process imports its own copy.
         sys.path[:] = path_before
-        for module in [m for m in sys.modules if m.startswith(PRIVATE_PREFIX)]:
-            del sys.modules[module]
+        _forget_private_modules()
     return built
+
+
+def _forget_private_modules() -> None:
+    for module in [m for m in sys.modules if m.startswith(PRIVATE_PREFIX)]:
+        del sys.modules[module]

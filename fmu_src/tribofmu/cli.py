@@ -1,7 +1,7 @@
 """The ``tribofmu`` command: a thin layer over :mod:`tribofmu.api`.
 
-    tribofmu build [--out DIR]
-    tribofmu simulate SCENARIO [--out DIR] [--set KEY=VALUE ...] [--algorithm NAME] [--step S] [--tol TOL]
+    tribofmu build [--out DIR] [--fmi {2,3}]
+    tribofmu simulate SCENARIO [--out DIR] [--set KEY=VALUE ...] [--algorithm NAME] [--step S] [--tol TOL] [--fmi {2,3}]
     tribofmu export-ssp SCENARIO --out FILE.ssp [--set KEY=VALUE ...] [--fmu-dir DIR]
     tribofmu accuracy SCENARIO [--out DIR] [--set KEY=VALUE ...] [--quick]
     tribofmu sweep SCENARIO --grid KEY=V1,V2,... [--grid ...] [--out DIR] [--scheduler ADDR] [--workers N]
@@ -64,6 +64,8 @@ def _parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("build", help="build Friction.fmu, Drive.fmu, BlockSpring.fmu")
     p.add_argument("--out", default=None, help="output directory (default: the per-user FMU cache)")
+    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                   help="FMI version of the co-simulation FMUs (default 2; 3 goes to its own cache folder)")
     p.set_defaults(run=cmd_build)
 
     p = sub.add_parser("simulate", help="co-simulate a scenario")
@@ -76,6 +78,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="stop a run whose projected wall time exceeds S seconds (0: no limit; "
                         "default: the scene's simulation.max_wall, 1800)")
     p.add_argument("--fmu-dir", default=None, help=fmu_help)
+    p.add_argument("--fmi", type=int, choices=(2, 3), default=None,
+                   help="run FMI 2.0 (default) or FMI 3.0 FMUs; with --fmu-dir, the FMUs there must be of it")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=cmd_simulate)
@@ -184,22 +188,35 @@ def require(module: str, install: str, purpose: str) -> None:
         raise UsageError(f"{purpose} needs the package {install!r}: python -m pip install '{install}'")
 
 
-def resolve_fmu_dir(fmu_dir: str | None, names, quiet: bool = False) -> Path:
-    """An explicit folder must hold the FMUs; the default cache is filled when needed."""
+def resolve_fmu_dir(fmu_dir: str | None, names, quiet: bool = False, fmi: int | None = None) -> Path:
+    """An explicit folder must hold the FMUs (of FMI version fmi, if given); the default
+    cache of that version (default 2) is filled when needed."""
     from . import api
-    from .build import default_fmu_dir
+    from .build import build_fmus, default_fmu_dir
     if fmu_dir is not None:
         path = Path(fmu_dir)
         missing = [n for n in names if not (path / f"{n}.fmu").is_file()]
         if missing:
+            option = f" --fmi {fmi}" if fmi == 3 else ""
             raise UsageError(f"FMU file not found: {path / (missing[0] + '.fmu')} "
-                             f"(build it with 'tribofmu build --out {path}', or drop --fmu-dir)")
+                             f"(build it with 'tribofmu build --out {path}{option}', or drop --fmu-dir)")
+        if fmi is not None:
+            import fmpy
+            for name in names:
+                found = fmpy.read_model_description(str(path / f"{name}.fmu"), validate=False).fmiVersion
+                if not found.startswith(str(fmi)):
+                    raise UsageError(f"--fmi {fmi}: {path / (name + '.fmu')} is an FMI {found} FMU")
         return path
-    path = default_fmu_dir()
+    fmi = fmi or 2
+    path = default_fmu_dir(fmi)
     if any(not (path / f"{n}.fmu").is_file() for n in names):
         if not quiet:
-            print(f"tribofmu: building the FMUs into {path}/ (once per installed version)", file=sys.stderr)
-        api.ensure_fmus(path, names, build=None)
+            print(f"tribofmu: building the FMI {fmi}.0 FMUs into {path}/ (once per installed version)",
+                  file=sys.stderr)
+        if fmi == 3:
+            build_fmus(path, tuple(names), fmi=3)
+        else:
+            api.ensure_fmus(path, names, build=None)
     return path
 
 
@@ -218,7 +235,7 @@ def cmd_build(args) -> int:
     from .build import build_fmus
     if args.out is not None:
         check_out_dir(Path(args.out))
-    for path in build_fmus(args.out):
+    for path in build_fmus(args.out, fmi=args.fmi):
         print(path)
     return 0
 
@@ -234,7 +251,7 @@ def cmd_simulate(args) -> int:
     out = Path(args.out) if args.out else default_out_dir(
         scenario.name, label_overrides(args.overrides, args.algorithm, args.step, args.tol))
     check_out_dir(out)
-    fmu_dir = resolve_fmu_dir(args.fmu_dir, scenario.fmus, args.quiet)
+    fmu_dir = resolve_fmu_dir(args.fmu_dir, scenario.fmus, args.quiet, args.fmi)
     quiet = True if args.quiet else None
     with RunBar(scenario.name, scenario.stop_time, enabled=False if quiet else None) as bar:
         result = api.simulate(scenario, algorithm=args.algorithm, step=args.step, tol=args.tol,

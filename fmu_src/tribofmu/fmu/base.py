@@ -1,4 +1,7 @@
-"""The shared framework of the tribofmu FMUs: a thin layer over pythonfmu's ``Fmi2Slave``.
+"""The shared framework of the tribofmu FMUs: a thin layer over pythonfmu's ``Fmi2Slave``
+(FMI 2.0) or pythonfmu3's ``Fmi3Slave`` (FMI 3.0), chosen at build time by
+:data:`.fmi_version.FMI_VERSION`; the adapters import everything FMI-specific from here, so
+the same adapter files build for both versions.
 
 Each FMU script declares its variables with :meth:`TriboSlave.declare` and implements
 :meth:`TriboSlave.advance`. This module is the one place that
@@ -26,8 +29,20 @@ import uuid
 from typing import Any, Callable, Iterable
 from xml.etree.ElementTree import Element, SubElement
 
-from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
-from pythonfmu.enums import Fmi2Initial, Fmi2Status
+from .fmi_version import FMI_VERSION
+
+if FMI_VERSION == 3:
+    from pythonfmu3 import Boolean, Fmi3Causality as Causality, Fmi3Slave as _PythonFMUSlave
+    from pythonfmu3 import Fmi3Variability as Variability, Float64 as Real, Int32 as Integer
+    from pythonfmu3.default_experiment import DefaultExperiment
+    from pythonfmu3.enums import Fmi3Initial as Initial, Fmi3Status as Status
+else:
+    from pythonfmu import Boolean, Fmi2Causality as Causality, Fmi2Slave as _PythonFMUSlave
+    from pythonfmu import Fmi2Variability as Variability, Integer, Real
+    from pythonfmu.default_experiment import DefaultExperiment
+    from pythonfmu.enums import Fmi2Initial as Initial, Fmi2Status as Status
+
+PARAMETER, INPUT, OUTPUT = Causality.parameter, Causality.input, Causality.output
 
 AUTHOR = "tribofmu developers"
 LICENSE = "MIT"
@@ -36,7 +51,7 @@ VERSION = "0.1.0"
 _KINDS = {float: Real, int: Integer, bool: Boolean}
 
 
-class TriboSlave(Fmi2Slave):
+class TriboSlave(_PythonFMUSlave):
     """Base of every tribofmu FMU: declare variables, implement :meth:`advance`."""
 
     author = AUTHOR
@@ -45,6 +60,11 @@ class TriboSlave(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        # pythonfmu3's constructor sets these to None on the instance, hiding the adapters'
+        # class attributes; pythonfmu's leaves them visible. Either way: the class's value.
+        for name in ("description", "author", "license", "version", "default_experiment"):
+            if getattr(type(self), name, None) is not None:
+                setattr(self, name, getattr(type(self), name))
         self._units: dict[str, str] = {}
         self._depends_on: dict[str, tuple[str, ...]] = {}
         self._checks: dict[str, Callable[[Any], str | None]] = {}
@@ -60,9 +80,14 @@ class TriboSlave(Fmi2Slave):
         # Names the parameter values; a saved state whose token matches needs none restored.
         self._parameter_token = f"{uuid.uuid4()}:0"
         self.time = 0.0
+        if FMI_VERSION == 3:  # FMI 3.0 requires the independent variable among the variables
+            self.register_variable(Real("time", causality=Causality.independent,
+                                        variability=Variability.continuous,
+                                        description="simulation time", getter=lambda: self.time))
+            self._units["time"] = "s"
 
     # -- declaring variables ------------------------------------------------------
-    def declare(self, name: str, start: Any, causality: Fmi2Causality, unit: str,
+    def declare(self, name: str, start: Any, causality: Causality, unit: str,
                 description: str, depends_on: Iterable[str] = (),
                 check: Callable[[Any], str | None] | None = None,
                 getter: Callable[[], Any] | None = None) -> None:
@@ -75,23 +100,23 @@ class TriboSlave(Fmi2Slave):
         """
         kind = _KINDS[type(start)]
         kwargs: dict[str, Any] = dict(causality=causality, description=description)
-        if causality == Fmi2Causality.parameter:
-            kwargs["variability"] = Fmi2Variability.fixed
-        elif causality == Fmi2Causality.input:
-            kwargs["variability"] = Fmi2Variability.continuous if kind is Real else Fmi2Variability.discrete
-        elif causality == Fmi2Causality.output:
-            kwargs["variability"] = Fmi2Variability.continuous if kind is Real else Fmi2Variability.discrete
-            kwargs["initial"] = Fmi2Initial.calculated
-        if causality in (Fmi2Causality.parameter, Fmi2Causality.input):
+        if causality == Causality.parameter:
+            kwargs["variability"] = Variability.fixed
+        elif causality == Causality.input:
+            kwargs["variability"] = Variability.continuous if kind is Real else Variability.discrete
+        elif causality == Causality.output:
+            kwargs["variability"] = Variability.continuous if kind is Real else Variability.discrete
+            kwargs["initial"] = Initial.calculated
+        if causality in (Causality.parameter, Causality.input):
             setattr(self, name, start)
-            kwargs["setter"] = self._setter(name, type(start), causality == Fmi2Causality.parameter)
-        if causality == Fmi2Causality.parameter:
+            kwargs["setter"] = self._setter(name, type(start), causality == Causality.parameter)
+        if causality == Causality.parameter:
             self._parameter_names.append(name)
             self._parameter_set.add(name)
         if getter is not None:
             self._getters[name] = getter
             kwargs["getter"] = self._safe_getter(name, getter)
-        elif causality == Fmi2Causality.output:
+        elif causality == Causality.output:
             setattr(self, name, start)
         self.register_variable(kind(name, **kwargs))
         if kind is Real:
@@ -136,18 +161,22 @@ class TriboSlave(Fmi2Slave):
                 return getter()
             except Exception as exc:
                 self._log(f"{name} cannot be evaluated ({type(exc).__name__}: {exc}) "
-                          f"at {self._inputs_text()}; reads as NaN", Fmi2Status.warning)
+                          f"at {self._inputs_text()}; reads as NaN", Status.warning)
                 return math.nan
         return get
 
-    def _log(self, msg: str, status: Fmi2Status) -> None:
-        # pythonfmu hands the text to the host's logger as its printf format string
-        # (FMI 2.0 says the message is one): an unescaped "%s", e.g. from a host-chosen
-        # instance name, makes a formatting host read arguments that are not there.
-        self.log(f"{self.instance_name}: {msg}".replace("%", "%%"), status)
+    def _log(self, msg: str, status: Status) -> None:
+        text = f"{self.instance_name}: {msg}"
+        if FMI_VERSION == 2:
+            # pythonfmu hands the text to the host's logger as its printf format string
+            # (FMI 2.0 says the message is one): an unescaped "%s", e.g. from a host-chosen
+            # instance name, makes a formatting host read arguments that are not there.
+            # FMI 3.0's logMessage takes plain text: nothing to escape.
+            text = text.replace("%", "%%")
+        self.log(text, status)
 
     def _inputs_text(self) -> str:
-        names = [v.name for v in self.vars.values() if v.causality == Fmi2Causality.input]
+        names = [v.name for v in self.vars.values() if v.causality == Causality.input]
         return ", ".join(f"{n}={getattr(self, n)}" for n in names) or "no inputs"
 
     # -- stepping ---------------------------------------------------------------------
@@ -163,7 +192,7 @@ class TriboSlave(Fmi2Slave):
         except Exception as exc:  # would be fmi2Fatal; do_step reports it again and refuses
             problems = [f"initialization failed ({type(exc).__name__}: {exc})"]
         for problem in problems:
-            self._log(problem, Fmi2Status.error)
+            self._log(problem, Status.error)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         """Advance from current_time by step_size [s]: True (fmi2OK) or, refused with the
@@ -186,7 +215,7 @@ class TriboSlave(Fmi2Slave):
             for name, value in saved.items():
                 setattr(self, name, value)
         for problem in problems:
-            self._log(f"{problem}; step refused", Fmi2Status.error)
+            self._log(f"{problem}; step refused", Status.error)
         return False
 
     def _step_problems(self, current_time: float, step_size: float) -> list[str]:
@@ -222,7 +251,7 @@ class TriboSlave(Fmi2Slave):
     def _real_outputs(self) -> list[str]:
         if self._real_output_names is None:
             self._real_output_names = [v.name for v in self.vars.values()
-                                       if v.causality == Fmi2Causality.output and isinstance(v, Real)]
+                                       if v.causality == Causality.output and isinstance(v, Real)]
         return self._real_output_names
 
     def _dynamic_names(self) -> list[str]:
@@ -231,7 +260,7 @@ class TriboSlave(Fmi2Slave):
         if self._dynamic_state_names is None:
             self._dynamic_state_names = [
                 v.name for v in self.vars.values()
-                if v.causality == Fmi2Causality.output and v.name not in self._getters
+                if v.causality == Causality.output and v.name not in self._getters
             ] + ["time", "_initialized"]
         return self._dynamic_state_names
 
@@ -287,9 +316,9 @@ class TriboSlave(Fmi2Slave):
 
     def _scalar_names(self) -> list[str]:
         if self._scalar_state_names is None:
-            names = [v.name for v in self.vars.values() if v.causality != Fmi2Causality.output]
+            names = [v.name for v in self.vars.values() if v.causality != Causality.output]
             names += [v.name for v in self.vars.values()
-                      if v.causality == Fmi2Causality.output and v.name not in self._getters]
+                      if v.causality == Causality.output and v.name not in self._getters]
             self._scalar_state_names = names + ["time"]
         return self._scalar_state_names
 
@@ -298,27 +327,34 @@ class TriboSlave(Fmi2Slave):
     # -- modelDescription.xml ---------------------------------------------------------
     def to_xml(self, model_options: dict[str, str] = dict()) -> Element:
         root = super().to_xml(model_options)
-        index = {v.name: i + 1 for i, v in enumerate(self.vars.values())}
         units = sorted(set(self._units.values()))
         unit_defs = Element("UnitDefinitions")
         for unit in units:
             SubElement(unit_defs, "Unit", name=unit)
-        # UnitDefinitions precede LogCategories in the FMI 2.0 schema order.
+        # UnitDefinitions precede LogCategories in the FMI 2.0 and 3.0 schema order.
         position = list(root).index(root.find("CoSimulation")) + 1
         root.insert(position, unit_defs)
+        if FMI_VERSION == 3:
+            self._fmi3_variables_and_structure(root)
+        else:
+            self._fmi2_variables_and_structure(root)
+        return root
+
+    def _fmi2_variables_and_structure(self, root: Element) -> None:
+        index = {v.name: i + 1 for i, v in enumerate(self.vars.values())}
         for node in root.find("ModelVariables"):
             name = node.get("name")
             real = node.find("Real")
             if real is not None and name in self._units:
                 real.set("unit", self._units[name])
             var = next(v for v in self.vars.values() if v.name == name)
-            if var.causality == Fmi2Causality.output:
+            if var.causality == Causality.output:
                 for child in node:
                     child.attrib.pop("start", None)  # initial="calculated" forbids a start
         structure = root.find("ModelStructure")
         for child in list(structure):
             structure.remove(child)
-        outputs = [v for v in self.vars.values() if v.causality == Fmi2Causality.output]
+        outputs = [v for v in self.vars.values() if v.causality == Causality.output]
         if outputs:
             out_node = SubElement(structure, "Outputs")
             init_node = SubElement(structure, "InitialUnknowns")
@@ -327,7 +363,26 @@ class TriboSlave(Fmi2Slave):
                 SubElement(out_node, "Unknown", index=str(index[v.name]), dependencies=deps)
                 # No dependencies attribute: initially an output may depend on anything.
                 SubElement(init_node, "Unknown", index=str(index[v.name]))
-        return root
+
+    def _fmi3_variables_and_structure(self, root: Element) -> None:
+        # FMI 3.0 names variables by valueReference (no indices), types are elements of their own.
+        reference = {v.name: v.value_reference for v in self.vars.values()}
+        for node in root.find("ModelVariables"):
+            name = node.get("name")
+            if node.tag == "Float64" and name in self._units:
+                node.set("unit", self._units[name])
+            if name in reference and self.vars[reference[name]].causality == Causality.output:
+                node.attrib.pop("start", None)  # initial="calculated" forbids a start
+        structure = root.find("ModelStructure")
+        for child in list(structure):
+            structure.remove(child)
+        outputs = [v for v in self.vars.values() if v.causality == Causality.output]
+        for v in outputs:
+            deps = " ".join(str(reference[d]) for d in self._depends_on[v.name])
+            SubElement(structure, "Output", valueReference=str(v.value_reference), dependencies=deps)
+        for v in outputs:
+            # No dependencies attribute: initially an output may depend on anything.
+            SubElement(structure, "InitialUnknown", valueReference=str(v.value_reference))
 
 
 def positive(value: float) -> str | None:

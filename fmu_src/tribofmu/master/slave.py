@@ -1,4 +1,5 @@
-"""The one place that calls an FMU: fmpy's ``FMU2Slave`` wrapped with typed errors.
+"""The one place that calls an FMU: fmpy's ``FMU2Slave`` or ``FMU3Slave`` (picked by the
+model description's fmiVersion) wrapped with typed errors.
 
 Every call goes through :meth:`Slave.call`, which counts it and turns a bad status into an
 :class:`FMUCallError` naming the instance, the FMI function, the status, and the messages
@@ -24,11 +25,14 @@ STATUS_NAMES = ("fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error", "fmi2Fatal"
 
 
 class FMUCallError(FMUError, RuntimeError):
-    """An FMU call returned a status worse than fmi2Warning."""
+    """An FMU call returned a status worse than fmi2Warning (fmi3Warning); the status codes
+    0-4 mean the same in FMI 2.0 and 3.0."""
 
     def __init__(self, instance: str, call: str, status: int, messages: Sequence[str] = ()):
         self.instance, self.call, self.status, self.messages = instance, call, status, list(messages)
         label = STATUS_NAMES[status] if 0 <= status < len(STATUS_NAMES) else f"status {status}"
+        if call.startswith("fmi3"):
+            label = label.replace("fmi2", "fmi3")
         detail = f": {'; '.join(self.messages)}" if self.messages else ""
         super().__init__(f"{instance}: {call} returned {label}{detail}")
 
@@ -115,7 +119,7 @@ def extract(path: Path) -> Path:
 
 
 class Slave:
-    """One instance of an FMU file, driven through fmpy.
+    """One instance of an FMU file (FMI 2.0 or 3.0 co-simulation), driven through fmpy.
 
     path: the .fmu file; instance: its instance name; parameters: start values by name.
     """
@@ -123,7 +127,6 @@ class Slave:
     def __init__(self, path: str | Path, instance: str, parameters: dict[str, Any] | None = None,
                  start_time: float = 0.0):
         import fmpy
-        from fmpy.fmi2 import FMU2Slave
 
         path = Path(path)
         if not path.is_file():
@@ -137,24 +140,39 @@ class Slave:
             raise FMUFileError(f"{instance}: cannot read {path}: {exc}") from None
         self.variables = {v.name: v for v in md.modelVariables}
         self.refs = {name: v.valueReference for name, v in self.variables.items()}
-        self.guid = md.guid
+        self.guid = md.guid  # FMI 3.0: the instantiationToken
+        self.fmi_version = 3 if md.fmiVersion.startswith("3") else 2
+        if md.coSimulation is None:
+            raise FMUFileError(f"{instance}: {path} is not a co-simulation FMU")
+        self._prefix = f"fmi{self.fmi_version}"
         try:
             self._unzipped = extract(path)
         except Exception as exc:
             raise FMUFileError(f"{instance}: cannot unzip {path}: {exc}") from None
-        self._fmu = FMU2Slave(guid=md.guid, unzipDirectory=str(self._unzipped),
-                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance)
-        self._callbacks = self._make_callbacks()
+        if self.fmi_version == 3:
+            from fmpy.fmi3 import FMU3Slave as FMUSlave
+        else:
+            from fmpy.fmi2 import FMU2Slave as FMUSlave
+        self._fmu = FMUSlave(guid=md.guid, unzipDirectory=str(self._unzipped),
+                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance)
         resources = str(Path(self._unzipped, "resources"))
         try:
-            self.call("instantiate", callbacks=self._callbacks, loggingOn=True)
+            if self.fmi_version == 3:
+                self._log_message = self._make_log_message()
+                self.call("instantiate", loggingOn=True, logMessage=self._log_message)
+            else:
+                self._callbacks = self._make_callbacks()
+                self.call("instantiate", callbacks=self._callbacks, loggingOn=True)
         finally:
             # pythonfmu put the FMU's resources folder first on sys.path to import the slave;
             # once imported it is not needed, and its bundled pythonfmu copy (without the
             # builder's binaries) would shadow the installed one in this process.
             sys.path[:] = [entry for entry in sys.path if entry != resources]
-        self.call("setupExperiment", startTime=start_time)
-        self.call("enterInitializationMode")
+        if self.fmi_version == 3:  # FMI 3.0 has no setupExperiment: the start time comes here
+            self.call("enterInitializationMode", startTime=start_time)
+        else:
+            self.call("setupExperiment", startTime=start_time)
+            self.call("enterInitializationMode")
         if parameters:
             self.set(parameters)
         self.call("exitInitializationMode")
@@ -178,6 +196,17 @@ class Slave:
         callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         return callbacks
 
+    def _make_log_message(self):
+        from fmpy.fmi3 import fmi3LogMessageCallback
+
+        # FMI 3.0 passes the message as plain text (no format string, nothing escaped).
+        def log(_env, status, _category, message):
+            if status >= 2:  # keep only what explains a failure
+                self.messages.append(message.decode("utf-8", "replace")
+                                     if isinstance(message, bytes) else str(message))
+
+        return fmi3LogMessageCallback(log)
+
     def _bind_hot_path(self):
         """The calls a coupling step makes thousands of times, straight to the C functions.
 
@@ -190,16 +219,29 @@ class Slave:
         boundary-friction run of ~10 M calls. If fmpy renames the attribute, switch these
         lookups to ``getattr(self._fmu, name)`` (the public methods, same signatures).
         """
-        from fmpy.fmi2 import fmi2FMUstate, fmi2Real, fmi2ValueReference
-
         functions = self._fmu._functions
         self._component = self._fmu.component
-        self._c = {name: functions[name] for name in (
-            "fmi2SetReal", "fmi2GetReal", "fmi2DoStep", "fmi2GetFMUstate", "fmi2SetFMUstate",
-            "fmi2FreeFMUstate")}
-        self._state_type = fmi2FMUstate
         self._buffers: dict[tuple[int, ...], tuple[Any, int, Any]] = {}
-        self._real, self._vr = fmi2Real, fmi2ValueReference
+        if self.fmi_version == 3:
+            from fmpy.fmi3 import fmi3Boolean, fmi3Float64, fmi3FMUState, fmi3ValueReference
+
+            names = ("fmi3SetFloat64", "fmi3GetFloat64", "fmi3DoStep", "fmi3GetFMUState",
+                     "fmi3SetFMUState", "fmi3FreeFMUState")
+            self._state_type = fmi3FMUState
+            self._real, self._vr = fmi3Float64, fmi3ValueReference
+            # doStep's outputs; eventHandlingNeeded and earlyReturn stay false (not requested)
+            self._step_flags = (fmi3Boolean(), fmi3Boolean(), fmi3Boolean(), fmi3Float64())
+            self._step_refs = tuple(ctypes.byref(flag) for flag in self._step_flags)
+        else:
+            from fmpy.fmi2 import fmi2FMUstate, fmi2Real, fmi2ValueReference
+
+            names = ("fmi2SetReal", "fmi2GetReal", "fmi2DoStep", "fmi2GetFMUstate",
+                     "fmi2SetFMUstate", "fmi2FreeFMUstate")
+            self._state_type = fmi2FMUstate
+            self._real, self._vr = fmi2Real, fmi2ValueReference
+        # the operations under version-neutral names (set/get reals, do step, get/set/free state)
+        self._names = dict(zip(("set", "get", "step", "save", "restore", "free"), names))
+        self._c = {key: functions[name] for key, name in self._names.items()}
 
     def _buffer(self, refs) -> tuple[Any, int, Any]:
         key = tuple(refs)
@@ -214,7 +256,7 @@ class Slave:
             raise FMUCallError(self.instance, function, status, self.messages[mark:])
 
     def call(self, function: str, *args, **kwargs):
-        """Call an fmpy FMU2Slave method; a bad status raises :class:`FMUCallError`."""
+        """Call an fmpy FMU2Slave/FMU3Slave method; a bad status raises :class:`FMUCallError`."""
         from fmpy.fmi1 import FMICallException
 
         self.calls += 1
@@ -222,11 +264,11 @@ class Slave:
         try:
             return getattr(self._fmu, function)(*args, **kwargs)
         except FMICallException as exc:
-            raise FMUCallError(self.instance, "fmi2" + function[0].upper() + function[1:],
+            raise FMUCallError(self.instance, self._prefix + function[0].upper() + function[1:],
                                exc.status, self.messages[mark:]) from None
         except Exception as exc:
             if function == "instantiate":
-                raise FMUCallError(self.instance, "fmi2Instantiate", 3,
+                raise FMUCallError(self.instance, self._prefix + "Instantiate", 3,
                                    self.messages[mark:] or [str(exc)]) from None
             raise
 
@@ -245,36 +287,47 @@ class Slave:
             self.call(f"set{kind}", refs, vals)
 
     def set_reals(self, refs: list[int], values: list[float]) -> None:
+        """fmi2SetReal / fmi3SetFloat64."""
         self.calls += 1
         vr, n, buf = self._buffer(refs)
         buf[:] = values
-        self._check("fmi2SetReal", self._c["fmi2SetReal"](self._component, vr, n, buf), len(self.messages))
+        args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)  # FMI 3: + nValues
+        self._check(self._names["set"], self._c["set"](self._component, *args), len(self.messages))
 
     def get_reals(self, refs: list[int]) -> list[float]:
+        """fmi2GetReal / fmi3GetFloat64."""
         self.calls += 1
         vr, n, buf = self._buffer(refs)
-        self._check("fmi2GetReal", self._c["fmi2GetReal"](self._component, vr, n, buf), len(self.messages))
+        args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)
+        self._check(self._names["get"], self._c["get"](self._component, *args), len(self.messages))
         return buf[:]
 
     def do_step(self, t: float, h: float) -> None:
+        """One communication step from t by h [s]. The master may restore an earlier state
+        afterwards: FMI 3.0 gets noSetFMUStatePriorToCurrentPoint = false (the FMI 2.0 call
+        keeps passing true, which pythonfmu ignores)."""
         self.calls += 1
         mark = len(self.messages)
-        self._check("fmi2DoStep", self._c["fmi2DoStep"](self._component, t, h, 1), mark)
+        if self.fmi_version == 3:
+            status = self._c["step"](self._component, t, h, False, *self._step_refs)
+        else:
+            status = self._c["step"](self._component, t, h, 1)
+        self._check(self._names["step"], status, mark)
 
     def save(self):
         self.calls += 1
         state = self._state_type()
-        self._check("fmi2GetFMUstate", self._c["fmi2GetFMUstate"](self._component, ctypes.byref(state)),
+        self._check(self._names["save"], self._c["save"](self._component, ctypes.byref(state)),
                     len(self.messages))
         return state
 
     def restore(self, state) -> None:
         self.calls += 1
-        self._check("fmi2SetFMUstate", self._c["fmi2SetFMUstate"](self._component, state), len(self.messages))
+        self._check(self._names["restore"], self._c["restore"](self._component, state), len(self.messages))
 
     def free_state(self, state) -> None:
         self.calls += 1
-        self._check("fmi2FreeFMUstate", self._c["fmi2FreeFMUstate"](self._component, ctypes.byref(state)),
+        self._check(self._names["free"], self._c["free"](self._component, ctypes.byref(state)),
                     len(self.messages))
 
     def close(self) -> None:

@@ -5,14 +5,11 @@ slope over the step do so (first-order hold), external masters leave it at 0. In
 upper block's velocity, only serves the output dv = V - v, so that SSP connections (which
 cannot subtract) can feed the friction FMU.
 """
-from pythonfmu import Fmi2Causality
-from pythonfmu.default_experiment import DefaultExperiment
-
-# pythonfmu finds the model class by the literal text "(Fmi2Slave)" in this file.
-from tribofmu.fmu.base import TriboSlave as Fmi2Slave, non_negative, positive
+# The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
+# the text pythonfmu3 looks for); everything FMI-specific comes from base.
+from tribofmu.fmu.base import (TriboSlave as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT,
+                                 OUTPUT, non_negative, positive)
 from tribofmu.physics.block import BlockState, acceleration, advance_block
-
-PARAMETER, INPUT, OUTPUT = Fmi2Causality.parameter, Fmi2Causality.input, Fmi2Causality.output
 
 
 class BlockSpring(Fmi2Slave):

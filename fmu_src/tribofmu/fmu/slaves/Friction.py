@@ -6,15 +6,12 @@ block's mass: a stuck contact is the coupling algorithm's business (sgn(0) = 0 h
 """
 from dataclasses import fields
 
-from pythonfmu import Fmi2Causality
-from pythonfmu.default_experiment import DefaultExperiment
-
-# pythonfmu finds the model class by the literal text "(Fmi2Slave)" in this file.
-from tribofmu.fmu.base import TriboSlave as Fmi2Slave, non_negative
+# The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
+# the text pythonfmu3 looks for); everything FMI-specific comes from base.
+from tribofmu.fmu.base import (TriboSlave as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT,
+                                 OUTPUT, non_negative)
 from tribofmu.physics.friction import (BOUNDARY, REGIME_NAMES, Effects, FrictionLaw,
                                        LubricantConstants)
-
-PARAMETER, INPUT, OUTPUT = Fmi2Causality.parameter, Fmi2Causality.input, Fmi2Causality.output
 
 LUBRICANT = {  # name: (unit, description)
     "phi0_star": ("J/m3", "phi0*: constant part of phi0, eq. (15)"),

@@ -3,14 +3,10 @@
 Programs (parameter ``program``): 0 constant n0; 1 ramp from n0 at t_start to n1 at t_end;
 2 step from n0 to n1 at t_start; 3 sine n0 + amplitude sin(2 pi t / period + phase).
 """
-from pythonfmu import Fmi2Causality
-from pythonfmu.default_experiment import DefaultExperiment
-
-# pythonfmu finds the model class by the literal text "(Fmi2Slave)" in this file.
-from tribofmu.fmu.base import TriboSlave as Fmi2Slave
+# The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
+# the text pythonfmu3 looks for); everything FMI-specific comes from base.
+from tribofmu.fmu.base import TriboSlave as Fmi2Slave, DefaultExperiment, PARAMETER, OUTPUT
 from tribofmu.physics.load import PROGRAM_NAMES, LoadProgram
-
-PARAMETER, OUTPUT = Fmi2Causality.parameter, Fmi2Causality.output
 
 
 def _program(value):

@@ -7,14 +7,11 @@ friction force and the relative velocity to ``F`` and ``dv`` instead. Outputs: t
 temperature ``T`` (for the friction's input T) and the heat received and conducted away so
 far, for energy bookkeeping.
 """
-from pythonfmu import Fmi2Causality
-from pythonfmu.default_experiment import DefaultExperiment
-
-# pythonfmu finds the model class by the literal text "(Fmi2Slave)" in this file.
-from tribofmu.fmu.base import TriboSlave as Fmi2Slave, non_negative, positive
+# The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
+# the text pythonfmu3 looks for); everything FMI-specific comes from base.
+from tribofmu.fmu.base import (TriboSlave as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT,
+                                 OUTPUT, non_negative, positive)
 from tribofmu.physics.thermal import ThermalParams, advance_thermal
-
-PARAMETER, INPUT, OUTPUT = Fmi2Causality.parameter, Fmi2Causality.input, Fmi2Causality.output
 
 
 def _share(value):
