@@ -331,7 +331,8 @@ def cmd_accuracy(args) -> int:
             print(message, file=sys.stderr)
         check_interrupt()
     with deferred_interrupts():  # never inside FMU code (pythonfmu would make it fmi2Fatal)
-        rows, summary = accuracy_study(scenario, fmu_dir=fmu_dir, quick=args.quick, log=log)
+        rows, summary = accuracy_study(scenario, fmu_dir=fmu_dir, quick=args.quick, log=log,
+                                       progress=lambda status: check_interrupt())
     write_study(rows, summary, scenario, out)
     print(f"{len(rows)} runs, {summary['total_wall_time_s']:.1f} s -> {out}/")
     return 0

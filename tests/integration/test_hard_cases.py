@@ -9,12 +9,16 @@ of nanoseconds; windows here end a little before the span so nRMS is always defi
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
 
 from tribofmu import api
-from tribofmu.studies.energy import energy_audit
+from tribofmu.errors import ScenarioError
+from tribofmu.studies.energy import energy_audit, step_integrals
 from tribofmu.studies.reference import nrms, reference_solution
 
 from scenes import SCENARIOS
@@ -23,8 +27,9 @@ pytestmark = pytest.mark.integration
 
 
 def run(fmu_dir, scene, overrides=(), **kw):
+    """The scene run with every communication point kept (these tests look at them)."""
     sc = api.load(SCENARIOS / f"{scene}.toml", list(overrides))
-    return sc, api.simulate(sc, fmu_dir=fmu_dir, build=False, **kw)
+    return sc, api.simulate(sc, fmu_dir=fmu_dir, build=False, keep_points=True, **kw)
 
 
 def assert_sane(result, residual_rel=1e-3, negative_steps=0):
@@ -104,21 +109,26 @@ def test_very_stiff_spring(fmu_dir):
     assert np.max(np.abs(r.v)) < 1.01 * np.max(np.abs(ref.v))  # no growth
 
 
-@pytest.mark.xfail(strict=True, reason="known: the default tol 1e-3 (scaled by the drive's velocity) "
-                   "gives nRMS(v) ~0.3 with K = 1e7; tol 1e-5 is needed")
-def test_very_stiff_spring_default_tolerance(fmu_dir):
-    ov = ["block.K=1e7", "time.periods=1.6", "time.window=[0.5,1.5]"]
+@pytest.mark.parametrize("K", [1e7, 3e5])
+def test_very_stiff_spring_default_tolerance(fmu_dir, K):
+    """The tolerance refers to the block's own motion, so the default resolves a stiff
+    spring's fast ringing (1 ms at K = 1e7) although the block moves far less than the drive."""
+    ov = [f"block.K={K}", "time.periods=1.6", "time.window=[0.5,1.5]"]
     sc, r = run(fmu_dir, "fig2_dry", ov, algorithm="adaptive")
+    assert_sane(r, residual_rel=1e-4, negative_steps=2)
     err, _ = error_vs_reference(sc, r)
-    assert err < 1e-2
+    assert err < 1e-3
 
 
 # -- fluid friction --------------------------------------------------------------------------
 @pytest.mark.parametrize("ov, residual_rel, negative_frac, kw", [
     (["friction.gamma=-0.6666666666666666", "friction.m=1e-3", "time.periods=3.1", "time.window=[2.0,3.0]"],
      1e-4, 0.01, {}),
+    # huge m: the blocks creep with |dv| ~ 1e-6 |V|, below what a tolerance on v resolves, so
+    # held steps leave slivers where the interpolated dv and the held force differ in sign;
+    # at tol 2e-5 they sum to under 1e-3 of the dissipation (checked below), not by count
     (["friction.gamma=-0.6666666666666666", "friction.m=1e3", "time.periods=3.1", "time.window=[2.0,3.0]"],
-     3e-2, 0.1, {}),
+     3e-2, None, {"tol": 2e-5}),
 ], ids=["gamma-2/3-m1e-3", "gamma-2/3-m1e3"])
 def test_shear_thinning_extremes(fmu_dir, ov, residual_rel, negative_frac, kw):
     """Tiny m: the block barely moves (1e-4 of the drive); huge m: it nearly follows the
@@ -126,7 +136,13 @@ def test_shear_thinning_extremes(fmu_dir, ov, residual_rel, negative_frac, kw):
     on the drive's velocity scale, which the adaptive's tolerance refers to."""
     sc, r = run(fmu_dir, "fig5_newtonian", ov, **kw)
     steps = r.stats["communication_steps"]
-    assert_sane(r, residual_rel=residual_rel, negative_steps=negative_frac * steps)
+    if negative_frac is None:
+        assert_sane(r, residual_rel=residual_rel, negative_steps=steps)
+        _, WV, Wv = step_integrals(r.points)
+        D = WV - Wv
+        assert -D[D < 0].sum() < 1e-3 * D.sum()
+    else:
+        assert_sane(r, residual_rel=residual_rel, negative_steps=negative_frac * steps)
     err, ref = error_vs_reference(sc, r)
     rm = (ref.time >= sc.window[0]) & (ref.time <= sc.window[1])
     drive_scale = sc.drive.A * sc.drive.omega
@@ -162,16 +178,19 @@ def test_boundary_large_fixed_steps_bounded(fmu_dir):
 
 
 # -- long run ----------------------------------------------------------------------------------
-LONG_PERIODS = 200  # 1000 periods take ~2 min at tol 1e-3 on 2 cores: too long for CI
+LONG_PERIODS = 200  # 1000 periods: benchmarks/bench_stiff.py (memory set)
 
 
 def test_long_run_energy_balance_does_not_drift(fmu_dir):
     n = LONG_PERIODS
     sc, r = run(fmu_dir, "fig5_newtonian", [f"time.periods={n + 0.1}", f"time.window=[{n - 1.5},{n}]"],
-                algorithm="adaptive", tol=1e-3)
+                algorithm="adaptive")  # the default tolerance
     # near dv = 0 the interpolants give slivers of ~1e-14 J of negative dissipation
     assert_sane(r, residual_rel=1e-4, negative_steps=0.02 * r.stats["communication_steps"])
-    assert r.stats["energy"]["most_negative_step_dissipation"] > -1e-12 * r.stats["energy"]["D"]
+    # a sliver is where the linear force ramp and the cubic dv cross zero a hair apart:
+    # O(h^4), far below one step's own dissipation
+    mean_step = r.stats["energy"]["D"] / r.stats["communication_steps"]
+    assert r.stats["energy"]["most_negative_step_dissipation"] > -1e-5 * mean_step
     period_ns = sc.drive.period * 1e9
     # the residual of the balance over each tenth of the run: small and not growing
     cut = [0] + [next(i for i, p in enumerate(r.points) if p.t_ns >= k * n / 10 * period_ns)
@@ -209,3 +228,82 @@ def test_jacobi_is_first_order(fmu_dir):
 def test_implicit_is_second_order_on_smooth_fluid(fmu_dir):
     slope, errors = _order(fmu_dir, "implicit", [4e-4, 2e-4, 1e-4])
     assert 1.7 < slope < 2.3, (slope, errors)
+
+
+# -- no run without an end, memory bounded by the output ------------------------------------
+def test_a_run_that_would_take_too_long_stops_with_a_message(fmu_dir):
+    """A projected wall time past simulation.max_wall ends the run early: ok is False and
+    the message says where it was, what it would cost and what to change."""
+    sc = api.load(SCENARIOS / "fig2_dry.toml", ["time.periods=5000", "time.window=[0,1]",
+                                                 "simulation.max_wall=1"])
+    notices = []
+    begin = time.perf_counter()
+    r = api.simulate(sc, fmu_dir=fmu_dir, build=False, notice=notices.append)
+    assert time.perf_counter() - begin < 30
+    assert not r.ok
+    assert "at this pace the run would take" in r.message and "--max-wall" in r.message
+    assert 0 < r.time[-1] < sc.stop_time  # what was computed is kept
+    assert np.all(np.isfinite(r.v))
+
+
+def test_cli_runaway_is_one_line_and_exit_code_1(fmu_dir, tmp_path):
+    out = tmp_path / "run"
+    proc = subprocess.run([sys.executable, "-m", "tribofmu", "simulate", str(SCENARIOS / "fig2_dry.toml"),
+                           "--set", "time.periods=5000", "--set", "time.window=[0,1]", "--max-wall", "1",
+                           "--fmu-dir", str(fmu_dir), "--out", str(out), "-q"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if line.startswith("tribofmu:")]
+    assert len(lines) == 1 and "would take" in lines[0]
+    assert (out / "stats.json").is_file() and not (out / "result.csv").exists()
+
+
+def test_too_many_output_samples_are_refused_up_front(fmu_dir):
+    with pytest.raises(ScenarioError, match="time.periods"):
+        api.simulate(SCENARIOS / "fig2_dry.toml", ["time.periods=1e6"], fmu_dir=fmu_dir, build=False)
+
+
+@pytest.mark.parametrize("scene, overrides", [
+    ("fig2_dry", ["drive.omega=45", "time.periods=3.2", "time.window=[1,3]"]),
+    ("fig5_pseudoplastic", ["block.M=0.9", "time.periods=2.2", "time.window=[1,2]"]),
+    ("fig6_boundary", ["conditions.T=310", "time.periods=1.1", "time.window=[0,1]"]),
+])
+def test_streamed_output_equals_the_kept_points(fmu_dir, monkeypatch, scene, overrides):
+    """The grid recorder holds only a chunk of points (here 37) at a time: its samples and
+    energy audit are those of the whole list of points."""
+    from tribofmu.master.run import GridRecorder
+
+    monkeypatch.setattr(GridRecorder, "CHUNK", 37)
+    held = []
+    original_add = GridRecorder.add
+
+    def add(self, point):
+        original_add(self, point)
+        held.append(len(self.buffer))
+
+    monkeypatch.setattr(GridRecorder, "add", add)
+    sc, streamed = run(fmu_dir, scene, overrides)  # keep_points=True: PointList
+    streamed = api.simulate(sc, fmu_dir=fmu_dir, build=False)
+    _, kept = run(fmu_dir, scene, overrides)
+    assert max(held) <= 37 and len(streamed.points) == 0
+    assert len(kept.points) > 3 * 37
+    assert streamed.time.shape == kept.time.shape
+    for k in ("X", "V", "x", "v", "F", "f", "stuck"):
+        np.testing.assert_allclose(getattr(streamed, k), getattr(kept, k), rtol=0,
+                                   atol=1e-12 * max(1e-300, np.max(np.abs(getattr(kept, k)))))
+    for k in ("W", "D", "dE", "negative_dissipation_steps", "steps"):
+        assert streamed.stats["energy"][k] == pytest.approx(kept.stats["energy"][k], rel=1e-9, abs=1e-18)
+
+
+# -- the default tolerance means the same off the paper's points -------------------------------
+@pytest.mark.parametrize("scene, overrides", [
+    ("fig5_dilatant", ["friction.gamma=2", "time.periods=2.2", "time.window=[1,2]"]),
+    ("fig2_dry", ["block.K=2e4", "drive.omega=70", "time.periods=3.2", "time.window=[2,3]"]),
+    ("fig2_dry", ["friction.regime=boundary", "time.periods=1.1", "time.window=[0,1]"]),
+    ("fig6_boundary", ["conditions.n=-2e6", "conditions.T=300", "time.periods=1.6", "time.window=[0.5,1.5]"]),
+])
+def test_default_tolerance_meets_1e_3_off_the_paper(fmu_dir, scene, overrides):
+    sc, r = run(fmu_dir, scene, overrides)
+    assert r.ok, r.message
+    err, _ = error_vs_reference(sc, r)
+    assert err < 1e-3

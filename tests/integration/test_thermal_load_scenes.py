@@ -66,7 +66,7 @@ def test_dry_load_oscillation_stops_and_restarts_stick_slip_like_the_reference(f
 def test_boundary_heating_feeds_the_film_exactly_the_audited_dissipation(fmu_dir):
     # shortened: the first half period, where the film first melts and heats fastest
     sc = load_scenario(SCENARIOS / "boundary_heating.toml", {"time.periods": 0.5, "time.window": [0.0, 0.5]})
-    outcome = cosimulate(fmu_dir, sc, tol=1e-2)
+    outcome = cosimulate(fmu_dir, sc, tol=2e-3)
     heat = heat_audit(outcome.points, sc)
     assert heat["q"] == 0.5 and heat["D"] > 0
     assert abs(heat["relative_mismatch"]) <= 1e-3

@@ -443,8 +443,8 @@ class AdaptiveCoupling(ImplicitCoupling):
             # ramped with a held step would measure the held step's first-order error.
             mid = self.solve_step(system, point, h_ns // 2, full.ramped)
             end = self.solve_step(system, mid, h_ns // 2, full.ramped)
-            err = max(self._error(full, end, h_ns), self._interpolation_error(point, mid, end, h_ns))
-            end.est_error = mid.est_error = err * self.tol
+            err = max(self._error(point, full, end), self._interpolation_error(point, mid, end, h_ns))
+            end.est_error = mid.est_error = abs(full.v - end.v)  # m/s: step doubling's v estimate
             # local error ~ h^3 for a ramped step, h^2 for a held one
             factor = 0.9 * max(err, 1e-12) ** (-1.0 / 3.0 if full.ramped else -0.5)
             if err <= 1.0 or h_ns <= 2 * self.min_ns:
@@ -472,7 +472,7 @@ class AdaptiveCoupling(ImplicitCoupling):
     def root_tolerance(self) -> float:
         return self.root_tol_fraction * self.tol * self._v_scale
 
-    def _error(self, full: Point, halves: Point, h_ns: int) -> float:
+    def _error(self, start: Point, full: Point, halves: Point) -> float:
         """The step's error relative to what tol allows: the difference between one step
         and two halves in v and x, measured against the block's own motion so far (its
         largest |v| and |x|, or the step's own values while the motion grows).

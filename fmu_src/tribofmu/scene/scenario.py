@@ -25,6 +25,24 @@ from .wiring import FMU_NAMES as KNOWN_FMUS, scene_problems
 DEFAULT_FMUS = ("Drive", "BlockSpring", "Friction")
 
 
+# The unit of each scene key a user sweeps or sets (for axis labels); lubricant constants
+# carry theirs in the Friction FMU's descriptions.
+UNITS = {"drive.A": "m", "drive.omega": "rad/s", "block.M": "kg", "block.K": "N/m", "block.x0": "m",
+         "block.v0": "m/s", "friction.mu_friction": "1", "friction.S": "m^2",
+         "friction.m": "N (s/m)^(gamma+1)", "friction.gamma": "1", "friction.f0": "1",
+         "conditions.n": "Pa", "conditions.T": "K", "thermal.C": "J/K", "thermal.q": "1",
+         "thermal.G": "W/K", "thermal.T_ambient": "K", "load.n0": "Pa", "load.n1": "Pa",
+         "load.t_start": "s", "load.t_end": "s", "load.amplitude": "Pa", "load.period": "s",
+         "load.phase": "rad", "time.periods": "drive periods", "simulation.step": "s",
+         "simulation.tol": "1", "simulation.max_wall": "s"}
+
+
+def key_label(key: str) -> str:
+    """``key [unit]`` for an axis label (the key alone where the unit is not known)."""
+    unit = UNITS.get(key)
+    return f"{key} [{unit}]" if unit else key
+
+
 @dataclass(frozen=True)
 class DriveParams:
     A: float = 2e-3  # m, amplitude

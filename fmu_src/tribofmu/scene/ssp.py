@@ -44,13 +44,17 @@ def parameter_values(scenario: Scenario) -> dict[str, dict[str, float | int | bo
     return {inst.fmu.name: {**inst.start_values, **inst.constant_inputs} for inst in instances(scenario)}
 
 
-def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path = Path("build")) -> Path:
+def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None) -> Path:
     """Write ``out`` as an SSP 1.0 archive of the scenario; returns ``out``.
 
-    ``fmu_dir`` holds the built FMUs (``<Name>.fmu``). A missing FMU raises
+    ``fmu_dir`` holds the built FMUs (``<Name>.fmu``; default: the per-user cache of FMUs
+    built from this source, see :func:`tribofmu.build.default_fmu_dir`). A missing FMU raises
     :class:`FileNotFoundError` naming the file, before anything is written. The archive is
     written aside and renamed into place, so ``out`` appears whole or not at all.
     """
+    if fmu_dir is None:
+        from ..build import default_fmu_dir
+        fmu_dir = default_fmu_dir()
     out, fmu_dir = Path(out), Path(fmu_dir)
     sources = {}  # archive member -> built FMU
     for inst in instances(scenario):

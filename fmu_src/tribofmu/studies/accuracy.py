@@ -8,7 +8,8 @@ Per run: nRMS error of v on the shown window (:func:`tribofmu.studies.reference.
 |v - v_ref| on the window over max |v_ref| (same normalisation), wall time of the whole
 ``simulate`` call [s], communication steps, FMU calls, rollbacks (rejected steps). For the
 adaptive algorithm also how well its own error estimate tracks the true local error
-(:func:`estimate_tracking`). Writes accuracy.csv and accuracy.png whole or not at all.
+(:func:`estimate_tracking`). Writes accuracy.csv, accuracy.png and summary.json (the default's
+place on the front) whole or not at all.
 """
 from __future__ import annotations
 
@@ -29,7 +30,7 @@ from ..physics.friction import DRY, FLUID
 from ..scene.scenario import Scenario, scales
 from .reference import nrms, reference_solution
 
-COLUMNS = ("algorithm", "step", "tol", "nrms_v", "max_err_v", "wall_time_s", "steps", "fmu_calls",
+COLUMNS = ("algorithm", "step", "tol", "default", "nrms_v", "max_err_v", "wall_time_s", "steps", "fmu_calls",
            "rollbacks", "ok", "est_true_ratio_median", "est_true_ratio_p10", "est_true_ratio_p90",
            "est_underestimated_frac")
 
@@ -44,13 +45,26 @@ QUICK_LADDER = ([("jacobi", h, None) for h in (1e-3, 1e-4)]
                 + [("adaptive", None, tol) for tol in (1e-2, 1e-3, 1e-4)])
 
 
-def accuracy_study(scenario: Scenario, fmu_dir: str | Path = "build", quick: bool = False,
-                   ladder=None, max_run_s: float = 60.0, log=print) -> tuple[list[dict], dict]:
+def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick: bool = False,
+                   ladder=None, max_run_s: float = 60.0, log=print, progress=None) -> tuple[list[dict], dict]:
     """Run the ladder; returns (rows, summary). A rung whose finer neighbour would exceed
-    max_run_s (estimated from the last run of the same algorithm) is skipped and logged."""
+    max_run_s (estimated from the last run of the same algorithm) is skipped and logged.
+
+    The scene's own default setting is always one of the rungs (``default`` is True on its
+    row); the summary says whether it is on the accuracy-time front: ``dominated_by`` lists
+    the rungs at least 2x faster and more accurate than it (none: on the front).
+    progress: passed to every simulate call."""
     from ..api import simulate
+    from ..master.algorithms import make_algorithm
 
     ladder = list(ladder if ladder is not None else (QUICK_LADDER if quick else LADDER))
+    sim = scenario.simulation
+    default_algorithm = make_algorithm(sim.algorithm, sim.step, sim.tol)
+    default = (sim.algorithm, None, default_algorithm.tol) if sim.algorithm == "adaptive" else (
+        sim.algorithm, default_algorithm.step_ns / NS, None)
+    if default not in ladder:
+        ladder.append(default)
+        ladder.sort(key=lambda rung: (rung[0], -(rung[1] or rung[2])))
     begin = time.perf_counter()
     ref = reference_solution(scenario)
     ref_wall = time.perf_counter() - begin
@@ -71,10 +85,12 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path = "build", quick: boo
                 log(f"{algorithm} {setting:g}: skipped (estimated > {max_run_s:g} s)")
                 continue
         t0 = time.perf_counter()
-        result = simulate(scenario, algorithm=algorithm, step=step, tol=tol, fmu_dir=fmu_dir, build=False)
+        result = simulate(scenario, algorithm=algorithm, step=step, tol=tol, fmu_dir=fmu_dir, build=False,
+                          keep_points=algorithm == "adaptive", progress=progress)
         wall = time.perf_counter() - t0
         last[algorithm] = (setting, wall)
         row: dict[str, Any] = dict(algorithm=algorithm, step=step, tol=tol, wall_time_s=wall,
+                                   default=(algorithm, step, tol) == default,
                                    steps=result.stats["communication_steps"],
                                    fmu_calls=result.stats["fmu_calls_total"],
                                    rollbacks=result.stats["rejected_steps"], ok=result.ok)
@@ -85,7 +101,7 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path = "build", quick: boo
         except ValueError:  # the run stopped before the window ended
             row["nrms_v"] = row["max_err_v"] = math.nan
         if algorithm == "adaptive":
-            track = estimate_tracking(result.points, scenario, result.stats["tol"])
+            track = estimate_tracking(result.points, scenario)
             row.update({f"est_true_ratio_{k}": track[k] for k in ("median", "p10", "p90")})
             row["est_underestimated_frac"] = track["underestimated_frac"]
             row["est_pairs"] = track["pairs"]
@@ -95,16 +111,25 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path = "build", quick: boo
             + (f"  est/true median {row.get('est_true_ratio_median', math.nan):.3g}"
                if algorithm == "adaptive" else ""))
     summary = {"reference_wall_time_s": ref_wall, "total_wall_time_s": time.perf_counter() - begin}
+    chosen = next((r for r in rows if r["default"]), None)
+    if chosen is not None:
+        better = [r for r in rows if r is not chosen and r["nrms_v"] < chosen["nrms_v"]
+                  and 2.0 * r["wall_time_s"] <= chosen["wall_time_s"]]
+        summary["default"] = {k: chosen[k] for k in ("algorithm", "step", "tol", "nrms_v", "wall_time_s")}
+        summary["dominated_by"] = [{k: r[k] for k in ("algorithm", "step", "tol", "nrms_v", "wall_time_s")}
+                                   for r in better]
+        log(f"default ({chosen['algorithm']} {'h=%g' % chosen['step'] if chosen['step'] else 'tol=%g' % chosen['tol']}): "
+            + ("on the accuracy-time front" if not better else
+               f"NOT on the front: {len(better)} setting(s) at least 2x faster and more accurate"))
     return rows, summary
 
 
 # -- the adaptive's error estimate against the true local error ---------------------------------
-def estimate_tracking(points, scenario: Scenario, tol: float, window_only: bool = True) -> dict:
+def estimate_tracking(points, scenario: Scenario, window_only: bool = True) -> dict:
     """Per accepted step pair of the adaptive algorithm, its estimate against the truth.
 
-    The adaptive accepts two half steps (mid, end) at a time and stores on both the estimate
-    ``est_error = tol * err``, err the step-doubling difference over ``tol h / T`` of the
-    scales; the v-error it claims for the pair is ``est_error * v_scale * h / T``. The true
+    The adaptive accepts two half steps (mid, end) at a time and stores on both its estimate
+    of the pair's error in v, ``est_error`` [m/s] (one step against the two halves). The true
     local error is |v_end - v(t_end)| where v(t) starts from the co-simulation's own state
     at the pair's start and follows the exact dynamics (dry: closed-form slip while the
     contact keeps slipping the same way; fluid: DOP853 at rtol 1e-12). Stuck pairs, pairs
@@ -155,7 +180,7 @@ def estimate_tracking(points, scenario: Scenario, tol: float, window_only: bool 
             skipped += 1
             continue
         true_err = abs(end.v - v_true)
-        est = end.est_error * v_scale * h / T
+        est = end.est_error
         true_err = max(true_err, 1e-15 * v_scale)
         ratios.append(est / true_err)
         under += est < true_err
@@ -178,33 +203,44 @@ def rows_csv(rows: list[dict]) -> str:
 
 
 def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> None:
+    """Error against wall time, one line per algorithm, each point labelled with its step
+    [s] or tolerance; the scene's default ringed; the reference solver's time dashed."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    fig, ax = plt.subplots(figsize=(7.0, 4.8))
     for k, name in enumerate(dict.fromkeys(r["algorithm"] for r in rows)):
         sel = [r for r in rows if r["algorithm"] == name and np.isfinite(r["nrms_v"]) and r["nrms_v"] > 0]
         if not sel:
             continue
         sel.sort(key=lambda r: r["wall_time_s"])
-        ax.loglog([r["wall_time_s"] for r in sel], [r["nrms_v"] for r in sel], "o-", color=f"C{k}", label=name)
-        for r in sel:
-            ax.annotate(f"{r['step']:g}" if r["step"] else f"{r['tol']:g}", (r["wall_time_s"], r["nrms_v"]),
-                        fontsize=6, xytext=(3, 3), textcoords="offset points")
+        ax.loglog([r["wall_time_s"] for r in sel], [r["nrms_v"] for r in sel], "o-", color=f"C{k}", label=name,
+                  ms=4)
+        for j, r in enumerate(sel):  # alternate above/below so neighbours' labels do not collide
+            text = f"h={r['step']:g} s" if r["step"] else f"tol={r['tol']:g}"
+            ax.annotate(text, (r["wall_time_s"], r["nrms_v"]), fontsize=6, color=f"C{k}",
+                        xytext=(4, 5 if j % 2 == 0 else -9), textcoords="offset points")
+            if r.get("default"):
+                ax.plot(r["wall_time_s"], r["nrms_v"], "o", ms=11, mfc="none", mec="k", mew=1.2)
+    ax.plot([], [], "o", ms=9, mfc="none", mec="k", label="the scene's default")
     ax.axvline(summary["reference_wall_time_s"], color="k", ls="--", lw=1, label="reference solver")
-    ax.set_xlabel("wall time [s]")
-    ax.set_ylabel("nRMS error of v on the window")
+    ax.set_xlabel("wall time of the run [s]")
+    ax.set_ylabel("nRMS error of v on the window [1]")
     ax.set_title(title, fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
 
 def write_study(rows: list[dict], summary: dict, scenario: Scenario, out: Path) -> None:
+    import json
+
     from ..atomic import atomic_directory
+    from ..plots import scene_label
     with atomic_directory(Path(out)) as tmp:
-        plot_accuracy(rows, summary, f"{scenario.title or scenario.name}: error vs cost", tmp / "accuracy.png")
+        plot_accuracy(rows, summary, f"{scene_label(scenario)}: error vs cost", tmp / "accuracy.png")
         (tmp / "accuracy.csv").write_text(rows_csv(rows))
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")

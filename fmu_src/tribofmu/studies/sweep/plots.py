@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ...scene.scenario import Scenario
+from ...scene.scenario import Scenario, key_label
 from ..metrics import METRICS
 from .grid import format_value, is_numeric, same_setting
 from .worker import STATUS_OK
@@ -46,7 +46,7 @@ def plot_sweep(rows: list[dict[str, Any]], keys: list[str], portraits: dict[str,
             for p in pos[failed]:
                 ax.axvline(p, color="C3", ls=":", lw=1)
             ax.set_ylabel(METRIC_LABELS.get(m, m))
-            ax.set_xlabel(key)
+            ax.set_xlabel(key_label(key))
             if numeric and len(pos) > 2 and pos.min() > 0 and pos.max() / pos.min() >= 20:
                 ax.set_xscale("log")
             if not numeric:
@@ -72,8 +72,8 @@ def plot_sweep(rows: list[dict[str, Any]], keys: list[str], portraits: dict[str,
             im = ax.imshow(np.ma.masked_invalid(z), origin="lower", aspect="auto", cmap=cmap)
             ax.set_xticks(range(n0), [format_value(v) for v in v0], rotation=30)
             ax.set_yticks(range(n1), [format_value(v) for v in v1])
-            ax.set_xlabel(keys[0])
-            ax.set_ylabel(keys[1])
+            ax.set_xlabel(key_label(keys[0]))
+            ax.set_ylabel(key_label(keys[1]))
             if n0 * n1 <= 225:
                 finite = z[np.isfinite(z)]
                 mid = (finite.min() + finite.max()) / 2 if finite.size else 0

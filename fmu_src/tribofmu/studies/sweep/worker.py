@@ -41,18 +41,22 @@ def run_point(scenario: Scenario, fmu_dir: str, algorithm: str | None = None, st
     """
     from ... import api
 
+    from ...progress import check_interrupt, deferred_interrupts
+
     start = time.perf_counter()
-    progress = None
-    if timeout is not None:
-        def progress(status) -> None:
-            if time.perf_counter() - start > timeout:
-                raise PointTimeout(f"stopped after {timeout:g} s, {status.fraction:.0%} of the span done")
+
+    def progress(status) -> None:  # between steps, outside FMU code: where a stop is safe
+        check_interrupt()
+        if timeout is not None and time.perf_counter() - start > timeout:
+            raise PointTimeout(f"stopped after {timeout:g} s, {status.fraction:.0%} of the span done")
     out: dict[str, Any] = {"status": STATUS_FAILED, "message": "", "metrics": {}, "x": None, "v": None,
                            "pid": os.getpid()}
     path_before = list(sys.path)
     try:
-        result = api.simulate(scenario, algorithm=algorithm, step=step, tol=tol, fmu_dir=fmu_dir,
-                              build=False, progress=progress)
+        # a Ctrl-C inside FMU code would become fmi2Fatal and read as a failed point
+        with deferred_interrupts():
+            result = api.simulate(scenario, algorithm=algorithm, step=step, tol=tol, fmu_dir=fmu_dir,
+                                  build=False, progress=progress)
         if not result.ok:
             out["message"] = result.message
         else:
