@@ -1,4 +1,4 @@
-"""Build the three FMUs with pythonfmu, each carrying the physics package inside itself.
+"""Build the FMUs with pythonfmu, each carrying the physics package inside itself.
 
 The copy an FMU carries is renamed: pythonfmu puts the FMU's ``resources`` folder first on
 ``sys.path`` of the process that loads it, so a copy named ``tribofmu`` would shadow the
@@ -28,9 +28,15 @@ from . import __version__
 
 PACKAGE = Path(__file__).resolve().parent
 SLAVES = PACKAGE / "fmu" / "slaves"
-FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load")
-# What an FMU needs at run time: the physics and the FMU framework, nothing that imports fmpy.
-SHIPPED = ("__init__.py", "physics", "fmu/__init__.py", "fmu/base.py")
+FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load", "TriboPair")
+# What an FMU needs at run time: the physics, the FMU framework and, for TriboPair, the
+# master's coupling on in-process parts; nothing that imports fmpy.
+SHIPPED = ("__init__.py", "physics", "fmu/__init__.py", "fmu/base.py", "fmu/parameters.py",
+           "master/algorithms.py", "master/system.py", "master/interpolation.py",
+           "master/inprocess.py", "master/pair.py")
+# Package files shipped in place of the source's: master/__init__.py imports the fmpy-based
+# parts of the master (slave.py, run.py), which an FMU must not load.
+STUBS = {"master/__init__.py": '"""The part of the tribofmu master that TriboPair runs in-process."""\n'}
 PRIVATE_PREFIX = "_tribofmu_fmu_"
 CACHE_ENV = "TRIBOFMU_CACHE"  # overrides the cache folder (default: $XDG_CACHE_HOME/tribofmu)
 
@@ -48,6 +54,10 @@ def _shipped_sources() -> list[Path]:
     return files
 
 
+def _stub_digest() -> bytes:
+    return "".join(f"{rel}\0{text}\0" for rel, text in sorted(STUBS.items())).encode()
+
+
 @lru_cache(maxsize=1)
 def source_hash() -> str:
     """12 hex digits of sha256 over the shipped sources (paths and contents) and pythonfmu's version."""
@@ -56,6 +66,7 @@ def source_hash() -> str:
     for path in _shipped_sources():
         digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0")
         digest.update(path.read_bytes() + b"\0")
+    digest.update(_stub_digest())
     return digest.hexdigest()[:12]
 
 
@@ -85,6 +96,8 @@ def _stage_package(root: Path, private: str) -> Path:
             shutil.copytree(src, dst, ignore=shutil.ignore_patterns("__pycache__"))
         else:
             shutil.copy2(src, dst)
+    for rel, text in STUBS.items():
+        (target / rel).write_text(text)
     for path in target.rglob("*.py"):
         path.write_text(rewrite_imports(path.read_text(), private))
     return target

@@ -9,10 +9,11 @@ from pythonfmu import Fmi2Causality
 from pythonfmu.default_experiment import DefaultExperiment
 
 # pythonfmu finds the model class by the literal text "(Fmi2Slave)" in this file.
-from tribofmu.fmu.base import TriboSlave as Fmi2Slave, non_negative, positive
+from tribofmu.fmu.base import TriboSlave as Fmi2Slave
+from tribofmu.fmu.parameters import declare_block_parameters
 from tribofmu.physics.block import BlockState, acceleration, advance_block
 
-PARAMETER, INPUT, OUTPUT = Fmi2Causality.parameter, Fmi2Causality.input, Fmi2Causality.output
+INPUT, OUTPUT = Fmi2Causality.input, Fmi2Causality.output
 
 
 class BlockSpring(Fmi2Slave):
@@ -21,10 +22,7 @@ class BlockSpring(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self.declare("M", 0.6, PARAMETER, "kg", "mass of the lower block", check=positive)
-        self.declare("K", 7000.0, PARAMETER, "N/m", "stiffness of each of the two springs", check=non_negative)
-        self.declare("x0", 0.0, PARAMETER, "m", "position at the start")
-        self.declare("v0", 0.0, PARAMETER, "m/s", "velocity at the start")
+        declare_block_parameters(self)
         self.declare("F", 0.0, INPUT, "N", "force on the block (friction) at the start of the step")
         self.declare("F_rate", 0.0, INPUT, "N/s", "slope of F over the step (0: F held constant)")
         self.declare("V", 0.0, INPUT, "m/s", "upper block velocity, only used for the output dv")
