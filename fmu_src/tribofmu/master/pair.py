@@ -77,7 +77,13 @@ class PairModel:
         self.drive.follow(t_ns / NS, V, a_drive)
         self.friction.set_reals([self.friction.refs["n"], self.friction.refs["T"]], [n, T])
         algorithm = self.algorithm
-        algorithm.scales = self._scales(V, a_drive, algorithm.scales.velocity)
+        algorithm.scales = scales = self._scales(V, a_drive, algorithm.scales.velocity)
+        # AdaptiveCoupling measures its error against the block's motion so far; from complete
+        # rest (a host that gives V = a_drive = 0 over its first step) that motion is round-off,
+        # ~1e-20 m/s, and no step passes until the minimum step forces them through (225 000
+        # steps in one host step). Floored at a millionth of the motion's scale.
+        algorithm._v_scale = max(algorithm._v_scale, 1e-6 * scales.velocity)
+        algorithm._x_scale = max(algorithm._x_scale, 1e-6 * scales.position)
         point = replace(self.point, t_ns=t_ns, X=self.drive.X, V=V, aX=a_drive)
         while point.t_ns < stop_ns:
             new = algorithm.advance(self.system, point, stop_ns)
