@@ -6,20 +6,19 @@ loop with exact stick, step-doubling error control, rollback) on the in-process 
 :mod:`tribofmu.master.inprocess`, advanced over each host step [t, t + h] in integer
 nanoseconds with as many internal steps as the tolerance needs. Between host steps it keeps
 the current point and the adaptive step size; :meth:`PairModel.snapshot` and
-:meth:`PairModel.from_snapshot` carry all of it (the parts' variables, the point, the
-algorithm's step size and loop gain), so a host's get/set FMU state continues exactly.
+:meth:`PairModel.from_snapshot` carry all of it but the parameters (the parts' variables,
+the point, the algorithm's step size and loop gain), so a host's get/set FMU state continues exactly.
 
 The drive is the host's: V [m/s] and its acceleration a [m/s^2] at the start of each host
 step, followed linearly within it (a host that gives no acceleration holds V).
 """
 from __future__ import annotations
 
-import copy
 import math
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, is_dataclass, replace
 
 from ..physics.friction import FrictionLaw
-from .algorithms import AdaptiveCoupling, Scales
+from .algorithms import AdaptiveCoupling, Counters, Scales
 from .inprocess import BlockPart, FollowedDrive, FrictionPart
 from .interpolation import NS
 from .system import CoupledSystem, Point
@@ -41,6 +40,10 @@ class PairParameters:
 
 class PairModel:
     """Block, friction and the host's drive, coupled by :class:`AdaptiveCoupling`."""
+
+    # Internal steps (accepted or rejected) one host step may take before it is refused
+    # (about a second of work): a host step of hours would otherwise run for hours.
+    MAX_ADVANCES = 50_000
 
     def __init__(self, parameters: PairParameters, t_start: float, V: float, a_drive: float,
                  n: float, T: float):
@@ -71,9 +74,10 @@ class PairModel:
     def step(self, t: float, h: float, V: float, a_drive: float, n: float, T: float) -> Point:
         """Advance from host time t [s] by h [s] with the drive at V [m/s], accelerating at
         a_drive [m/s^2] from t on, and the friction's inputs n [Pa], T [K] held; returns the
-        point at t + h."""
+        point at t + h. Internal time is the host's rounded to the nanosecond: a host step
+        that does not reach the next nanosecond leaves the state as it is."""
         t_ns = round(t * NS)
-        stop_ns = t_ns + max(1, round(h * NS))
+        stop_ns = round((t + h) * NS)
         self.drive.follow(t_ns / NS, V, a_drive)
         self.friction.set_reals([self.friction.refs["n"], self.friction.refs["T"]], [n, T])
         algorithm = self.algorithm
@@ -85,29 +89,43 @@ class PairModel:
         algorithm._v_scale = max(algorithm._v_scale, 1e-6 * scales.velocity)
         algorithm._x_scale = max(algorithm._x_scale, 1e-6 * scales.position)
         point = replace(self.point, t_ns=t_ns, X=self.drive.X, V=V, aX=a_drive)
-        while point.t_ns < stop_ns:
+        for _ in range(self.MAX_ADVANCES):
+            if point.t_ns >= stop_ns:
+                break
             new = algorithm.advance(self.system, point, stop_ns)
             if new:
                 point = new[-1]
+        else:
+            raise ArithmeticError(
+                f"the internal coupling took {self.MAX_ADVANCES} steps and reached only "
+                f"t = {point.t_ns / NS:.9g} s of this host step [{t:.9g}, {t + h:.9g}] s; "
+                f"use a shorter communication step (or a looser tol)")
         self.point = point
         return point
 
-    # -- state ------------------------------------------------------------------------
-    def snapshot(self) -> tuple:
-        """Everything the model needs to continue, as immutable values."""
-        algorithm = tuple((k, copy.copy(v)) for k, v in vars(self.algorithm).items())
-        return (self.parameters, self.drive.save(), self.block.save(), self.friction.save(),
-                replace(self.point), algorithm)
+    # -- state ---------------------------------------------------------------------------
+    def snapshot(self) -> dict:
+        """Everything the model needs to continue, besides its parameters, as plain values
+        (JSON-able: pythonfmu serializes FMU states as JSON; floats round-trip exactly)."""
+        algorithm = {k: [type(v).__name__, asdict(v)] if is_dataclass(v) else v
+                     for k, v in vars(self.algorithm).items()}
+        return {"drive": list(self.drive.save()), "block": list(self.block.save()),
+                "friction": list(self.friction.save()), "point": asdict(self.point), "algorithm": algorithm}
 
     @classmethod
-    def from_snapshot(cls, snapshot: tuple) -> "PairModel":
-        parameters, drive, block, friction, point, algorithm = snapshot
+    def from_snapshot(cls, parameters: PairParameters, snapshot: dict) -> "PairModel":
+        """The model of :meth:`snapshot`, with these parameters."""
+        friction = snapshot["friction"]
         model = cls.__new__(cls)
         model._build(parameters, 0.0, 0.0, 0.0, friction[1], friction[2])
-        model.drive.restore(drive)
-        model.block.restore(block)
+        model.drive.restore(snapshot["drive"])
+        model.block.restore(snapshot["block"])
         model.friction.restore(friction)
-        model.point = replace(point)
+        model.point = Point(**snapshot["point"])
         model.algorithm = AdaptiveCoupling.__new__(AdaptiveCoupling)
-        model.algorithm.__dict__.update({k: copy.copy(v) for k, v in algorithm})
+        model.algorithm.__dict__.update(
+            {k: _STATE_TYPES[v[0]](**v[1]) if isinstance(v, list) else v for k, v in snapshot["algorithm"].items()})
         return model
+
+
+_STATE_TYPES = {cls.__name__: cls for cls in (Counters, Scales)}  # the algorithm's dataclass fields

@@ -64,9 +64,13 @@ class TriboPair(Fmi2Slave):
     def model_problems(self):
         return [] if "regime" in self._bad else self.law().problems()
 
+    def _parameters(self):
+        # not the cached law: while a state is set, its parameters are in place but the cache
+        # key (the parameter token) is renewed only afterwards
+        return PairParameters(self.M, self.K, self.x0, self.v0, friction_law(self), self.f0, self.tol)
+
     def initialize(self):
-        parameters = PairParameters(self.M, self.K, self.x0, self.v0, self.law(), self.f0, self.tol)
-        self._model = PairModel(parameters, self.time, self.V, self.a_drive, self.n, self.T)
+        self._model = PairModel(self._parameters(), self.time, self.V, self.a_drive, self.n, self.T)
         self._show(self._model.point)
 
     def _show(self, point):
@@ -75,12 +79,13 @@ class TriboPair(Fmi2Slave):
 
     @property
     def pair_state(self):
-        """The coupled model's complete state (immutable; None before initialization)."""
+        """The coupled model's state as plain values (None before initialization); restored
+        with the parameters in place (an FMU state sets them before this)."""
         return None if self._model is None else self._model.snapshot()
 
     @pair_state.setter
     def pair_state(self, snapshot):
-        self._model = None if snapshot is None else PairModel.from_snapshot(snapshot)
+        self._model = None if snapshot is None else PairModel.from_snapshot(self._parameters(), snapshot)
 
     internal_state_names = ("pair_state",)
 
