@@ -66,7 +66,7 @@ def source_hash() -> str:
     for path in _shipped_sources():
         digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0")
         digest.update(path.read_bytes() + b"\0")
-    digest.update(_stub_digest())
+    digest.update(_stub_digest() + _PREAMBLE.encode())
     return digest.hexdigest()[:12]
 
 
@@ -103,9 +103,24 @@ def _stage_package(root: Path, private: str) -> Path:
     return target
 
 
+# Put before a slave script's imports. FMUs of one build share the private package's name, and
+# a host may have imported it from another FMU's folder that is gone by now (fmpy removes an
+# FMU's extraction when simulate_fmu returns): modules that FMU did not need would then not
+# be found. Each FMU adds its own copy to the packages already imported.
+_PREAMBLE = """import os as _os, sys as _sys
+for _name, _module in list(_sys.modules.items()):
+    if (_name == {private!r} or _name.startswith({private!r} + ".")) and hasattr(_module, "__path__"):
+        _mine = _os.path.join(_os.path.dirname(_os.path.abspath(__file__)), *_name.split("."))
+        if _mine not in _module.__path__:
+            _module.__path__.append(_mine)
+"""
+
+
 def _stage_slave(root: Path, name: str, private: str) -> Path:
     """The slave script under its private module name, importing the private package."""
     text = rewrite_imports((SLAVES / f"{name}.py").read_text(), private)
+    first_import = re.search(r"^(from|import) ", text, re.MULTILINE).start()
+    text = text[:first_import] + _PREAMBLE.format(private=private) + text[first_import:]
     if re.search(r"\btribofmu\.", "\n".join(l for l in text.splitlines() if "import" in l)):
         raise RuntimeError(f"{name}.py imports tribofmu in a form the build cannot rename")
     script = root / f"{private}_{name}.py"
