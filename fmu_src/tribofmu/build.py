@@ -1,4 +1,4 @@
-"""Build the three FMUs with pythonfmu, each carrying the physics package inside itself.
+"""Build the FMUs with pythonfmu, each carrying the physics package inside itself.
 
 The copy an FMU carries is renamed: pythonfmu puts the FMU's ``resources`` folder first on
 ``sys.path`` of the process that loads it, so a copy named ``tribofmu`` would shadow the
@@ -34,9 +34,15 @@ from . import __version__
 
 PACKAGE = Path(__file__).resolve().parent
 SLAVES = PACKAGE / "fmu" / "slaves"
-FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load")
-# What an FMU needs at run time: the physics and the FMU framework, nothing that imports fmpy.
-SHIPPED = ("__init__.py", "physics", "fmu/__init__.py", "fmu/base.py", "fmu/fmi_version.py")
+FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load", "TriboPair")
+# What an FMU needs at run time: the physics, the FMU framework and, for TriboPair, the
+# master's coupling on in-process parts; nothing that imports fmpy.
+SHIPPED = ("__init__.py", "physics", "fmu/__init__.py", "fmu/base.py", "fmu/fmi_version.py",
+           "fmu/parameters.py", "master/algorithms.py", "master/system.py", "master/interpolation.py",
+           "master/inprocess.py", "master/pair.py")
+# Package files shipped in place of the source's: master/__init__.py imports the fmpy-based
+# parts of the master (slave.py, run.py), which an FMU must not load.
+STUBS = {"master/__init__.py": '"""The part of the tribofmu master that TriboPair runs in-process."""\n'}
 FMI_VERSIONS = (2, 3)
 PRIVATE_PREFIX = "_tribofmu_fmu_"
 CACHE_ENV = "TRIBOFMU_CACHE"  # overrides the cache folder (default: $XDG_CACHE_HOME/tribofmu)
@@ -65,10 +71,15 @@ def source_hash(fmi: int = 2) -> str:
     else:
         import pythonfmu
         digest = hashlib.sha256(f"pythonfmu {pythonfmu.__version__}\n".encode())
+    digest.update(_stub_digest() + _PREAMBLE.encode())
     for path in _shipped_sources():
         digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0")
         digest.update(path.read_bytes() + b"\0")
     return digest.hexdigest()[:12]
+
+
+def _stub_digest() -> bytes:
+    return "".join(f"{rel}\0{text}\0" for rel, text in sorted(STUBS.items())).encode()
 
 
 def private_package_name(fmi: int = 2) -> str:
@@ -100,6 +111,8 @@ def _stage_package(root: Path, private: str, fmi: int = 2) -> Path:
             shutil.copytree(src, dst, ignore=shutil.ignore_patterns("__pycache__"))
         else:
             shutil.copy2(src, dst)
+    for rel, text in STUBS.items():
+        (target / rel).write_text(text)
     for path in target.rglob("*.py"):
         path.write_text(rewrite_imports(path.read_text(), private))
     if fmi == 3:
@@ -111,9 +124,24 @@ def _stage_package(root: Path, private: str, fmi: int = 2) -> Path:
     return target
 
 
+# Put before a slave script's imports. FMUs of one build share the private package's name, and
+# a host may have imported it from another FMU's folder that is gone by now (fmpy removes an
+# FMU's extraction when simulate_fmu returns): modules that FMU did not need would then not
+# be found. Each FMU adds its own copy to the packages already imported.
+_PREAMBLE = """import os as _os, sys as _sys
+for _name, _module in list(_sys.modules.items()):
+    if (_name == {private!r} or _name.startswith({private!r} + ".")) and hasattr(_module, "__path__"):
+        _mine = _os.path.join(_os.path.dirname(_os.path.abspath(__file__)), *_name.split("."))
+        if _mine not in _module.__path__:
+            _module.__path__.append(_mine)
+"""
+
+
 def _stage_slave(root: Path, name: str, private: str, fmi: int = 2) -> Path:
     """The slave script under its private module name, importing the private package."""
     text = rewrite_imports((SLAVES / f"{name}.py").read_text(), private)
+    first_import = re.search(r"^(from|import) ", text, re.MULTILINE).start()
+    text = text[:first_import] + _PREAMBLE.format(private=private) + text[first_import:]
     if fmi == 3:
         text = re.sub(r"\bFmi2Slave\b", "Fmi3Slave", text)
     if re.search(r"\btribofmu\.", "\n".join(l for l in text.splitlines() if "import" in l)):

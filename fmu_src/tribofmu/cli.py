@@ -1,8 +1,8 @@
 """The ``tribofmu`` command: a thin layer over :mod:`tribofmu.api`.
 
     tribofmu build [--out DIR] [--fmi {2,3}]
-    tribofmu simulate SCENARIO [--out DIR] [--set KEY=VALUE ...] [--algorithm NAME] [--step S] [--tol TOL] [--fmi {2,3}]
-    tribofmu export-ssp SCENARIO --out FILE.ssp [--set KEY=VALUE ...] [--fmu-dir DIR]
+    tribofmu simulate SCENARIO [--out DIR] [--set KEY=VALUE ...] [--algorithm NAME] [--step S] [--tol TOL] [--max-wall S] [--fmi {2,3}]
+    tribofmu export-ssp SCENARIO --out FILE.ssp [--set KEY=VALUE ...] [--pair] [--fmu-dir DIR]
     tribofmu accuracy SCENARIO [--out DIR] [--set KEY=VALUE ...] [--quick]
     tribofmu sweep SCENARIO --grid KEY=V1,V2,... [--grid ...] [--out DIR] [--scheduler ADDR] [--workers N]
     tribofmu figures [--out DIR] [--only fig2,fig4,...]
@@ -62,7 +62,7 @@ def _parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     fmu_help = "use the .fmu files in DIR (default: built from this source, in a per-user cache)"
 
-    p = sub.add_parser("build", help="build Friction.fmu, Drive.fmu, BlockSpring.fmu")
+    p = sub.add_parser("build", help="build the FMUs (Friction, Drive, BlockSpring, Thermal, Load, TriboPair)")
     p.add_argument("--out", default=None, help="output directory (default: the per-user FMU cache)")
     p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
                    help="FMI version of the co-simulation FMUs (default 2; 3 goes to its own cache folder)")
@@ -88,6 +88,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("scenario")
     p.add_argument("--out", required=True, help="the .ssp file to write")
     _add_set(p)
+    p.add_argument("--pair", action="store_true",
+                   help="replace BlockSpring and Friction by TriboPair.fmu, which couples them implicitly "
+                        "inside itself (stick right in masters that exchange values once per step)")
     p.add_argument("--fmu-dir", default=None, help=fmu_help)
     p.set_defaults(run=cmd_export_ssp)
 
@@ -282,10 +285,12 @@ def cmd_simulate(args) -> int:
 def cmd_export_ssp(args) -> int:
     from . import api
     from .scene.ssp import export_ssp
+    from .scene.wiring import instances
     scenario = api.load(args.scenario, args.overrides)
     out = check_out_file(Path(args.out))
-    fmu_dir = resolve_fmu_dir(args.fmu_dir, scenario.fmus)
-    path = export_ssp(scenario, out, fmu_dir)
+    names = [inst.fmu.name for inst in instances(scenario, args.pair)]  # a scene the pair cannot take: exit 2
+    fmu_dir = resolve_fmu_dir(args.fmu_dir, names)
+    path = export_ssp(scenario, out, fmu_dir, pair=args.pair)
     print(path)
     return 0
 

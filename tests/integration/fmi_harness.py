@@ -28,7 +28,7 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
 from tribofmu.master.slave import extract as extract_once
 
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
-FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load")
+FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load", "TriboPair")
 
 
 class FmuFatal(AssertionError):

@@ -28,6 +28,8 @@ DEPENDENCIES = {
     "Drive": {"X": set(), "V": set(), "a": set()},
     "Thermal": {"T": set(), "Q": set(), "Q_lost": set()},
     "Load": {"n": set()},
+    # the pair's outputs come from its internal steps: no direct feedthrough
+    "TriboPair": {name: set() for name in ("x", "v", "a", "F", "f", "dv", "stuck")},
 }
 # The paper's boundary lubricant (Fig. 6): S [m^2], m [SI], gamma [1].
 BOUNDARY = dict(regime=2, S=3e-9, m=0.05, gamma=-2.0 / 3.0)
@@ -41,6 +43,9 @@ SCENARIOS = {
     "Thermal": (dict(C=2e-11, q=0.7, G=3e-11, T_ambient=300.0, T0=310.0),
                 lambda k: dict(P=1e-8 * (1.0 + math.sin(k)), F=1e-3 * k, dv=1e-6 * math.cos(k))),
     "Load": (dict(program=3, n0=-1e5, amplitude=2e4, period=0.05, phase=0.3), lambda k: {}),
+    "TriboPair": (dict(BOUNDARY, M=0.7, K=1300.0, tol=3e-3),
+                  lambda k: dict(V=4e-5 * math.sin(0.03 * k), a_drive=1.2e-3 * math.cos(0.03 * k), n=-1e6,
+                                 T=290.0 + k)),
 }
 H = 1e-3  # s, communication step
 

@@ -33,6 +33,7 @@ VALID = {  # valid parameters and inputs each bad-value case starts from
     "Drive": (dict(A=1.4e-6, omega=30.0), {}),
     "Thermal": (dict(C=8e-12, q=0.5, G=1e-11), dict(P=3e-8, F=1e-3, dv=1e-5)),
     "Load": (dict(program=3, n0=-45.0, amplitude=30.0, period=2.0), {}),
+    "TriboPair": (dict(M=0.7, K=1300.0), dict(V=1e-3, a_drive=0.5, n=-20.0, T=290.0)),
 }
 H = 1e-3  # s
 
@@ -300,7 +301,7 @@ def _subset(variables) -> st.SearchStrategy[dict]:
 
 STEP_SIZES = st.one_of(st.sampled_from([0.0, -0.0, -1e-3, NAN, INF, -INF, 5e-324, 1e-3, 10.0, 1e6]),
                        st.floats(-1.0, 1.0), st.floats(1e-9, 1e3))
-FUZZ_EXAMPLES = {"Friction": 100, "BlockSpring": 60, "Drive": 40, "Thermal": 60, "Load": 40}
+FUZZ_EXAMPLES = {"Friction": 100, "BlockSpring": 60, "Drive": 40, "Thermal": 60, "Load": 40, "TriboPair": 40}
 # Deeper local runs: TRIBOFMU_FUZZ_SCALE=20 pytest tests/test_fmu_fuzz.py -k random
 FUZZ_SCALE = float(os.environ.get("TRIBOFMU_FUZZ_SCALE", "1"))
 

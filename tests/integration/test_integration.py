@@ -191,7 +191,7 @@ def test_cli_build_writes_every_fmu(tmp_path):
     proc = cli("build", "--out", tmp_path / "b")
     assert proc.returncode == 0, proc.stderr
     assert sorted(p.name for p in (tmp_path / "b").iterdir()) == [
-        "BlockSpring.fmu", "Drive.fmu", "Friction.fmu", "Load.fmu", "Thermal.fmu"]
+        "BlockSpring.fmu", "Drive.fmu", "Friction.fmu", "Load.fmu", "Thermal.fmu", "TriboPair.fmu"]
 
 
 def test_setup_failures_of_all_fmus_are_gathered(tmp_path):

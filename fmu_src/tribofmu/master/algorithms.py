@@ -484,8 +484,10 @@ class AdaptiveCoupling(ImplicitCoupling):
         F at all, while solid its small drift decides when it melts.) A law without state
         (f = 0) is not: its force jumps at stick and slip by design.
         """
-        self._v_scale = max(self._v_scale, abs(halves.v), abs(full.v))
-        self._x_scale = max(self._x_scale, abs(halves.x), abs(full.x))
+        # Floored at 1e-6 of the scene's scales: from complete rest the motion so far is
+        # round-off, and no step would pass.
+        self._v_scale = max(self._v_scale, abs(halves.v), abs(full.v), 1e-6 * self.scales.velocity)
+        self._x_scale = max(self._x_scale, abs(halves.x), abs(full.x), 1e-6 * self.scales.position)
         error = max(abs(full.v - halves.v) / (self.tol * self._v_scale or 1.0),
                     abs(full.x - halves.x) / (self.tol * self._x_scale or 1.0))
         if full.f != 0.0 or halves.f != 0.0:

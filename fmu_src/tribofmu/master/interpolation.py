@@ -6,10 +6,11 @@ Hermite interpolants (each has its derivative at both ends: V for X, v for x, th
 accelerations for V and v); F, f and the friction's inputs, which may jump, are linear.
 The sampler, the energy audit and the adaptive algorithm's interpolation check all use
 these functions, so what is checked is what is delivered.
+
+numpy is imported only by the functions on arrays: the TriboPair FMU ships this module for
+the scalar ones and runs in host processes that need not load numpy.
 """
 from __future__ import annotations
-
-import numpy as np
 
 NS = 1_000_000_000  # nanoseconds per second
 
@@ -48,6 +49,8 @@ def sample(points, grid: np.ndarray, inputs: bool = False) -> dict[str, np.ndarr
     the sample (its own state, exact, not a velocity threshold), else 0.0. With inputs,
     also T [K], n [Pa] and Q [J] (linear).
     """
+    import numpy as np
+
     t = np.array([p.t_ns for p in points], dtype=np.int64) / NS
     get = lambda name: np.array([getattr(p, name) for p in points])
     X, V, aX, x, v, a = (get(k) for k in ("X", "V", "aX", "x", "v", "a"))
@@ -64,6 +67,8 @@ def sample(points, grid: np.ndarray, inputs: bool = False) -> dict[str, np.ndarr
 
 def _stuck(t: np.ndarray, mode: np.ndarray, grid: np.ndarray) -> np.ndarray:
     """1.0 where the step (t[i], t[i+1]] holding the sample ended stuck (mode 0)."""
+    import numpy as np
+
     i = np.clip(np.searchsorted(t, grid, side="left"), 1, len(t) - 1)
     return (mode[i] == 0).astype(float)
 
@@ -71,6 +76,8 @@ def _stuck(t: np.ndarray, mode: np.ndarray, grid: np.ndarray) -> np.ndarray:
 def _hermite_on(t: np.ndarray, y: np.ndarray, dy_left: np.ndarray, dy_right: np.ndarray,
                 grid: np.ndarray) -> np.ndarray:
     """Piecewise cubic Hermite on the grid; dy_left[i], dy_right[i]: slopes of step i."""
+    import numpy as np
+
     i = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, len(t) - 2)
     h = t[i + 1] - t[i]
     return hermite(y[i], y[i + 1], dy_left[i], dy_right[i], h, (grid - t[i]) / h)

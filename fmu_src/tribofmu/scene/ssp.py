@@ -36,16 +36,22 @@ SSV = "http://ssp-standard.org/SSP1/SystemStructureParameterValues"
 FMU_MIME = "application/x-fmu-sharedlibrary"
 
 
-def parameter_values(scenario: Scenario) -> dict[str, dict[str, float | int | bool]]:
+def parameter_values(scenario: Scenario, pair: bool = False) -> dict[str, dict[str, float | int | bool]]:
     """The value of every FMU parameter (and constant input) the scene sets, per component.
 
     Python types carry the FMI types: float -> Real, int -> Integer, bool -> Boolean.
+    pair: BlockSpring and Friction replaced by TriboPair (see :func:`export_ssp`).
     """
-    return {inst.fmu.name: {**inst.start_values, **inst.constant_inputs} for inst in instances(scenario)}
+    return {inst.fmu.name: {**inst.start_values, **inst.constant_inputs}
+            for inst in instances(scenario, pair)}
 
 
-def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None) -> Path:
+def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None, pair: bool = False) -> Path:
     """Write ``out`` as an SSP 1.0 archive of the scenario; returns ``out``.
+
+    pair: BlockSpring and Friction are replaced by the TriboPair FMU, which couples them
+    implicitly inside itself (for masters that exchange values once per step); a scene
+    without both raises :class:`~tribofmu.errors.ScenarioError`.
 
     ``fmu_dir`` holds the built FMUs (``<Name>.fmu``; default: the per-user cache of FMUs
     built from this source, see :func:`tribofmu.build.default_fmu_dir`). A missing FMU raises
@@ -57,7 +63,7 @@ def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None) -> Pa
         fmu_dir = default_fmu_dir()
     out, fmu_dir = Path(out), Path(fmu_dir)
     sources = {}  # archive member -> built FMU
-    for inst in instances(scenario):
+    for inst in instances(scenario, pair):
         path = fmu_dir / inst.fmu.file
         if not path.is_file():
             from ..master.slave import FMUFileError  # a FileNotFoundError, and a TriboFMUError
@@ -65,7 +71,7 @@ def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None) -> Pa
             error.filename = str(path)
             raise error
         sources[f"resources/{inst.fmu.file}"] = path
-    ssd = system_structure(scenario)
+    ssd = system_structure(scenario, pair)
     out.parent.mkdir(parents=True, exist_ok=True)
     # Beside the target (same file system, so the rename is atomic); opened with "x" rather
     # than mkstemp so that the archive gets the usual umask-based permissions, not 0600.
@@ -82,13 +88,14 @@ def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None) -> Pa
     return out
 
 
-def system_structure(scenario: Scenario) -> bytes:
-    """The ``SystemStructure.ssd`` document of the scenario (UTF-8 XML)."""
+def system_structure(scenario: Scenario, pair: bool = False) -> bytes:
+    """The ``SystemStructure.ssd`` document of the scenario (UTF-8 XML); pair: as
+    :func:`export_ssp`."""
     for prefix, uri in (("ssd", SSD), ("ssc", SSC), ("ssv", SSV)):
         ET.register_namespace(prefix, uri)
-    links = connections(scenario)
+    links = connections(scenario, pair)
     connected_inputs = {(c.end, c.input) for c in links}
-    values = parameter_values(scenario)
+    values = parameter_values(scenario, pair)
     set_name = scenario.name
 
     root = ET.Element(f"{{{SSD}}}SystemStructureDescription", {"name": scenario.name, "version": "1.0"})
@@ -97,7 +104,7 @@ def system_structure(scenario: Scenario) -> bytes:
         system_attrs["description"] = scenario.title
     system = ET.SubElement(root, f"{{{SSD}}}System", system_attrs)
     elements = ET.SubElement(system, f"{{{SSD}}}Elements")
-    for inst in instances(scenario):
+    for inst in instances(scenario, pair):
         name = inst.fmu.name
         comp = ET.SubElement(elements, f"{{{SSD}}}Component",
                              {"name": name, "type": FMU_MIME, "source": f"resources/{inst.fmu.file}"})

@@ -19,6 +19,15 @@ Thermal FMU (``Thermal.T -> Friction.T``, fed ``Friction.F -> Thermal.F`` and
 follows the solved loop, its T exchanged explicitly, and it gets the step's exact mean
 friction power through its input ``P`` instead of the F and dv connections (which an SSP
 master, able only to connect variables, uses).
+
+For masters that couple explicitly (every mainstream one), the SSP export can replace
+BlockSpring and Friction by one :data:`PAIR` FMU, ``TriboPair``, which closes the dv -> F -> dv
+loop inside itself (``pair=True`` in :func:`instances` and :func:`connections`)::
+
+    Drive.V -> TriboPair.V,  Drive.a -> TriboPair.a_drive
+
+with Load's n, Thermal's T and the Thermal's F and dv connected to the pair as to the FMUs it
+replaces.
 """
 from __future__ import annotations
 
@@ -110,6 +119,13 @@ def _conditions(sc: "Scenario") -> dict[str, float]:
     return {"n": float(sc.conditions.n), "T": float(sc.conditions.T)}
 
 
+def _pair(sc: "Scenario") -> dict[str, Value]:
+    values = {**_block(sc), **_friction(sc)}
+    if sc.simulation.algorithm == "adaptive" and sc.simulation.tol is not None:
+        values["tol"] = float(sc.simulation.tol)  # the scene's own coupling tolerance
+    return values
+
+
 def _thermal(sc: "Scenario") -> dict[str, Value]:
     th = sc.thermal
     return {"C": float(th.C), "q": float(th.q), "G": float(th.G), "T_ambient": float(th.T_ambient),
@@ -143,6 +159,19 @@ CONNECTIONS: tuple[Connection, ...] = (
     Connection("BlockSpring", "dv", "Thermal", "dv"),
 )
 
+# The pair: BlockSpring and Friction in one FMU, their loop closed inside (export-ssp --pair).
+PAIR = FMU("TriboPair", "tribopair", _pair, outputs=("x", "v", "a", "F", "f", "dv", "stuck"),
+           constant_inputs=_conditions, needs=("Drive",))
+PAIRED = ("BlockSpring", "Friction")  # the FMUs the pair replaces
+PAIR_CONNECTIONS: tuple[Connection, ...] = (
+    Connection("Drive", "V", "TriboPair", "V"),
+    Connection("Drive", "a", "TriboPair", "a_drive"),
+    Connection("Load", "n", "TriboPair", "n"),
+    Connection("Thermal", "T", "TriboPair", "T"),
+    Connection("TriboPair", "F", "Thermal", "F"),
+    Connection("TriboPair", "dv", "Thermal", "dv"),
+)
+
 
 def scene_problems(names: tuple[str, ...] | list[str]) -> list[str]:
     """What is wrong with a scene's list of FMU names, each as ``scenario.fmus ...``."""
@@ -158,18 +187,39 @@ def scene_problems(names: tuple[str, ...] | list[str]) -> list[str]:
     return out
 
 
-def connections(scenario: "Scenario") -> list[Connection]:
-    """The connections between the scene's FMUs (both ends present)."""
-    return [c for c in CONNECTIONS if c.start in scenario.fmus and c.end in scenario.fmus]
+def pair_problems(scenario: "Scenario") -> list[str]:
+    """Why the scene cannot run with BlockSpring and Friction replaced by the pair."""
+    missing = [name for name in PAIRED + PAIR.needs if name not in scenario.fmus]
+    return [f"{scenario.source}: the pair replaces BlockSpring and Friction and is driven by Drive: "
+            f"scenario.fmus must include {', '.join(map(repr, missing))}, got {list(scenario.fmus)}"] if missing else []
 
 
-def instances(scenario: "Scenario") -> list[Instance]:
+def _fmus(scenario: "Scenario", pair: bool) -> list[FMU]:
+    if not pair:
+        return [fmu for fmu in FMUS if fmu.name in scenario.fmus]
+    problems = pair_problems(scenario)
+    if problems:
+        from ..errors import ScenarioError
+        raise ScenarioError(problems[0])
+    listed = [fmu for fmu in FMUS if fmu.name in scenario.fmus and fmu.name not in PAIRED]
+    at = next(i for i, fmu in enumerate(listed) if fmu.name == "Drive") + 1
+    return listed[:at] + [PAIR] + listed[at:]
+
+
+def connections(scenario: "Scenario", pair: bool = False) -> list[Connection]:
+    """The connections between the scene's FMUs (both ends present); pair: with BlockSpring
+    and Friction replaced by :data:`PAIR` (a ScenarioError if the scene has not both)."""
+    names = {fmu.name for fmu in _fmus(scenario, pair)}
+    return [c for c in (PAIR_CONNECTIONS if pair else CONNECTIONS) if c.start in names and c.end in names]
+
+
+def instances(scenario: "Scenario", pair: bool = False) -> list[Instance]:
     """The scene's FMU instances in declaration order, with start values and the constant
-    inputs that no connection of the scene feeds."""
-    fed = {(c.end, c.input) for c in connections(scenario)}
+    inputs that no connection of the scene feeds; pair: as :func:`connections`."""
+    fed = {(c.end, c.input) for c in connections(scenario, pair)}
     return [Instance(fmu, fmu.start_values(scenario),
                      {k: v for k, v in fmu.constant_inputs(scenario).items() if (fmu.name, k) not in fed})
-            for fmu in FMUS if fmu.name in scenario.fmus]
+            for fmu in _fmus(scenario, pair)]
 
 
 def fmu_parameters(scenario: "Scenario") -> dict[str, dict[str, Value]]:

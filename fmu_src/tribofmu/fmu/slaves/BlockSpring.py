@@ -7,8 +7,8 @@ cannot subtract) can feed the friction FMU.
 """
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
-from tribofmu.fmu.base import (TriboSlave as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT,
-                                 OUTPUT, non_negative, positive)
+from tribofmu.fmu.base import TriboSlave as Fmi2Slave, DefaultExperiment, INPUT, OUTPUT
+from tribofmu.fmu.parameters import declare_block_parameters
 from tribofmu.physics.block import BlockState, acceleration, advance_block
 
 
@@ -18,10 +18,7 @@ class BlockSpring(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self.declare("M", 0.6, PARAMETER, "kg", "mass of the lower block", check=positive)
-        self.declare("K", 7000.0, PARAMETER, "N/m", "stiffness of each of the two springs", check=non_negative)
-        self.declare("x0", 0.0, PARAMETER, "m", "position at the start")
-        self.declare("v0", 0.0, PARAMETER, "m/s", "velocity at the start")
+        declare_block_parameters(self)
         self.declare("F", 0.0, INPUT, "N", "force on the block (friction) at the start of the step")
         self.declare("F_rate", 0.0, INPUT, "N/s", "slope of F over the step (0: F held constant)")
         self.declare("V", 0.0, INPUT, "m/s", "upper block velocity, only used for the output dv")
