@@ -297,14 +297,14 @@ def test_reference_rejects_misuse(kwargs):
 
 def test_solver_failure_is_returned_not_raised(monkeypatch):
     """A right-hand side that turns NaN mid-run must end in ok=False with a message."""
-    real_solve_ivp = reference_module.solve_ivp
+    real_solve_ivp = reference_module.smooth.solve_ivp
 
     def poisoned(fun, t_span, y0, **kwargs):
         def bad_fun(t, y):
             return np.full(len(y), np.nan) if t > 0.3 else fun(t, y)
         return real_solve_ivp(bad_fun, t_span, y0, **kwargs)
 
-    monkeypatch.setattr(reference_module, "solve_ivp", poisoned)
+    monkeypatch.setattr(reference_module.smooth, "solve_ivp", poisoned)
     sc = scenario("fig5_newtonian")
     r = reference_solution(sc)
     assert isinstance(r, ReferenceResult)
