@@ -8,6 +8,7 @@ from scipy.integrate import solve_ivp
 
 from ...physics.block import BlockState, acceleration
 from ...physics.friction import BOUNDARY, FLUID
+from .radau import solve_radau_mass
 from .problem import EPS, MAX_EVENTS, MAX_STALLS, Problem, state_scale
 
 __all__ = ["SmoothSystem", "solve_smooth"]
@@ -63,7 +64,11 @@ class SmoothSystem:
         # accuracy and diverges in the u-form; LSODA is faster at rtol = 1e-10 but took 40x
         # the steps at 1e-8 and hung on the pseudoplastic fluid in the v-form.
         self.v_method = "BDF" if self.boundary else "DOP853"
-        self.u_method = "BDF"
+        # The u-form as diag(E) y' = G (see radau.py): BDF on u' = G_u / eps(u) fails near
+        # u = 0 for gamma <= -0.8. Boundary friction keeps BDF (its f kinetics are not yet
+        # measured with the mass form).
+        self.u_method = "BDF" if self.boundary else "Radau-mass"
+        self.u_scale = v_scale ** self.q
 
     # -- conversions and forces --------------------------------------------------------------
     def dv_of_u(self, u: float) -> float:
@@ -154,6 +159,45 @@ class SmoothSystem:
         u_dot = self.q * u_abs ** ((self.q - 1.0) / self.q) * dv_dot
         return [v, u_dot] + self.tail(t, f, dv, self.temperature(y), F)
 
+    # -- the u-form as an implicit system diag(E(y)) y' = G(t, y) --------------------------------
+    def mass_exponent(self) -> float:
+        return (1.0 - self.q) / self.q
+
+    def mass(self, y) -> np.ndarray:
+        """Diagonal of E: 1 for x, f, T; eps(u) = M d(dv)/du = (M/q)|u|^((1-q)/q) [kg (m/s)^-q] for u."""
+        E = np.ones(len(y))
+        E[1] = self.p.M / self.q * abs(float(y[1])) ** self.mass_exponent()
+        return E
+
+    def mass_slope(self, y) -> np.ndarray:
+        """d E_i / d y_i (0 but for u)."""
+        dE = np.zeros(len(y))
+        p = self.mass_exponent()
+        u = float(y[1])
+        # The floor keeps p < 1 (gamma > -1/2) finite at u = 0; there the slope is infinite.
+        dE[1] = self.p.M / self.q * p * max(abs(u), 1e-300) ** (p - 1.0) * math.copysign(1.0, u)
+        return dE
+
+    def rhs_u_mass(self, t, y) -> np.ndarray:
+        """G: (v, M dv' = F_stick - F [N][, f'][, T'])."""
+        x, v, dv, f = self.unpack(t, y, "u")
+        F = self.friction(t, dv, f)
+        return np.array([v, self.p.stick_force(t, x) - F] + self.tail(t, f, dv, self.temperature(y), F))
+
+    def jac_u_mass(self, t, y) -> np.ndarray:
+        """dG/dy by forward differences (G is linear in x and, for the fluid law, in u)."""
+        y = np.asarray(y, dtype=float)
+        g0 = self.rhs_u_mass(t, y)
+        scale = self.scale[:len(y)].copy()
+        scale[1] = self.u_scale
+        J = np.empty((len(y), len(y)))
+        for j in range(len(y)):
+            h = math.sqrt(EPS) * max(abs(y[j]), scale[j])
+            yj = y.copy()
+            yj[j] += h
+            J[:, j] = (self.rhs_u_mass(t, yj) - g0) / (yj[j] - y[j])
+        return J
+
     # -- events ------------------------------------------------------------------------------
     def ratio_event(self, form: str, r: float):
         def event(t, y):
@@ -229,8 +273,12 @@ def solve_smooth(p: Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol
 
         # the load program's kinks and jumps end a segment, like events
         t_stop = next(iter(p.breakpoints(t, t_end)), t_end)
-        sol = solve_ivp(rhs, (t, t_stop), y, method=method, rtol=rtol, atol=tol_abs,
-                        events=event_funcs, dense_output=True, **options)
+        if method == "Radau-mass":
+            sol = solve_radau_mass(sys_.rhs_u_mass, sys_.mass, sys_.mass_slope, sys_.jac_u_mass,
+                                   (t, t_stop), y, rtol, tol_abs, events=event_funcs)
+        else:
+            sol = solve_ivp(rhs, (t, t_stop), y, method=method, rtol=rtol, atol=tol_abs,
+                            events=event_funcs, dense_output=True, **options)
         counters["n_rhs"] += sol.nfev
         counters["n_jac"] += sol.njev
         counters["n_lu"] += sol.nlu
