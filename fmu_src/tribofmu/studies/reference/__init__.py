@@ -7,23 +7,15 @@ t [s], X x [m], V v [m/s], F [N], f [1].
 Each regime is solved so that the solver never steps across a point where the right-hand side
 is not smooth:
 
-* dry: piecewise exact. While slipping the force is the constant ``+-mu L`` and the block is
-  a harmonic oscillator with a closed-form solution (:func:`advance_block`); while stuck
-  ``x = x_s + X(t) - X(t_s)``. Stick -> slip (``|M V' + 2 K x|`` reaches ``mu L``) and
-  slip -> stick/reversal (``dv`` reaches 0) are located by brentq on these exact
-  expressions, to machine precision; ``rtol``/``atol`` are not used.
-* fluid and boundary: ``solve_ivp`` between events, restarted at every event: ``dv = 0``
-  (``|dv|^(gamma+1)`` has an infinite slope there for ``gamma < 0``), the kinks of ``mu_eff``
-  (``f = mu/mub``, melting/solidification) and ``lam_eff`` (``f = lam/lamb``), and switches
-  between two equivalent state forms (see :class:`_SmoothSystem`): ``(x, v[, f])`` while
-  inertia dominates, ``(x, u[, f])`` with ``u = sgn(dv)|dv|^(gamma+1)`` while the viscous
-  force nearly balances the rest. The second form is what makes ``gamma = -2/3`` converge:
-  there ``dv`` creeps through 0 with an unbounded relaxation rate, which no explicit method
-  and no Newton iteration on a cube root gets through, but BDF in ``u`` does.
-  Fluid uses DOP853 in the v-form; boundary (``f`` relaxes at up to 1e7 1/s) uses BDF with a
-  finite-difference Jacobian. The u-form always uses BDF.
-  Fluid and boundary laws have no static friction (F(0) = 0), so ``dv = 0`` persists only
-  where ``M V' + 2 K x`` vanishes identically; the u-form follows such a state as it is.
+* no friction and dry friction: piecewise exact, events located by brentq to machine
+  precision; ``rtol``/``atol`` are not used (:mod:`.dry`).
+* fluid and boundary: integrated between events, restarted at every event, in one of two
+  equivalent state forms (:mod:`.smooth`); the quasi-stick u-form of the fluid law is an
+  implicit system with a vanishing mass, solved by :mod:`.radau`.
+
+The package: :mod:`.problem` (the scenario as functions of time and state), :mod:`.dry`,
+:mod:`.smooth`, :mod:`.radau`, and here the driver :func:`reference_solution` and its
+:class:`ReferenceResult`. :func:`nrms` lives in :mod:`tribofmu.studies.measures`.
 
 Beyond the paper, a scene may list a Load FMU (the normal stress is a function of time
 n(t), :mod:`tribofmu.physics.load`) and a Thermal FMU (the film temperature T [K] is a state,
