@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 
 from ...physics.block import BlockState, acceleration
 from ...physics.friction import BOUNDARY, FLUID
@@ -240,7 +241,7 @@ class SmoothSystem:
         |dv| ~ (|F_d|/m)^(1/q), after about t* = M (|F_d|/m)^(1/q) / |F_d|. Near gamma = -1 this
         is far below any step size (1e-26 s at gamma = -0.95 from rest on fig5): the v-form
         overshoots dv = 0 within its first step, again and again. The mass-form u-form starts
-        at u = 0 and lands on the balance in one step, which is exact to O(t*).
+        at the balance (:meth:`balanced_u`), which is exact to O(t*).
         """
         if not (self.u_form_available and self.u_method == "Radau-mass"):
             return False
@@ -249,6 +250,14 @@ class SmoothSystem:
             return False
         dv_star = (abs(driving) / self.law.m) ** (1.0 / self.q)
         return self.p.M * dv_star / abs(driving) < _SETTLE_AT_ONCE * self.p.shortest_period()
+
+    def balanced_u(self, t: float, x: float, f: float) -> float:
+        """u where the friction force equals the driving force, F(dv(u)) = F_stick (dv' = 0)."""
+        driving, _ = self.inertial_and_viscous(t, x, 0.0, f)
+        stick = self.p.stick_force(t, x)
+        u_far = 2.0 * driving / self.law.m  # F - F(0) >= m u_far = 2 driving there
+        return brentq(lambda u: stick - self.friction(t, self.dv_of_u(u), f), 0.0, u_far,
+                      xtol=1e-300, rtol=4 * EPS)
 
     def ratio_below(self, t: float, x: float, dv: float, f: float, r: float) -> bool:
         inertial, visc = self.inertial_and_viscous(t, x, dv, f)
@@ -264,10 +273,13 @@ def solve_smooth(p: Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol
     form = "u" if (sys_.u_form_available and dv != 0.0
                    and sys_.ratio_below(0.0, x, dv, f, _R_TO_U_FORM)) else "v"
     s = (1 if dv > 0 else -1) if dv != 0.0 else sys_.dv_sign_at_zero(0.0, x, f)
+    T = p.T
     if dv == 0.0 and sys_.settles_at_once(0.0, x, f):
         form = "u"
-    T = p.T
-    y = sys_.pack(x, v, dv, f, form, T)
+        y = sys_.pack(x, v, dv, f, form, T)
+        y[1] = sys_.balanced_u(0.0, x, f)
+    else:
+        y = sys_.pack(x, v, dv, f, form, T)
     # For each kink: +1 while f is above it, -1 below (at it: the side f moves to).
     rate0 = sys_.f_rate(0.0, f, dv, T)
     sides = [(1 if f > k else -1) if f != k else (1 if rate0 > 0 else -1) for *_, k in sys_.kinks]
@@ -340,6 +352,7 @@ def solve_smooth(p: Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol
         if sol.status == 0:  # a load breakpoint: restart from the same state
             y = sys_.pack(x, v, dv, f, form, T)
             continue
+        u_start = None
         fired = [kinds[i] for i, te in enumerate(sol.t_events)
                  if kinds[i] != "u_zero" and te.size and te[-1] >= t - 1e-12 * t_end]
         for kind in fired:
@@ -349,6 +362,7 @@ def solve_smooth(p: Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol
                 events.append((t, "dv_zero"))
                 if sys_.settles_at_once(t, x, f):
                     form = "u"
+                    u_start = sys_.balanced_u(t, x, f)
             elif kind == "to_u":
                 form = "u"
             elif kind == "to_v":
@@ -360,6 +374,8 @@ def solve_smooth(p: Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol
                 sides[j] = -sides[j]
                 events.append((t, sys_.kinks[j][0] if sides[j] > 0 else sys_.kinks[j][1]))
         y = sys_.pack(x, v, dv, f, form, T)
+        if u_start is not None and form == "u":
+            y[1] = u_start
 
     x_out = np.full_like(t_eval, np.nan)
     v_out, F_out, f_out, T_out = x_out.copy(), x_out.copy(), x_out.copy(), x_out.copy()
