@@ -266,6 +266,65 @@ def test_reference_converges_as_rtol_tightens(name, overrides):
     assert diff[1e-10] < 0.1 * diff[1e-8]
 
 
+NEAR_DRY_FLUID = {"drive.omega": 35.0, "block.M": 0.9, "block.K": 3000.0, "friction.m": 15.0,
+                  "time.periods": 2.5, "time.window": [1.5, 2.5]}
+
+
+@pytest.mark.parametrize("gamma", [-0.85, -0.93])
+def test_pseudoplastic_reference_converges_near_gamma_minus_one(gamma):
+    """The force is nearly dry (|dv|^0.07 at gamma = -0.93): quasi-stick phases where dv creeps
+    through 0 at relaxation rates up to ~1e13 1/s. rtol 1e-9, 1e-10, 1e-11 must all succeed and
+    agree, each tenfold tighter rtol bringing the solution closer to the tightest."""
+    sc = scenario("fig5_pseudoplastic", **{"friction.gamma": gamma, **NEAR_DRY_FLUID})
+    runs = {rtol: reference_solution(sc, rtol=rtol) for rtol in (1e-9, 1e-10, 1e-11)}
+    assert all(r.ok for r in runs.values()), [r.message for r in runs.values()]
+    best = runs[1e-11]
+    diff = {rtol: nrms(runs[rtol].time, runs[rtol].v, best.time, best.v, sc.window)
+            for rtol in (1e-9, 1e-10)}
+    assert diff[1e-10] < 1e-8
+    assert diff[1e-10] < 0.5 * diff[1e-9]
+    # Quasi-stick really happens: the block follows the drive to 1e-3 of its speed for a
+    # fifth of the window or more (26 % at gamma = -0.85, 57 % at -0.93).
+    win = (best.time >= sc.window[0]) & (best.time <= sc.window[1])
+    following = np.abs(best.V[win] - best.v[win]) < 1e-3 * sc.drive.A * sc.drive.omega
+    assert following.mean() > 0.2
+
+
+def test_near_dry_fluid_starting_from_rest_follows_the_drive_at_once():
+    """gamma = -0.95 from x = v = V = 0: the viscous force balances the drive after |dv| ~ 1e-20,
+    so the block must start out moving with the drive, not chatter at dv = 0."""
+    sc = scenario("fig5_pseudoplastic", **{"friction.gamma": -0.95, **NEAR_DRY_FLUID,
+                                           "time.periods": 0.2, "time.window": [0.0, 0.2]})
+    r = reference_solution(sc, rtol=1e-10)
+    assert r.ok, r.message
+    early = r.time < 0.05 * sc.drive.period
+    assert np.all(np.abs(r.V[early] - r.v[early]) < 1e-12 * sc.drive.A * sc.drive.omega)
+    # ... and the friction force is what holds it there: F = M V' + 2 K x.
+    Vdot = -sc.drive.A * sc.drive.omega ** 2 * np.cos(sc.drive.omega * r.time[early])
+    F_stick = sc.block.M * Vdot + 2 * sc.block.K * r.x[early]
+    assert np.allclose(r.F[early], F_stick, rtol=1e-6, atol=1e-9 * sc.friction.m)
+
+
+def test_mass_form_radau_crosses_a_vanishing_mass():
+    """y^2 y' = y^2 cos t + sin t - y has the solution y = sin t, on which the mass y^2 vanishes
+    at every zero crossing (relaxation rate 1/y^2, unbounded there)."""
+    from tribofmu.studies.reference.radau import solve_radau_mass
+
+    def stop_falling(t, y):
+        return y[0]
+    stop_falling.terminal, stop_falling.direction = True, -1
+    sol = solve_radau_mass(lambda t, y: np.array([y[0] ** 2 * math.cos(t) + math.sin(t) - y[0]]),
+                           lambda y: np.array([y[0] ** 2]), lambda y: np.array([2 * y[0]]),
+                           lambda t, y: np.array([[2 * y[0] * math.cos(t) - 1.0]]),
+                           (0.5, 12.0), [math.sin(0.5)], rtol=1e-10, atol=np.array([1e-12]),
+                           events=[stop_falling])
+    assert sol.status == 1
+    assert sol.t[-1] == pytest.approx(math.pi, abs=1e-9)  # sin t falls through 0 at pi
+    assert sol.t_events[0].size == 1
+    t = np.linspace(0.5, math.pi, 777)
+    assert np.max(np.abs(sol.sol(t)[0] - np.sin(t))) < 1e-8
+
+
 # -- nrms and misuse ---------------------------------------------------------------------------
 def test_nrms_of_a_known_offset_and_interpolation():
     t_ref = np.linspace(0, 2, 2001)
@@ -297,14 +356,14 @@ def test_reference_rejects_misuse(kwargs):
 
 def test_solver_failure_is_returned_not_raised(monkeypatch):
     """A right-hand side that turns NaN mid-run must end in ok=False with a message."""
-    real_solve_ivp = reference_module.solve_ivp
+    real_solve_ivp = reference_module.smooth.solve_ivp
 
     def poisoned(fun, t_span, y0, **kwargs):
         def bad_fun(t, y):
             return np.full(len(y), np.nan) if t > 0.3 else fun(t, y)
         return real_solve_ivp(bad_fun, t_span, y0, **kwargs)
 
-    monkeypatch.setattr(reference_module, "solve_ivp", poisoned)
+    monkeypatch.setattr(reference_module.smooth, "solve_ivp", poisoned)
     sc = scenario("fig5_newtonian")
     r = reference_solution(sc)
     assert isinstance(r, ReferenceResult)

@@ -1,0 +1,140 @@
+"""Monolithic reference solution of a scenario: pure scipy, no FMI.
+
+The yardstick for every error figure of the project (co-simulation error = distance to this
+solution) and what a user would write instead of co-simulating. Units are SI throughout:
+t [s], X x [m], V v [m/s], F [N], f [1].
+
+Each regime is solved so that the solver never steps across a point where the right-hand side
+is not smooth:
+
+* no friction and dry friction: piecewise exact, events located by brentq to machine
+  precision; ``rtol``/``atol`` are not used (:mod:`.dry`).
+* fluid and boundary: integrated between events, restarted at every event, in one of two
+  equivalent state forms (:mod:`.smooth`); the quasi-stick u-form of the fluid law is an
+  implicit system with a vanishing mass, solved by :mod:`.radau`.
+
+The package: :mod:`.problem` (the scenario as functions of time and state), :mod:`.dry`,
+:mod:`.smooth`, :mod:`.radau`, and here the driver :func:`reference_solution` and its
+:class:`ReferenceResult`. :func:`nrms` lives in :mod:`tribofmu.studies.measures`.
+
+Beyond the paper, a scene may list a Load FMU (the normal stress is a function of time
+n(t), :mod:`tribofmu.physics.load`) and a Thermal FMU (the film temperature T [K] is a state,
+``C T' = q F (V - v) - G (T - T_ambient)``, :mod:`tribofmu.physics.thermal`), solved together
+with the rest in one system (no exchange delay: the yardstick for the master's explicit T).
+Integration restarts at the load program's breakpoints. Dry friction under a varying load or
+with heating: stick is exact (x follows the drive, T relaxes in closed form as no power is
+dissipated), slip is integrated by DOP853 (the slip force mu S (-n(t)) is no longer constant),
+with the same brentq/event logic for stick and slip.
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...physics.friction import BOUNDARY, DRY, FLUID
+from ...scene.scenario import Scenario
+from ..measures import nrms
+from .dry import solve_dry, solve_dry_varying, solve_free
+from .problem import Problem, state_scale
+from .smooth import solve_smooth
+
+__all__ = ["ReferenceResult", "reference_solution", "nrms", "SAMPLES_PER_PERIOD"]
+
+SAMPLES_PER_PERIOD = 1000  # default output grid: every T/1000
+
+
+@dataclass(frozen=True)
+class ReferenceResult:
+    """Reference trajectory on ``time``.
+
+    time [s]; X [m], V [m/s] the upper block (zeros when the scenario has no Drive);
+    x [m], v [m/s] the lower block; F [N] the friction force on the lower block; f [1] the
+    lubricant's excess volume (0 for dry and fluid friction). wall_time [s] of the solve.
+    stats: solver used, right-hand-side evaluations, events (``event_times`` as
+    ``(t [s], kind)``), stick intervals (dry) and counts of melting/solidification (boundary).
+    ok is False when the solver failed; message says why (the arrays then hold what was
+    computed up to the failure, NaN after it).
+    """
+
+    time: np.ndarray
+    X: np.ndarray
+    V: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    F: np.ndarray
+    f: np.ndarray
+    wall_time: float
+    stats: dict = field(default_factory=dict)
+    ok: bool = True
+    message: str = ""
+    T: np.ndarray | None = None  # K, film temperature (constant conditions.T without Thermal)
+    n: np.ndarray | None = None  # Pa, normal stress
+
+
+# -- public entry -------------------------------------------------------------------------------
+def reference_solution(scenario: Scenario, t_eval: np.ndarray | None = None, rtol: float = 1e-10,
+                       atol: float | np.ndarray | None = None) -> ReferenceResult:
+    """Converged monolithic solution of ``scenario`` on ``t_eval`` [s].
+
+    t_eval: non-decreasing times >= 0 [s]; default every T/1000 over [0, stop_time]
+    (T the drive period). rtol [1]: relative tolerance of the ODE solver (fluid, boundary).
+    atol: absolute tolerance, a scalar or one value per state (x [m], v [m/s][, f [1]]);
+    default ``rtol`` times the state's scale (drive amplitude A, A*omega, 1).
+    Dry friction is solved piecewise exactly with events at machine precision, so
+    rtol/atol do not apply to it. Initial state x0, v0 (scenario.block), f0 (friction).
+    Raises ValueError on misuse; a solver failure is returned with ``ok=False``.
+    """
+    if not isinstance(scenario, Scenario):
+        raise TypeError(f"scenario must be a tribofmu.scenario.Scenario, got {type(scenario).__name__}")
+    if not (isinstance(rtol, (int, float)) and math.isfinite(rtol) and rtol > 0):
+        raise ValueError(f"rtol must be a finite number > 0, got {rtol!r}")
+    period = scenario.drive.period
+    if t_eval is None:
+        n_steps = int(math.floor(scenario.time.periods * SAMPLES_PER_PERIOD + 1e-6))
+        t_eval = np.arange(n_steps + 1) * (period / SAMPLES_PER_PERIOD)
+    t_eval = np.asarray(t_eval, dtype=float)
+    if t_eval.ndim != 1 or t_eval.size == 0:
+        raise ValueError(f"t_eval must be a non-empty 1-D array, got shape {t_eval.shape}")
+    if not np.all(np.isfinite(t_eval)) or t_eval[0] < 0 or np.any(np.diff(t_eval) < 0):
+        raise ValueError("t_eval must be finite, >= 0 and non-decreasing")
+
+    problem = Problem(scenario)
+    regime = problem.law.regime
+    n_state = 2 + (problem.has_friction and regime == BOUNDARY) + (problem.thermal is not None)
+    if atol is not None:
+        atol_arr = np.broadcast_to(np.asarray(atol, dtype=float), (n_state,)) if np.ndim(atol) == 0 \
+            else np.asarray(atol, dtype=float)
+        if atol_arr.shape != (n_state,) or not np.all(np.isfinite(atol_arr)) or np.any(atol_arr <= 0):
+            raise ValueError(f"atol must be > 0, a scalar or {n_state} values (x, v[, f][, T]), got {atol!r}")
+    t_end = max(scenario.stop_time, float(t_eval[-1]))
+
+    start = _time.perf_counter()
+    if not problem.has_friction:
+        out = solve_free(problem, t_eval)
+    elif regime == DRY and problem.program is None and problem.thermal is None:
+        out = solve_dry(problem, t_eval, t_end)
+    elif regime == DRY:
+        out = solve_dry_varying(problem, t_eval, t_end)
+    elif regime in (FLUID, BOUNDARY):
+        if atol is None:
+            scale = state_scale(problem)
+            scale = np.concatenate([scale[:n_state - 1], scale[3:]]) if problem.thermal is not None \
+                else scale[:n_state]
+            atol_arr = rtol * scale
+        out = solve_smooth(problem, t_eval, t_end, float(rtol), np.array(atol_arr, dtype=float))
+    else:  # scenario validation rejects this; guard against a hand-built scenario
+        raise ValueError(f"unknown friction regime {regime}")
+    wall = _time.perf_counter() - start
+
+    X, V = problem.output_drive(t_eval)
+    T = out.get("T")
+    if T is None:
+        T = np.full_like(t_eval, problem.T)
+    n = np.array([problem.n_at(float(ti)) for ti in t_eval]) if problem.program is not None \
+        else np.full_like(t_eval, problem.n)
+    return ReferenceResult(time=t_eval, X=X, V=V, x=out["x"], v=out["v"], F=out["F"], f=out["f"],
+                           wall_time=wall, stats=out["stats"], ok=out["ok"], message=out["message"],
+                           T=T, n=n)
