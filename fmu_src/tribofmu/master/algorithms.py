@@ -24,7 +24,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
 from ..physics.roots import illinois
-from .interpolation import NS, hermite_mid, velocity_slopes
+from .interpolation import NS, hermite, hermite_mid, velocity_slopes
 from .system import CoupledSystem, Point, States
 
 
@@ -258,6 +258,12 @@ class ImplicitStep:
         if mode == 0:
             if point.mode == 0 and point.t_ns > 0:  # stuck all through the step
                 event = self.stick_ramp()
+            elif point.mode != 0:
+                # It was slipping and ends stuck: dv reached 0 inside the step, where the
+                # block's dv under the slip force (the probe on the slip side) crosses it.
+                slipping_on = self.probes[first][1]
+                if point.dv != slipping_on:
+                    event = min(1.0, max(0.0, point.dv / (point.dv - slipping_on)))
             if event < 1.0 or point.mode != 0 or point.t_ns == 0:
                 self.stick_force()
             self.counters.stick_steps += 1
@@ -466,8 +472,26 @@ class AdaptiveCoupling(ImplicitCoupling):
         s, h = self.scales, h_ns / NS
         v_mid = hermite_mid(start.v, end.v, *velocity_slopes(start, end), h)
         x_mid = hermite_mid(start.x, end.x, start.v, end.v, h)
-        return max(abs(v_mid - mid.v) / (16 * self.tol * self._v_scale or 1.0),
-                   abs(x_mid - mid.x) / (16 * self.tol * self._x_scale or 1.0))
+        error = max(abs(v_mid - mid.v) / (16 * self.tol * self._v_scale or 1.0),
+                    abs(x_mid - mid.x) / (16 * self.tol * self._x_scale or 1.0))
+        if (start.mode != 0 and start.mode == mid.mode == end.mode
+                and self._grazes(start, mid, end, h, self.tol * self._v_scale)):
+            error = max(error, 4.0)  # halve: the step may hide a stick or a reversal
+        return error
+
+    @staticmethod
+    def _grazes(start: Point, mid: Point, end: Point, h: float, margin: float) -> bool:
+        """Slipping one way at both ends and the middle, does the interpolated relative
+        velocity of either half cross 0 by more than margin [m/s] in between? (dv grazing 0
+        between communication points is a stick, or a reversal, that the step would miss;
+        a crossing within the tolerance is not worth a smaller step.)"""
+        for a, b in ((start, mid), (mid, end)):
+            for s in (0.25, 0.5, 0.75):
+                dv = (hermite(a.V, b.V, a.aX, b.aX, 0.5 * h, s)
+                      - hermite(a.v, b.v, a.a, b.a, 0.5 * h, s))
+                if dv * start.mode < -margin:
+                    return True
+        return False
 
     def root_tolerance(self) -> float:
         return self.root_tol_fraction * self.tol * self._v_scale

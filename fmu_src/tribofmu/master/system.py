@@ -61,7 +61,7 @@ class Point:
     F_rate: float = 0.0
     mode: int = 0
     est_error: float = 0.0  # m/s, the algorithm's own estimate of this step's error in v (0: none)
-    event: float = 1.0  # fraction of the step at which a stuck contact broke away (1: none)
+    event: float = 1.0  # fraction of the step at which the contact broke away or stuck (1: none)
     ramped: bool = False  # the step ramped the force while slipping (else held or stuck)
     T: float = math.nan  # K, the friction's temperature input at this point (Thermal's output)
     n: float = math.nan  # Pa, the friction's normal stress input at this point

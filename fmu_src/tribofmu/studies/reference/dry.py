@@ -61,7 +61,19 @@ def first_fall(g: Callable[[float], float], t0: float, t1: float, step: float,
             if -peak.fun > 0 and g(peak.x) > 0:
                 return root(peak.x, t_b)
             return t_a
-        if t_prev is not None and g_prev > g_a < g_b:
+        if t_prev is None:
+            # The first interval has no sample before it to show a dip: g may start falling
+            # and come back up before t_b (a stick beginning near a drive reversal, where the
+            # stick force swings out past the bound and back within one sample).
+            dip = minimize_scalar(g, bounds=(t_a, t_b), method="bounded",
+                                  options={"xatol": EPS ** 0.5 * (t_b - t_a)})
+            if dip.fun < 0 and dip.x > t_a:
+                if g_a > 0:
+                    return root(t_a, dip.x)
+                peak = minimize_scalar(lambda t: -g(t), bounds=(t_a, dip.x), method="bounded",
+                                       options={"xatol": 1e-3 * (dip.x - t_a)})
+                return root(peak.x, dip.x) if g(peak.x) > 0 else t_a
+        elif g_prev > g_a < g_b:
             dip = minimize_scalar(g, bounds=(t_prev, t_b), method="bounded",
                                   options={"xatol": EPS ** 0.5 * (t_b - t_prev)})
             if dip.fun <= 0 and g_prev > 0:
