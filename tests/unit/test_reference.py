@@ -369,3 +369,24 @@ def test_solver_failure_is_returned_not_raised(monkeypatch):
     assert isinstance(r, ReferenceResult)
     assert not r.ok and "failed" in r.message
     assert np.all(np.isfinite(r.v[r.time < 0.29])) and np.all(np.isnan(r.v[r.time > 0.31]))
+
+
+def test_dry_stick_margin_dip_in_the_first_sample_is_caught():
+    """A stiff spring (K = 1e6): a stick that begins near a drive reversal, where the stick
+    force swings past the bound and back within one sample of the margin. The exact solver
+    must agree with an independent regularised solve (F = mu L tanh(dv / eps), Radau)."""
+    from scipy.integrate import solve_ivp
+
+    sc = load_scenario(SCENARIOS / "fig2_dry.toml", {"block.K": 1e6, "time.periods": 4.0, "time.window": [3.0, 4.0]})
+    ref = reference_solution(sc)
+    A, w, M, K = sc.drive.A, sc.drive.omega, sc.block.M, sc.block.K
+    bound = sc.friction.mu_friction * sc.load
+
+    def rhs(t, y):
+        dv = -A * w * np.sin(w * t) - y[1]
+        return [y[1], (bound * np.tanh(dv / 1e-6) - 2 * K * y[0]) / M]
+
+    reg = solve_ivp(rhs, (0.0, sc.stop_time), [0.0, 0.0], method="Radau", rtol=1e-10,
+                    atol=[1e-14, 1e-12], t_eval=ref.time, max_step=1e-4)
+    assert reg.success
+    assert nrms(ref.time, reg.y[1], ref.time, ref.v, sc.window) < 2e-3
