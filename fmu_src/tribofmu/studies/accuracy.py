@@ -227,7 +227,8 @@ def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> No
     ax.axvline(summary["reference_wall_time_s"], color="k", ls="--", lw=1, label="reference solver")
     ax.set_xlabel("wall time of the run [s]")
     ax.set_ylabel("nRMS error of v on the window [1]")
-    ax.set_title(title, fontsize=9)
+    import textwrap
+    ax.set_title(textwrap.fill(title, 95), fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
