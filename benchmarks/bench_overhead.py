@@ -82,22 +82,22 @@ def build_replay(log, slaves):
         comp, c = s._component, s._c
         if op == "set_reals":
             refs, values = args
-            ops.append((c["fmi2SetReal"], (comp, (fmi2ValueReference * len(refs))(*refs), len(refs),
+            ops.append((c["set"], (comp, (fmi2ValueReference * len(refs))(*refs), len(refs),
                                            (fmi2Real * len(values))(*values))))
         elif op == "get_reals":
             (refs,) = args
-            ops.append((c["fmi2GetReal"], (comp, (fmi2ValueReference * len(refs))(*refs), len(refs),
+            ops.append((c["get"], (comp, (fmi2ValueReference * len(refs))(*refs), len(refs),
                                            (fmi2Real * len(refs))())))
         elif op == "do_step":
             t, h = args
-            ops.append((c["fmi2DoStep"], (comp, t, h, 1)))
+            ops.append((c["step"], (comp, t, h, 1)))
         elif op == "save":
             st = states[args[0]] = fmi2FMUstate()
-            ops.append((c["fmi2GetFMUstate"], (comp, ctypes.byref(st))))
+            ops.append((c["save"], (comp, ctypes.byref(st))))
         elif op == "restore":
-            ops.append((c["fmi2SetFMUstate"], (comp, states[args[0]])))
+            ops.append((c["restore"], (comp, states[args[0]])))
         elif op == "free_state":
-            ops.append((c["fmi2FreeFMUstate"], (comp, ctypes.byref(states[args[0]]))))
+            ops.append((c["free"], (comp, ctypes.byref(states[args[0]]))))
     return ops
 
 

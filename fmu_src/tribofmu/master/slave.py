@@ -212,7 +212,7 @@ class Slave:
 
         The one place that reaches into fmpy's private ``FMU2Slave._functions`` (the ctypes
         functions fmpy loaded). fmpy's public calls rebuild ctypes arrays and dispatch
-        through Python wrappers: measured by ``tests/bench_slave_calls.py`` (set/get reals,
+        through Python wrappers: measured by ``benchmarks/bench_slave_calls.py`` (set/get reals,
         do step, get/set/free state on a BlockSpring), 2.6 us per call here against 3.4 us
         for fmpy's public ``fmi2SetReal(component, ...)`` methods with the same arrays and
         4.3 us for ``setReal``/``getReal``/``doStep``: a 1.3-1.6x saving, seconds on a
