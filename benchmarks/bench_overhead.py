@@ -121,7 +121,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     from tribofmu import api
     scenario = api.load(SCENARIO)
-    api.ensure_fmus(FMU_DIR, scenario.fmus, build=None)
+    api.ensure_fmus(FMU_DIR, scenario.fmus, build=True)  # from this source, never stale
     print(f"fig2_dry, {args.repeats} repeats, medians")
     print(f"{'case':18s} {'steps':>7s} {'calls':>8s} {'FMU-only':>9s} {'run loop':>9s} {'simulate':>9s} "
           f"{'us/step FMU':>11s} {'us/step master':>14s} {'overhead':>9s}")
