@@ -178,9 +178,11 @@ class FrictionLaw:
 
         return rate
 
-    # A moving relative velocity is followed in this many pieces, each held at the value
-    # its piece ends with: in the stiff regime f then ends on the equilibrium of the
-    # step's final dv, and through a melting bottleneck the timing error falls with it.
+    # A moving relative velocity is followed in this many pieces, each held at its value in
+    # the piece's middle (second order in the input where f is slow, so a melting happens
+    # at the right time; where f is stiff it ends within an eighth of the step's change of
+    # dv of the final equilibrium). Measured on fig6: with dv held at the step's end the
+    # melting time converged like tol^0.6; with these pieces nRMS(v) follows tol.
     DV_PIECES = 4
 
     def advance_f(self, f: float, dv: float, n: float, T: float, h: float,
@@ -188,7 +190,7 @@ class FrictionLaw:
         """Advance the excess volume f over a step h [s] with n, T held; returns f(t+h).
 
         dv [m/s] is held over the step, or, given dv_start, moves linearly from dv_start to
-        dv (followed in DV_PIECES pieces, each held at the relative velocity it ends with).
+        dv (followed in DV_PIECES pieces, each held at its value in the piece's middle).
 
         Eq. (21) is stiff (rates 1e5 to 1e7 1/s) and, with inputs held, scalar and
         autonomous: its solution moves monotonically toward the nearest equilibrium and
