@@ -29,13 +29,13 @@ CASES = (("jacobi h=1e-4", dict(algorithm="jacobi", step=1e-4)),
 
 
 def record(scenario, **kw):
-    """Run simulate() with every hot-path Slave call logged: [(instance, op, args)]."""
+    """Run simulate() with every hot-path FMUInstance call logged: [(instance, op, args)]."""
     from tribofmu import api
-    from tribofmu.master.slave import Slave
+    from tribofmu.master.instance import FMUInstance
 
     log = []
     ids = {}
-    originals = {name: getattr(Slave, name) for name in
+    originals = {name: getattr(FMUInstance, name) for name in
                  ("set_reals", "get_reals", "do_step", "save", "restore", "free_state")}
 
     def wrap(name):
@@ -55,19 +55,19 @@ def record(scenario, **kw):
 
     try:
         for name in originals:
-            setattr(Slave, name, wrap(name))
+            setattr(FMUInstance, name, wrap(name))
         result = api.simulate(scenario, fmu_dir=FMU_DIR, build=False, **kw)
     finally:
         for name, fn in originals.items():
-            setattr(Slave, name, fn)
+            setattr(FMUInstance, name, fn)
     # drop the saved handles (kept alive above so that ids stay unique during the run)
     return [(i, op, a[:1] if op == "save" else a) for i, op, a in log], result
 
 
 def fresh_slaves(scenario):
-    from tribofmu.master.slave import Slave
+    from tribofmu.master.instance import FMUInstance
     from tribofmu.scene.wiring import fmu_parameters
-    return {fmu.lower(): Slave(FMU_DIR / f"{fmu}.fmu", instance=fmu.lower(), parameters=params)
+    return {fmu.lower(): FMUInstance(FMU_DIR / f"{fmu}.fmu", instance=fmu.lower(), parameters=params)
             for fmu, params in fmu_parameters(scenario).items()}
 
 

@@ -29,9 +29,9 @@ def main(argv=None) -> int:
     parser.add_argument("--step", type=float, default=1e-4)
     args = parser.parse_args(argv)
     from tribofmu import api
-    from tribofmu.master.slave import Slave
+    from tribofmu.master.instance import FMUInstance
 
-    original = Slave.do_step
+    original = FMUInstance.do_step
     timings: list[float] = []
 
     def timed(self, t, h):
@@ -45,7 +45,7 @@ def main(argv=None) -> int:
 
     print(f"implicit h={args.step:g} s over {args.periods:g} periods; friction fmi2DoStep")
     print(f"{'regime':24s} {'median us':>10s} {'p90 us':>9s} {'do_steps':>9s} {'steps':>7s} {'run s':>7s}")
-    Slave.do_step = timed
+    FMUInstance.do_step = timed
     try:
         for label, scene, overrides in CASES:
             sc = api.load(ROOT / "scenarios" / f"{scene}.toml", overrides + [f"time.periods={args.periods}",
@@ -58,7 +58,7 @@ def main(argv=None) -> int:
                   f"{len(ts):9d} {r.stats['communication_steps']:7d} {r.stats['wall_time']:7.2f}"
                   + ("" if r.ok else f"  ({r.message})"))
     finally:
-        Slave.do_step = original
+        FMUInstance.do_step = original
     return 0
 
 

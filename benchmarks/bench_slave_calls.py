@@ -6,7 +6,7 @@ Three ways to make the calls a coupling step repeats thousands of times (set two
 get two reals, do a step, get and set the FMU state) on one BlockSpring instance:
 
 - ``raw``: the ctypes functions fmpy loaded (``FMU2Slave._functions``, private), with value
-  reference and value arrays built once (what :class:`tribofmu.master.slave.Slave` does);
+  reference and value arrays built once (what :class:`tribofmu.master.instance.FMUInstance` does);
 - ``fmpy-low``: fmpy's public ``fmi2SetReal(component, vr, n, values)`` methods, same arrays;
 - ``fmpy``: fmpy's public ``setReal(vr, values)``, ``getReal``, ``doStep``, ``getFMUstate``.
 
@@ -32,11 +32,11 @@ def main() -> None:
 
     from fmpy.fmi2 import fmi2FMUstate, fmi2Real, fmi2ValueReference
     from tribofmu.build import build_fmus
-    from tribofmu.master.slave import Slave
+    from tribofmu.master.instance import FMUInstance
 
     with tempfile.TemporaryDirectory() as tmp:
         build_fmus(tmp, ("BlockSpring",))
-        slave = Slave(Path(tmp) / "BlockSpring.fmu", "block", {"M": 0.6, "K": 7000.0})
+        slave = FMUInstance(Path(tmp) / "BlockSpring.fmu", "block", {"M": 0.6, "K": 7000.0})
         fmu, comp = slave._fmu, slave._fmu.component
         refs = [slave.refs["F"], slave.refs["V"]]
         outs = [slave.refs["x"], slave.refs["v"]]

@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tribofmu.master import Scales, Slave, make_algorithm, run, sample
+from tribofmu.master import Scales, FMUInstance, make_algorithm, run, sample
 from tribofmu.physics.friction import BOUNDARY, FrictionLaw
 from tribofmu.scene.scenario import load_scenario, scales
 from tribofmu.scene.wiring import build_system, fmu_parameters, input_signals
@@ -26,7 +26,7 @@ OUT = ROOT / "docs" / "figures"
 
 
 def cosimulate(scenario, fmu_dir):
-    slaves = {n: Slave(fmu_dir / f"{n}.fmu", instance=n.lower(), parameters=p)
+    slaves = {n: FMUInstance(fmu_dir / f"{n}.fmu", instance=n.lower(), parameters=p)
               for n, p in fmu_parameters(scenario).items()}
     try:
         system = build_system(scenario, slaves)

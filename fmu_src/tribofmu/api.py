@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from .errors import FMUError
-from .master import (FMUCallError, FMUFileError, GridRecorder, PointList, RunLimits, Scales, Slave,
+from .master import (FMUCallError, FMUFileError, GridRecorder, PointList, RunLimits, Scales, FMUInstance,
                      make_algorithm, run, sample)
 from .studies.energy import EnergyAudit
 from .master.interpolation import INPUT_SIGNALS
@@ -107,12 +107,12 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     inputs = bool({"Thermal", "Load"} & set(scenario.fmus))
     recorder = PointList() if keep_points else GridRecorder(grid, [audit], inputs=inputs)
     limits = RunLimits(max_wall=(sim.max_wall if max_wall == -1.0 else max_wall) or None)
-    slaves: dict[str, Slave] = {}
+    slaves: dict[str, FMUInstance] = {}
     try:
         failures = []  # every instance's failure, in one message
         for fmu, params in fmu_parameters(scenario).items():
             try:
-                slaves[fmu] = Slave(fmu_dir / f"{fmu}.fmu", instance=fmu.lower(), parameters=params)
+                slaves[fmu] = FMUInstance(fmu_dir / f"{fmu}.fmu", instance=fmu.lower(), parameters=params)
             except (FMUFileError, FMUCallError) as exc:
                 failures.append(str(exc))
         if failures:

@@ -4,7 +4,7 @@ The copy an FMU carries is renamed: pythonfmu puts the FMU's ``resources`` folde
 ``sys.path`` of the process that loads it, so a copy named ``tribofmu`` would shadow the
 installed package (``import tribofmu.api`` then fails in that process), and two FMUs built
 from different sources would share whichever copy was imported first. The shipped copy is
-therefore a private package, ``_tribofmu_fmu_<version>_<source hash>``, and the slave
+therefore a private package, ``_tribofmu_fmu_<version>_<source hash>``, and the model
 modules are ``<that name>_<FMU>``: the staged sources' ``tribofmu`` imports are rewritten
 to it at build time, so a built FMU never imports the name ``tribofmu``.
 
@@ -33,7 +33,7 @@ from pathlib import Path
 from . import __version__
 
 PACKAGE = Path(__file__).resolve().parent
-SLAVES = PACKAGE / "fmu" / "slaves"
+MODELS = PACKAGE / "fmu" / "models"
 FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load", "TriboPair")
 # What an FMU needs at run time: the physics, the FMU framework and, for TriboPair, the
 # master's coupling on in-process parts; nothing that imports fmpy.
@@ -41,7 +41,7 @@ SHIPPED = ("__init__.py", "physics", "fmu/__init__.py", "fmu/base.py", "fmu/fmi_
            "fmu/parameters.py", "master/algorithms.py", "master/system.py", "master/interpolation.py",
            "master/inprocess.py", "master/pair.py")
 # Package files shipped in place of the source's: master/__init__.py imports the fmpy-based
-# parts of the master (slave.py, run.py), which an FMU must not load.
+# parts of the master (instance.py, run.py), which an FMU must not load.
 STUBS = {"master/__init__.py": '"""The part of the tribofmu master that TriboPair runs in-process."""\n'}
 FMI_VERSIONS = (2, 3)
 PRIVATE_PREFIX = "_tribofmu_fmu_"
@@ -52,12 +52,12 @@ _IMPORT = re.compile(r"^(\s*)(from|import)(\s+)tribofmu\b", re.MULTILINE)
 
 
 def _shipped_sources() -> list[Path]:
-    """Every file whose content ends up in an FMU: the shipped package and the slave scripts."""
+    """Every file whose content ends up in an FMU: the shipped package and the model scripts."""
     files = []
     for rel in SHIPPED:
         src = PACKAGE / rel
         files += sorted(p for p in src.rglob("*.py")) if src.is_dir() else [src]
-    files += [SLAVES / f"{name}.py" for name in FMU_NAMES]
+    files += [MODELS / f"{name}.py" for name in FMU_NAMES]
     return files
 
 
@@ -124,7 +124,7 @@ def _stage_package(root: Path, private: str, fmi: int = 2) -> Path:
     return target
 
 
-# Put before a slave script's imports. FMUs of one build share the private package's name, and
+# Put before a model script's imports. FMUs of one build share the private package's name, and
 # a host may have imported it from another FMU's folder that is gone by now (fmpy removes an
 # FMU's extraction when simulate_fmu returns): modules that FMU did not need would then not
 # be found. Each FMU adds its own copy to the packages already imported.
@@ -137,9 +137,9 @@ for _name, _module in list(_sys.modules.items()):
 """
 
 
-def _stage_slave(root: Path, name: str, private: str, fmi: int = 2) -> Path:
-    """The slave script under its private module name, importing the private package."""
-    text = rewrite_imports((SLAVES / f"{name}.py").read_text(), private)
+def _stage_model(root: Path, name: str, private: str, fmi: int = 2) -> Path:
+    """The model script under its private module name, importing the private package."""
+    text = rewrite_imports((MODELS / f"{name}.py").read_text(), private)
     first_import = re.search(r"^(from|import) ", text, re.MULTILINE).start()
     text = text[:first_import] + _PREAMBLE.format(private=private) + text[first_import:]
     if fmi == 3:
@@ -181,7 +181,7 @@ def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] = FMU_N
                 # pythonfmu3 takes a folder as dest and names the file after the model
                 dest = Path(tmp) / f"{name}.fmu" if fmi == 2 else Path(tmp) / f"fmi3-{name}"
                 partial = FmuBuilder.build_FMU(
-                    _stage_slave(Path(tmp), name, private, fmi), dest=dest,
+                    _stage_model(Path(tmp), name, private, fmi), dest=dest,
                     project_files=[package], **options)
                 final = out_dir / f"{name}.fmu"
                 # same file system: an atomic rename; otherwise copy beside the target first

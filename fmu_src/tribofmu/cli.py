@@ -39,7 +39,7 @@ class UsageError(Exception):
 def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
-    from .master.slave import remove_orphan_extractions
+    from .master.instance import remove_orphan_extractions
     from .progress import install_signal_handlers
     install_signal_handlers()  # Ctrl-C and SIGTERM: stop between steps, write nothing half
     atexit.register(remove_orphan_extractions)  # unzipped FMUs of finished (Dask) workers

@@ -7,7 +7,7 @@ written against earlier versions still catches them:
 - :class:`ScenarioError` (a ``ValueError``): a scenario file, override or setting is wrong;
   :class:`SweepError` the same for a sweep's grid, options or output directory;
 - :class:`FMUError`: an FMU file is missing or unreadable, or an FMU refused a call
-  (``master.slave.FMUFileError``, ``FMUCallError``; ``api.FMUSetupError``);
+  (``master.instance.FMUFileError``, ``FMUCallError``; ``api.FMUSetupError``);
 - :class:`NumericalError` (a ``RuntimeError``): a computation a study depends on failed
   (a simulation that fails is a result with a message, not an exception).
 """

@@ -25,7 +25,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
-from tribofmu.master.slave import extract as extract_once
+from tribofmu.master.instance import extract as extract_once
 
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load", "TriboPair")

@@ -16,7 +16,7 @@ import pytest
 
 from tribofmu import api, cli
 from tribofmu.build import PRIVATE_PREFIX, build_fmus, private_package_name
-from tribofmu.master.slave import EXTRACT_PREFIX
+from tribofmu.master.instance import EXTRACT_PREFIX
 
 from scenes import ROOT
 SCENES = ROOT / "scenarios"
@@ -211,9 +211,9 @@ def test_killed_run_writes_nothing_and_removes_its_extracted_fmus(tmp_path, env,
 
 
 def test_instances_of_one_fmu_share_one_extraction_removed_at_exit(tmp_path, env, fmu_dir):
-    code = ("import sys, tempfile\nfrom pathlib import Path\nfrom tribofmu.master.slave import Slave\n"
+    code = ("import sys, tempfile\nfrom pathlib import Path\nfrom tribofmu.master.instance import FMUInstance\n"
             f"fmu = Path({str(fmu_dir)!r}) / 'Drive.fmu'\n"
-            "a, b = Slave(fmu, 'a'), Slave(fmu, 'b')\n"
+            "a, b = FMUInstance(fmu, 'a'), FMUInstance(fmu, 'b')\n"
             "assert a._unzipped == b._unzipped\n"
             "a.close(); b.close()\n"
             "print(len(list(Path(tempfile.gettempdir()).iterdir())))\n")

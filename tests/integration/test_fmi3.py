@@ -1,5 +1,5 @@
 """FMI 3.0 builds (``tribofmu build --fmi 3``): the same adapters on pythonfmu3, checked
-against the FMI 2.0 builds and driven by the master's :class:`~tribofmu.master.slave.Slave`.
+against the FMI 2.0 builds and driven by the master's :class:`~tribofmu.master.instance.FMUInstance`.
 
 Integration tier: both versions are built from the working tree (``fmu_dir``, ``fmu3_dir``).
 """
@@ -16,7 +16,7 @@ from fmpy.fmi3 import FMU3Slave
 
 from tribofmu import api
 from tribofmu.build import build_fmus, private_package_name
-from tribofmu.master.slave import FMUCallError, Slave, extract
+from tribofmu.master.instance import FMUCallError, FMUInstance, extract
 
 from fmi_harness import FMU_NAMES
 from scenes import PAPER_SCENES, scene
@@ -86,7 +86,7 @@ def test_fmi3_and_fmi2_builds_agree_on_paper_scene(fmu_dir, fmu3_dir, name):
 
 
 def test_slave_drives_fmi3_with_typed_errors_and_state(fmu3_dir):
-    slave = Slave(fmu3_dir / "BlockSpring.fmu", instance="block%s", parameters={"M": 0.7, "K": 1300.0})
+    slave = FMUInstance(fmu3_dir / "BlockSpring.fmu", instance="block%s", parameters={"M": 0.7, "K": 1300.0})
     try:
         assert slave.fmi_version == 3
         r = slave.refs

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from tribofmu.build import build_fmus
-from tribofmu.master import Scales, Slave, make_algorithm, run, sample
+from tribofmu.master import Scales, FMUInstance, make_algorithm, run, sample
 from tribofmu.scene.scenario import LoadTable, ThermalTable, load_scenario, scales
 from tribofmu.scene.wiring import build_system, fmu_parameters, input_signals
 from tribofmu.studies.energy import energy_audit, heat_audit, step_dissipation, step_integrals
@@ -28,7 +28,7 @@ def fmu_dir(tmp_path_factory):
 
 def cosimulate(fmu_dir, scenario, tol=None):
     """Run the scene's FMUs under its coupling; returns the run's outcome."""
-    slaves = {name: Slave(fmu_dir / f"{name}.fmu", instance=name.lower(), parameters=params)
+    slaves = {name: FMUInstance(fmu_dir / f"{name}.fmu", instance=name.lower(), parameters=params)
               for name, params in fmu_parameters(scenario).items()}
     try:
         system = build_system(scenario, slaves)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import copy
 
-from tribofmu.master.slave import FMUCallError
+from tribofmu.master.instance import FMUCallError
 from tribofmu.physics import BlockState, FrictionLaw, acceleration, advance_block, drive
 
 

@@ -3,8 +3,8 @@
 :data:`.fmi_version.FMI_VERSION`; the adapters import everything FMI-specific from here, so
 the same adapter files build for both versions.
 
-Each FMU script declares its variables with :meth:`TriboSlave.declare` and implements
-:meth:`TriboSlave.advance`. This module is the one place that
+Each FMU script declares its variables with :meth:`TriboModel.declare` and implements
+:meth:`TriboModel.advance`. This module is the one place that
 
 - writes what pythonfmu 0.7 leaves out of ``modelDescription.xml``: units, ``initial``
   attributes, ``InitialUnknowns`` and the output dependencies of ``ModelStructure``;
@@ -51,7 +51,7 @@ VERSION = "0.1.0"
 _KINDS = {float: Real, int: Integer, bool: Boolean}
 
 
-class TriboSlave(_PythonFMUSlave):
+class TriboModel(_PythonFMUSlave):
     """Base of every tribofmu FMU: declare variables, implement :meth:`advance`."""
 
     author = AUTHOR

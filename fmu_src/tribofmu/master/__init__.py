@@ -2,8 +2,8 @@
 from .algorithms import ALGORITHMS, CouplingAlgorithm, Scales, make_algorithm
 from .interpolation import NS, sample
 from .run import GridRecorder, PointList, RunLimits, RunOutcome, run
-from .slave import FMUCallError, FMUFileError, Slave
+from .instance import FMUCallError, FMUFileError, FMUInstance
 from .system import CoupledSystem, Point
 
 __all__ = ["ALGORITHMS", "CouplingAlgorithm", "Scales", "make_algorithm", "RunOutcome", "run",
-           "sample", "FMUCallError", "FMUFileError", "Slave", "CoupledSystem", "Point"]
+           "sample", "FMUCallError", "FMUFileError", "FMUInstance", "CoupledSystem", "Point"]

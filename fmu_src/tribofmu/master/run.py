@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import NumericalError
 from .algorithms import CouplingAlgorithm, Scales
 from .interpolation import INPUT_SIGNALS, NS, SIGNALS, sample
-from .slave import FMUCallError
+from .instance import FMUCallError
 from .system import CoupledSystem, Point
 
 COLUMNS = SIGNALS

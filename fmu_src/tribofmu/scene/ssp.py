@@ -66,7 +66,7 @@ def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None, pair:
     for inst in instances(scenario, pair):
         path = fmu_dir / inst.fmu.file
         if not path.is_file():
-            from ..master.slave import FMUFileError  # a FileNotFoundError, and a TriboFMUError
+            from ..master.instance import FMUFileError  # a FileNotFoundError, and a TriboFMUError
             error = FMUFileError(f"FMU {path} not found (build it with tribofmu.build.build_fmus)")
             error.filename = str(path)
             raise error

@@ -6,7 +6,7 @@ block's mass: a stuck contact is the coupling algorithm's business (sgn(0) = 0 h
 """
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
-from tribofmu.fmu.base import TriboSlave as Fmi2Slave, DefaultExperiment, INPUT, OUTPUT
+from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, INPUT, OUTPUT
 from tribofmu.fmu.parameters import declare_friction_parameters, friction_law
 from tribofmu.physics.friction import BOUNDARY, FrictionLaw
 

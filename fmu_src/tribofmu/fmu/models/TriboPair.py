@@ -12,7 +12,7 @@ Parameters: those of BlockSpring and Friction (same names, units and checks) and
 """
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
-from tribofmu.fmu.base import TriboSlave as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT, OUTPUT, positive
+from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT, OUTPUT, positive
 from tribofmu.fmu.parameters import declare_block_parameters, declare_friction_parameters, friction_law
 from tribofmu.master.pair import PairModel, PairParameters
 

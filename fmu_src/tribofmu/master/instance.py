@@ -1,10 +1,10 @@
 """The one place that calls an FMU: fmpy's ``FMU2Slave`` or ``FMU3Slave`` (picked by the
 model description's fmiVersion) wrapped with typed errors.
 
-Every call goes through :meth:`Slave.call`, which counts it and turns a bad status into an
+Every call goes through :meth:`FMUInstance.call`, which counts it and turns a bad status into an
 :class:`FMUCallError` naming the instance, the FMI function, the status, and the messages
 the FMU logged. Anything with the same methods (``set``, ``get``, ``do_step``, ``save``,
-``restore``, ``free_state``) can stand in for a slave: the tests use fakes.
+``restore``, ``free_state``) can stand in for an instance: the tests use fakes.
 """
 from __future__ import annotations
 
@@ -118,7 +118,7 @@ def extract(path: Path) -> Path:
         return folder
 
 
-class Slave:
+class FMUInstance:
     """One instance of an FMU file (FMI 2.0 or 3.0 co-simulation), driven through fmpy.
 
     path: the .fmu file; instance: its instance name; parameters: start values by name.

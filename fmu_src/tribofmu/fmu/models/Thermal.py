@@ -9,7 +9,7 @@ far, for energy bookkeeping.
 """
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
-from tribofmu.fmu.base import (TriboSlave as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT,
+from tribofmu.fmu.base import (TriboModel as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT,
                                  OUTPUT, non_negative, positive)
 from tribofmu.physics.thermal import ThermalParams, advance_thermal
 

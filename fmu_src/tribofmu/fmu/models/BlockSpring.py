@@ -7,7 +7,7 @@ cannot subtract) can feed the friction FMU.
 """
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
-from tribofmu.fmu.base import TriboSlave as Fmi2Slave, DefaultExperiment, INPUT, OUTPUT
+from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, INPUT, OUTPUT
 from tribofmu.fmu.parameters import declare_block_parameters
 from tribofmu.physics.block import BlockState, acceleration, advance_block
 

@@ -1,7 +1,7 @@
 """Drive FMU: the upper block moved as X = A cos(omega t), V = -A omega sin(omega t) (eqs. 1-2)."""
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
-from tribofmu.fmu.base import (TriboSlave as Fmi2Slave, DefaultExperiment, PARAMETER, OUTPUT,
+from tribofmu.fmu.base import (TriboModel as Fmi2Slave, DefaultExperiment, PARAMETER, OUTPUT,
                                  positive)
 from tribofmu.physics.drive import drive
 

@@ -5,7 +5,7 @@ Programs (parameter ``program``): 0 constant n0; 1 ramp from n0 at t_start to n1
 """
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
-from tribofmu.fmu.base import TriboSlave as Fmi2Slave, DefaultExperiment, PARAMETER, OUTPUT
+from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, PARAMETER, OUTPUT
 from tribofmu.physics.load import PROGRAM_NAMES, LoadProgram
 
 
