@@ -83,6 +83,15 @@ def first_fall(g: Callable[[float], float], t0: float, t1: float, step: float,
     return None
 
 
+def segment_stats(solver: str, segments: list, events: list[tuple[float, str]]) -> dict:
+    """The dry solvers' stats: segments (t_start, t_end, kind, ...), events (t [s], kind)."""
+    return {"solver": solver, "n_rhs": 0, "n_segments": len(segments), "event_times": events,
+            "stick_intervals": [(seg[0], seg[1]) for seg in segments if seg[2] == "stick" and seg[1] > seg[0]],
+            "n_stick": sum(1 for _, k in events if k == "stick"),
+            "n_slip": sum(1 for _, k in events if k == "slip"),
+            "n_reversal": sum(1 for _, k in events if k == "reversal")}
+
+
 # -- dry friction: piecewise exact ----------------------------------------------------------------
 def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float) -> dict:
     law, M, K = p.law, p.M, p.K
@@ -169,13 +178,7 @@ def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float) -> dict:
         else:
             st = slip_state(tt, t_s, x_s, v_s, s_seg)
             x_out[i], v_out[i], F_out[i] = st.x, st.v, s_seg * bound
-    stick_intervals = [(seg[0], seg[1]) for seg in segments if seg[2] == "stick" and seg[1] > seg[0]]
-    stats = {"solver": "exact piecewise (harmonic slip, rigid stick), brentq events",
-             "n_rhs": 0, "n_segments": len(segments), "event_times": events,
-             "stick_intervals": stick_intervals,
-             "n_stick": sum(1 for _, k in events if k == "stick"),
-             "n_slip": sum(1 for _, k in events if k == "slip"),
-             "n_reversal": sum(1 for _, k in events if k == "reversal")}
+    stats = segment_stats("exact piecewise (harmonic slip, rigid stick), brentq events", segments, events)
     return {"x": x_out, "v": v_out, "F": F_out, "f": np.zeros_like(t_eval), "ok": ok,
             "message": message, "stats": stats}
 
@@ -286,12 +289,6 @@ def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float) -> dict:
             x_out[i], v_out[i] = y[0], y[1]
             F_out[i] = seg[4] * bound(tt)
             T_out[i] = y[2] if heated else p.T
-    stick_intervals = [(seg[0], seg[1]) for seg in segments if seg[2] == "stick" and seg[1] > seg[0]]
-    stats = {"solver": "exact stick, DOP853 slip (rtol 1e-12), brentq/event stick-slip",
-             "n_rhs": 0, "n_segments": len(segments), "event_times": events,
-             "stick_intervals": stick_intervals,
-             "n_stick": sum(1 for _, k in events if k == "stick"),
-             "n_slip": sum(1 for _, k in events if k == "slip"),
-             "n_reversal": sum(1 for _, k in events if k == "reversal")}
+    stats = segment_stats("exact stick, DOP853 slip (rtol 1e-12), brentq/event stick-slip", segments, events)
     return {"x": x_out, "v": v_out, "F": F_out, "f": np.zeros_like(t_eval), "ok": ok,
             "message": message, "stats": stats, "T": T_out if heated else None}
