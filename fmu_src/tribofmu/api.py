@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from .errors import FMUError
-from .master import (FMUCallError, FMUFileError, GridRecorder, PointList, RunLimits, Scales, FMUInstance,
-                     make_algorithm, run, sample)
+from .master import (FMUCallError, FMUFileError, GridRecorder, RunLimits, Scales, FMUInstance,
+                     make_algorithm, run)
 from .studies.energy import EnergyAudit
 from .master.interpolation import INPUT_SIGNALS
 from .master.run import COLUMNS
@@ -105,7 +105,7 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     grid = np.linspace(0.0, scenario.stop_time, n + 1)
     audit = EnergyAudit(scenario)
     inputs = bool({"Thermal", "Load"} & set(scenario.fmus))
-    recorder = PointList() if keep_points else GridRecorder(grid, [audit], inputs=inputs)
+    recorder = GridRecorder(grid, [audit], inputs=inputs, keep_points=keep_points)
     limits = RunLimits(max_wall=(sim.max_wall if max_wall == -1.0 else max_wall) or None)
     slaves: dict[str, FMUInstance] = {}
     try:
@@ -124,17 +124,8 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     finally:
         for slave in slaves.values():
             slave.close()
-    if keep_points:
-        t_end = outcome.points[-1].t_ns / 1e9
-        grid = grid[grid <= t_end + 1e-9]  # the run ends on the whole nanosecond nearest the stop
-        signals = sample(outcome.points, grid, inputs) if len(outcome.points) > 1 else {
-            k: np.array([float(outcome.points[0].mode == 0) if k == "stuck" else getattr(outcome.points[0], k)])
-            for k in COLUMNS}
-        audit.add(outcome.points)
-        grid = grid[:len(signals["v"])]
-    else:
-        signals = recorder.sampled()
-        grid = grid[:len(signals["v"])]
+    signals = recorder.sampled()
+    grid = grid[:len(signals["v"])]  # the part of the grid the run reached
     stats = {"algorithm": coupling.name, "step": coupling.step_ns / 1e9 if name != "adaptive" else None,
              "tol": coupling.tol if name == "adaptive" else None,
              "ok": outcome.ok, "message": outcome.message, "wall_time": outcome.wall_time,

@@ -19,9 +19,8 @@ points (one per accepted communication step; none if it rejected and rolled back
 """
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from ..physics.roots import illinois
 from .interpolation import NS, hermite, hermite_mid, velocity_slopes
@@ -469,7 +468,7 @@ class AdaptiveCoupling(ImplicitCoupling):
         """How far cubic Hermite interpolation over the whole step misses the computed
         midpoint, relative to tol: results are sampled between communication points, and
         this bounds that error (halves interpolate 16 times better)."""
-        s, h = self.scales, h_ns / NS
+        h = h_ns / NS
         v_mid = hermite_mid(start.v, end.v, *velocity_slopes(start, end), h)
         x_mid = hermite_mid(start.x, end.x, start.v, end.v, h)
         error = max(abs(v_mid - mid.v) / (16 * self.tol * self._v_scale or 1.0),

@@ -85,12 +85,14 @@ class GridRecorder:
     ``audits`` (objects with ``add(points)``, e.g. the energy audit); memory stays bounded
     by the grid, whatever the number of communication points.
 
-    inputs: also sample T, n, Q (the friction's inputs from other FMUs)."""
+    inputs: also sample T, n, Q (the friction's inputs from other FMUs). keep_points: also
+    keep every point (memory then grows with the run)."""
 
     CHUNK = 4096  # points held before they are sampled and dropped
 
-    def __init__(self, grid: np.ndarray, audits=(), inputs: bool = False):
+    def __init__(self, grid: np.ndarray, audits=(), inputs: bool = False, keep_points: bool = False):
         self.grid = np.asarray(grid, dtype=float)
+        self.points: list[Point] | None = [] if keep_points else None
         self.audits, self.inputs = list(audits), inputs
         names = SIGNALS + (INPUT_SIGNALS if inputs else ())
         self.signals = {k: np.full(len(self.grid), np.nan) for k in names}
@@ -101,6 +103,8 @@ class GridRecorder:
     def add(self, point: Point) -> None:
         if self.first is None:
             self.first = point
+        if self.points is not None:
+            self.points.append(point)
         self.buffer.append(point)
         if len(self.buffer) >= self.CHUNK:
             self._flush()
@@ -136,7 +140,9 @@ class GridRecorder:
         return {k: v[:self.filled] for k, v in self.signals.items()}
 
     def kept(self) -> list[Point]:
-        """The first and the last point."""
+        """Every point (keep_points), or the first and the last."""
+        if self.points is not None:
+            return self.points
         last = self.buffer[-1] if self.buffer else self.first
         if self.first is None:
             return []

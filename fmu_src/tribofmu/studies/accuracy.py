@@ -145,7 +145,7 @@ def estimate_tracking(points, scenario: Scenario, window_only: bool = True) -> d
         return {"pairs": 0, "median": math.nan, "p10": math.nan, "p90": math.nan,
                 "underestimated_frac": math.nan, "skipped": 0}
     M, K, n = sc.block.M, sc.block.K, sc.conditions.n
-    A, omega, T = sc.drive.A, sc.drive.omega, sc.drive.period
+    A, omega = sc.drive.A, sc.drive.omega
     _, v_scale, _ = scales(sc)
     t_lo, t_hi = sc.window if window_only else (0.0, math.inf)
     ratios, under, skipped = [], 0, 0
