@@ -81,7 +81,7 @@ def run_case(scene: str, overrides: dict, repeat: int, fmu_dir: Path) -> dict:
 MEMORY_CHILD = r"""
 import json, sys
 from tribofmu import api
-from tribofmu.studies.energy import EnergyAudit
+from tribofmu.master.energy import EnergyAudit
 periods = float(sys.argv[1])
 sc = api.load(sys.argv[2], {"time.periods": periods, "time.window": [periods - 1.5, periods]})
 # the energy residual of each tenth of the run, from the points as they stream past

@@ -14,11 +14,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from tribofmu.master import Scales, FMUInstance, make_algorithm, run, sample
+from tribofmu.coupling.algorithms import Scales, make_algorithm
+from tribofmu.coupling.interpolation import sample
+from tribofmu.master import FMUInstance, run
 from tribofmu.physics.friction import BOUNDARY, FrictionLaw
 from tribofmu.scene.scenario import load_scenario, scales
 from tribofmu.scene.wiring import build_system, fmu_parameters, input_signals
-from tribofmu.studies.energy import heat_audit
+from tribofmu.master.energy import heat_audit
 from tribofmu.studies.reference import nrms, reference_solution
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -35,14 +35,9 @@ from . import __version__
 PACKAGE = Path(__file__).resolve().parent
 MODELS = PACKAGE / "fmu" / "models"
 FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load", "TriboPair")
-# What an FMU needs at run time: the physics, the FMU framework and, for TriboPair, the
-# master's coupling on in-process parts; nothing that imports fmpy.
-SHIPPED = ("__init__.py", "physics", "fmu/__init__.py", "fmu/base.py", "fmu/fmi_version.py",
-           "fmu/parameters.py", "master/algorithms.py", "master/system.py", "master/interpolation.py",
-           "master/inprocess.py", "master/pair.py")
-# Package files shipped in place of the source's: master/__init__.py imports the fmpy-based
-# parts of the master (instance.py, run.py), which an FMU must not load.
-STUBS = {"master/__init__.py": '"""The part of the tribofmu master that TriboPair runs in-process."""\n'}
+# What an FMU needs at run time, as whole packages: the physics, the FMU framework and, for
+# TriboPair, the coupling (which imports only the standard library and the physics).
+SHIPPED = ("__init__.py", "physics", "fmu", "coupling")
 FMI_VERSIONS = (2, 3)
 PRIVATE_PREFIX = "_tribofmu_fmu_"
 CACHE_ENV = "TRIBOFMU_CACHE"  # overrides the cache folder (default: $XDG_CACHE_HOME/tribofmu)
@@ -71,15 +66,11 @@ def source_hash(fmi: int = 2) -> str:
     else:
         import pythonfmu
         digest = hashlib.sha256(f"pythonfmu {pythonfmu.__version__}\n".encode())
-    digest.update(_stub_digest() + _PREAMBLE.encode())
+    digest.update(_PREAMBLE.encode())
     for path in _shipped_sources():
         digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0")
         digest.update(path.read_bytes() + b"\0")
     return digest.hexdigest()[:12]
-
-
-def _stub_digest() -> bytes:
-    return "".join(f"{rel}\0{text}\0" for rel, text in sorted(STUBS.items())).encode()
 
 
 def private_package_name(fmi: int = 2) -> str:
@@ -111,8 +102,6 @@ def _stage_package(root: Path, private: str, fmi: int = 2) -> Path:
             shutil.copytree(src, dst, ignore=shutil.ignore_patterns("__pycache__"))
         else:
             shutil.copy2(src, dst)
-    for rel, text in STUBS.items():
-        (target / rel).write_text(text)
     for path in target.rglob("*.py"):
         path.write_text(rewrite_imports(path.read_text(), private))
     if fmi == 3:

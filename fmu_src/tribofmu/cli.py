@@ -167,7 +167,7 @@ def check_out_file(path: Path, option: str = "--out") -> Path:
 def check_algorithm_options(scenario, algorithm: str | None, step: float | None, tol: float | None,
                             max_wall: float | None = None) -> str:
     """The algorithm that will run; a --step/--tol it does not use is an error."""
-    from .master.algorithms import ALGORITHMS
+    from .coupling.algorithms import ALGORITHMS
     for name, value in (("--step", step), ("--tol", tol)):
         if value is not None and not value > 0:
             raise UsageError(f"{name} must be > 0, got {value}")

@@ -74,7 +74,7 @@ class Signals:
 
 # The sources a simulated result depends on (not the drawing code): saved results are
 # reused only when these are unchanged.
-RESULT_SOURCES = ("physics", "fmu", "master", "scene", "studies/energy.py", "api.py", "build.py")
+RESULT_SOURCES = ("physics", "fmu", "coupling", "master", "scene", "api.py", "build.py")
 
 
 def code_hash() -> str:

@@ -18,7 +18,7 @@ import pytest
 
 from tribofmu import api
 from tribofmu.errors import ScenarioError
-from tribofmu.studies.energy import energy_audit, step_integrals
+from tribofmu.master.energy import energy_audit, step_integrals
 from tribofmu.studies.reference import nrms, reference_solution
 
 from scenes import SCENARIOS
@@ -271,7 +271,7 @@ def test_too_many_output_samples_are_refused_up_front(fmu_dir):
 def test_streamed_output_equals_the_kept_points(fmu_dir, monkeypatch, scene, overrides):
     """The grid recorder holds only a chunk of points (here 37) at a time: its samples and
     energy audit are those computed from the whole list of points at once."""
-    from tribofmu.master import sample
+    from tribofmu.coupling.interpolation import sample
     from tribofmu.master.run import GridRecorder
 
     monkeypatch.setattr(GridRecorder, "CHUNK", 37)

@@ -2,7 +2,7 @@
 
 The built FMU is stepped at fixed steps by a plain host loop (fmpy's FMU2Slave) with the
 drive given as V and a_drive at each step's start; the model underneath
-(:class:`tribofmu.master.pair.PairModel`) is also checked on its own at parameter points no
+(:class:`tribofmu.coupling.pair.PairModel`) is also checked on its own at parameter points no
 scene uses.
 """
 from __future__ import annotations
@@ -107,7 +107,7 @@ def test_pair_model_follows_a_newtonian_fluid_exactly_enough():
     """The in-process model alone (no FMU): Newtonian fluid F = m dv at a point no scene
     uses, host steps of 2e-3 s, against scipy's solution of M x'' + 2 K x = m (V - x')."""
     from scipy.integrate import solve_ivp
-    from tribofmu.master.pair import PairModel, PairParameters
+    from tribofmu.coupling.pair import PairModel, PairParameters
     from tribofmu.physics.friction import FLUID, FrictionLaw
 
     M, K, m, A, w, h = 0.4, 2500.0, 9.0, 1.5e-3, 23.0, 2e-3

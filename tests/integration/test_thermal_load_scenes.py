@@ -9,10 +9,13 @@ import numpy as np
 import pytest
 
 from tribofmu.build import build_fmus
-from tribofmu.master import Scales, FMUInstance, make_algorithm, run, sample
+from tribofmu.coupling.algorithms import Scales, make_algorithm
+from tribofmu.coupling.interpolation import sample
+from tribofmu.master import FMUInstance, run
 from tribofmu.scene.scenario import LoadTable, ThermalTable, load_scenario, scales
 from tribofmu.scene.wiring import build_system, fmu_parameters, input_signals
-from tribofmu.studies.energy import energy_audit, heat_audit, step_dissipation, step_integrals
+from tribofmu.coupling.quadrature import step_dissipation
+from tribofmu.master.energy import energy_audit, heat_audit, step_integrals
 from tribofmu.studies.reference import nrms, reference_solution
 
 from scenes import SCENARIOS

@@ -4,8 +4,11 @@ import math
 import numpy as np
 import pytest
 
-from tribofmu.master import CoupledSystem, Scales, make_algorithm, run, sample
-from tribofmu.master.interpolation import NS
+from tribofmu.coupling.algorithms import Scales, make_algorithm
+from tribofmu.coupling.interpolation import sample
+from tribofmu.coupling.system import CoupledSystem
+from tribofmu.master import run
+from tribofmu.coupling.interpolation import NS
 from tribofmu.physics import DRY, FLUID, FrictionLaw
 
 from fakes import FakeBlock, FakeDrive, FakeFriction

@@ -1,9 +1,8 @@
-"""The fmpy-based co-simulation master: slaves, coupled system, coupling algorithms, run loop."""
-from .algorithms import ALGORITHMS, CouplingAlgorithm, Scales, make_algorithm
-from .interpolation import NS, sample
-from .run import GridRecorder, PointList, RunLimits, RunOutcome, run
+"""The fmpy side of the master: FMU instances (the one place that calls an FMU), the run loop
+and its recorders, and the clean-up of unzipped FMUs. The coupling itself, with nothing of
+FMI in it, is :mod:`tribofmu.coupling`."""
 from .instance import FMUCallError, FMUFileError, FMUInstance
-from .system import CoupledSystem, Point
+from .run import GridRecorder, PointList, RunLimits, RunOutcome, run
 
-__all__ = ["ALGORITHMS", "CouplingAlgorithm", "Scales", "make_algorithm", "RunOutcome", "run",
-           "sample", "FMUCallError", "FMUFileError", "FMUInstance", "CoupledSystem", "Point"]
+__all__ = ["FMUCallError", "FMUFileError", "FMUInstance", "GridRecorder", "PointList", "RunLimits",
+           "RunOutcome", "run"]

@@ -17,10 +17,10 @@ from typing import Callable
 import numpy as np
 
 from ..errors import NumericalError
-from .algorithms import CouplingAlgorithm, Scales
-from .interpolation import INPUT_SIGNALS, NS, SIGNALS, sample
+from ..coupling.algorithms import CouplingAlgorithm, Scales
+from ..coupling.interpolation import INPUT_SIGNALS, NS, SIGNALS, sample
 from .instance import FMUCallError
-from .system import CoupledSystem, Point
+from ..coupling.system import CoupledSystem, Point
 
 COLUMNS = SIGNALS
 

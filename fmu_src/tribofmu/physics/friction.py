@@ -142,6 +142,33 @@ class FrictionLaw:
             F += self.viscous_force(dv)
         return F
 
+    def mean_force(self, dv_start: float, dv: float, n: float, f: float = 0.0) -> float:
+        """Mean friction force [N] over a step in which dv moves linearly from dv_start to dv
+        [m/s] with f held: exact, from the antiderivatives of the laws in dv.
+
+        The coupling compares it with the force ramp the block felt: a force that peaks
+        inside a step (a lubricant re-solidifying as dv passes 0) shows there, not at the
+        step's ends."""
+        if dv == dv_start:
+            return self.force(dv, n, f)
+        width = dv - dv_start
+
+        def power_mean(exponent: float) -> float:  # mean of sgn(x)|x|^exponent on the path
+            p = exponent + 1.0
+            return (abs(dv) ** p - abs(dv_start) ** p) / (p * width)
+
+        if self.regime == DRY:
+            return self.mu_friction * (-n * self.S) * power_mean(0.0)
+        viscous = self.m * power_mean(self.gamma + 1.0)
+        if self.regime == FLUID:
+            return viscous
+        F = 0.0
+        if self.effects.elastic:
+            F += 2.0 * self.mu_eff(f) * self.shear_strain(0.5 * (dv + dv_start)) * self.S
+        if self.effects.viscous:
+            F += viscous
+        return F
+
     # -- boundary kinetics ----------------------------------------------------------
     # Bounds the work of one advance_f call (a few seconds): the hardest inputs found by
     # fuzzing (f relaxing from 1e7 over 12 decades of time) take about 13 000 sub-steps.
@@ -152,119 +179,138 @@ class FrictionLaw:
         return self.rate_function(dv, n, T)(f)
 
     def rate_function(self, dv: float, n: float, T: float):
-        """df/dt [1/s] of eq. (21) as a function of f alone, for inputs held over a step.
+        """df/dt [1/s] of eq. (21) as a function of f alone, for inputs held."""
+        rate = self._rates(n, T)[0]
+        return lambda f: rate(f, dv)
 
-        What does not depend on f is computed once: the integrator calls this thousands
-        of times per communication step."""
+    def _rates(self, n: float, T: float):
+        """Eq. (21) for n, T held: rate(f, dv) [1/s], its slope d rate/df (f) [1/s], and
+        d rate/d(dv) divided by dv [1/(s (m/s)^2)].
+
+        What does not depend on f or dv is computed once: the integrator calls these
+        thousands of times per communication step."""
         lub, effects = self.lubricant, self.effects
         lam, lam_bar, mu, mu_bar = lub.lam, lub.lam_bar, lub.mu_shear, lub.mu_shear_bar
         phi1, phi2, phi3, inv_tau = lub.phi1, lub.phi2, lub.phi3, 1.0 / lub.tau_f
         # The floor keeps the pressure terms finite past both melting thresholds.
         floor = 1e-12 * (lam + mu)
-        eps = self.shear_strain(dv)
-        strain_term = mu_bar * 0.5 * (2.0 * eps) ** 2  # mub e_ij^2 without its e_ii part, eq. (17)
-        base = lub.phi0_star + strain_term + (lub.alpha * T if effects.temperature else 0.0)
+        # mub e_ij^2 without its e_ii part, eq. (17): 2 mub eps^2 with eps = dv tau_e / h (22)
+        strain = 2.0 * mu_bar * (lub.tau_e / lub.h) ** 2
+        base = lub.phi0_star + (lub.alpha * T if effects.temperature else 0.0)
         pressure = effects.pressure
         # e_ii enters phi0 as (lamb/2 + mub/2) e_ii^2 (eqs. 15, 17) and the last term of
         # eq. (21) as -n^2 (lamb + mub) / moduli^2 = -(lamb + mub) e_ii^2.
         squeeze = -0.5 * (lam_bar + mu_bar) * n * n if pressure else 0.0
 
-        def rate(f: float) -> float:
-            rhs = base - phi1 * f + phi2 * f * f - phi3 * f * f * f
+        def rate(f: float, dv: float) -> float:
+            rhs = base + strain * dv * dv - phi1 * f + phi2 * f * f - phi3 * f * f * f
             if pressure:
                 moduli = max(max(0.0, lam - lam_bar * f) + max(0.0, mu - mu_bar * f), floor)
                 rhs += squeeze / (moduli * moduli)
             return rhs * inv_tau
 
-        return rate
+        def slope(f: float) -> float:
+            d = -phi1 + 2.0 * phi2 * f - 3.0 * phi3 * f * f
+            if pressure:
+                lam_eff, mu_eff = lam - lam_bar * f, mu - mu_bar * f
+                moduli = max(0.0, lam_eff) + max(0.0, mu_eff)
+                if moduli > floor:
+                    d_moduli = -(lam_bar if lam_eff > 0.0 else 0.0) - (mu_bar if mu_eff > 0.0 else 0.0)
+                    d -= 2.0 * squeeze / moduli ** 3 * d_moduli
+            return d * inv_tau
 
-    # A moving relative velocity is followed in this many pieces, each held at its value in
-    # the piece's middle (second order in the input where f is slow, so a melting happens
-    # at the right time; where f is stiff it ends within an eighth of the step's change of
-    # dv of the final equilibrium). Measured on fig6: with dv held at the step's end the
-    # melting time converged like tol^0.6; with these pieces nRMS(v) follows tol.
-    DV_PIECES = 4
+        return rate, slope, 2.0 * strain * inv_tau
 
     def advance_f(self, f: float, dv: float, n: float, T: float, h: float,
                   rtol: float = 1e-6, atol: float = 1e-6, dv_start: float | None = None) -> float:
-        """Advance the excess volume f over a step h [s] with n, T held; returns f(t+h).
+        """f(t+h) of :meth:`advance`."""
+        return self.advance(f, dv, n, T, h, rtol, atol, dv_start)[0]
+
+    def advance(self, f: float, dv: float, n: float, T: float, h: float,
+                rtol: float = 1e-6, atol: float = 1e-6, dv_start: float | None = None) -> tuple[float, float]:
+        """Advance the excess volume f over a step h [s] with n, T held; returns f(t+h) and
+        the mean friction force [N] over the step along the way.
 
         dv [m/s] is held over the step, or, given dv_start, moves linearly from dv_start to
-        dv (followed in DV_PIECES pieces, each held at its value in the piece's middle).
+        dv over it (the relative velocity the coupling saw at the step's start and end).
 
-        Eq. (21) is stiff (rates 1e5 to 1e7 1/s) and, with inputs held, scalar and
-        autonomous: its solution moves monotonically toward the nearest equilibrium and
-        never crosses it. Each sub-step is exponential Rosenbrock-Euler, exact for the rate
-        linearised at the sub-step's start (second order here), which lands on an
-        equilibrium like a Newton step however stiff the rate. A sub-step that would cross
-        an equilibrium is replaced by backward Euler with its root bracketed between f and
-        that equilibrium, which cannot jump branches or blow up. The error of a sub-step is
-        estimated from its defect (how far the true rate at its end is from the linear
-        model's), which costs one rate evaluation instead of step doubling's extra two
-        sub-steps; sub-steps grow where f sits near equilibrium.
+        Eq. (21) is stiff (rates 1e5 to 1e7 1/s): f follows an equilibrium that moves with
+        dv. Each sub-step is exponential Rosenbrock-Euler for the non-autonomous equation
+        (Hochbruck & Ostermann): exact for the rate linearised in f *and in time* at the
+        sub-step's start, so however stiff, f ends where the moving equilibrium is, less the
+        lag the true solution has. (Holding dv over a piece instead lags f by half the
+        piece; on fig6's rig with other viscous exponents that lag shifted every
+        re-solidification at a velocity reversal: 0.5 nRMS(v).) A sub-step that would cross
+        an equilibrium of the rate at its end is replaced by backward Euler with its root
+        bracketed between f and that equilibrium, which cannot jump branches or blow up.
+        The error of a sub-step is estimated from its defect (how far the true rate at its
+        end is from the linear model's): one rate evaluation instead of step doubling's
+        extra two sub-steps; sub-steps grow where f sits near its equilibrium.
         """
-        if not self.effects.melting or h <= 0.0:
-            return f
-        if dv_start is None or dv_start == dv:
-            return self._advance_held(f, dv, n, T, h, h, rtol, atol)[0]
-        pieces = self.DV_PIECES
-        sub = h / pieces
-        for k in range(1, pieces + 1):
-            dv_k = dv_start + (dv - dv_start) * (k - 0.5) / pieces
-            f, sub = self._advance_held(f, dv_k, n, T, h / pieces, sub, rtol, atol)
-        return f
-
-    def _advance_held(self, f: float, dv: float, n: float, T: float, h: float, sub: float,
-                      rtol: float, atol: float) -> tuple[float, float]:
-        """advance_f with dv held, starting with sub-steps of sub [s]; returns f(t+h) and
-        the sub-step to go on with."""
-        rate = self.rate_function(dv, n, T)
-        t_left, min_sub = h, 1e-12 * h
-        r0 = rate(f)
+        dv0 = dv if dv_start is None else dv_start
+        if self.regime != BOUNDARY or not self.effects.melting or h <= 0.0:
+            return f, self.mean_force(dv0, dv, n, f)
+        dv_rate = (dv - dv0) / h  # m/s^2
+        rate, slope, rate_dv = self._rates(n, T)
+        s, sub, min_sub = 0.0, h, 1e-12 * h
+        r0 = rate(f, dv0)
+        impulse = 0.0  # N s, the force integrated over the accepted sub-steps
         for _ in range(self.MAX_SUBSTEPS):
-            if t_left <= 0.0 or r0 == 0.0:
-                return f, sub
-            sub = min(sub, t_left)
-            f1, r1, err = self._substep(rate, f, r0, sub)
+            if s >= h:
+                return f, impulse / h
+            s1 = h if sub >= h - s else s + sub
+            dv_s = dv0 + dv_rate * s
+            dv_s1 = dv if s1 >= h else dv0 + dv_rate * s1
+            f1, r1, err = self._substep(rate, slope, f, r0, dv_s1, rate_dv * dv_s * dv_rate, s1 - s)
             tol = atol + rtol * abs(f1)
             if err <= tol or sub <= min_sub:
-                f, r0 = f1, r1
-                t_left -= sub
+                # f moves little where the sub-step is long: the force's mean over it is the
+                # mean along dv at f's mean (the elastic term is linear in dv, the viscous
+                # term integrated exactly)
+                impulse += (s1 - s) * self.mean_force(dv_s, dv_s1, n, 0.5 * (f + f1))
+                f, r0, s = f1, r1, s1
                 # Floored: a sub-step forced through at the minimum must not shrink the next
-                # one toward zero, or t_left would stop decreasing.
+                # one toward zero, or s would stop advancing.
                 sub = max(min_sub, sub * min(10.0, 0.9 * (tol / max(err, 1e-300)) ** 0.5))
             else:
                 sub *= max(0.1, 0.9 * (tol / err) ** 0.5)
-        if t_left <= 0.0 or r0 == 0.0:
-            return f, sub
+        if s >= h:
+            return f, impulse / h
         raise ArithmeticError(f"eq. (21) needs more than {self.MAX_SUBSTEPS} sub-steps over "
-                              f"h={h} s (reached f={f} with {t_left} s left)")
+                              f"h={h} s (reached f={f} with {h - s} s left)")
 
-    def _substep(self, rate, f0: float, r0: float, h: float) -> tuple[float, float, float]:
-        """One sub-step from f0 (rate r0) over h: (f1, its rate, estimated local error)."""
-        eps = 1e-7 * (1.0 + abs(f0))
-        slope = (rate(f0 + eps) - r0) / eps  # d(rate)/df [1/s]
-        z = slope * h
+    @staticmethod
+    def _substep(rate, slope, f0: float, r0: float, dv1: float, r_t: float,
+                 h: float) -> tuple[float, float, float]:
+        """One sub-step over h [s] from f0 (rate r0) to the relative velocity dv1 at its end,
+        the rate moving in time by r_t [1/s^2] through dv: (f1, its rate, estimated error)."""
+        z = slope(f0) * h
         f_exp = None
         if z < 30.0:  # beyond, the linearisation grows without bound: leave it to Euler
-            phi = h if abs(z) < 1e-12 else math.expm1(z) / slope
-            f_exp = f0 + r0 * phi
+            if abs(z) < 1e-5:
+                phi1, phi2 = 1.0 + z / 2.0, 0.5 + z / 6.0
+            else:
+                em1 = math.expm1(z)
+                phi1, phi2 = em1 / z, (em1 - z) / (z * z)
+            f_exp = f0 + h * phi1 * r0 + h * h * phi2 * r_t
             if math.isfinite(f_exp):
-                r1 = rate(f_exp)
-                if r0 * r1 > 0.0:  # has not crossed an equilibrium
-                    # The linear model's rate at the end is r0 e^z; the true one is r1. The
-                    # defect, integrated over the sub-step's effective length phi (h when
-                    # slow, 1/|slope| when stiff), bounds the local error.
-                    defect = r1 - r0 * math.exp(min(z, 30.0))
-                    return f_exp, r1, 2.0 * abs(defect * phi)
-        f1 = self._backward_euler(rate, f0, r0, h)
-        r1 = rate(f1)
+                r1 = rate(f_exp, dv1)
+                # The linear model's rate at the end; the true one is r1. The defect,
+                # integrated over the sub-step's effective length (h when slow, 1/|slope|
+                # when stiff), bounds the local error.
+                r_model = r0 * (1.0 + z * phi1) + h * phi1 * r_t
+                if r_model * r1 > 0.0 or r1 == 0.0:  # has not crossed an equilibrium
+                    return f_exp, r1, 2.0 * abs((r1 - r_model) * h * phi1)
+        end_rate = lambda y: rate(y, dv1)  # noqa: E731 (the rate at the sub-step's end)
+        f1 = FrictionLaw._backward_euler(end_rate, f0, end_rate(f0), h)
+        r1 = end_rate(f1)
         # Crossing: both the linear model and backward Euler land near the equilibrium;
         # where they disagree, the sub-step was too long for the curvature of the rate.
         err = abs(f_exp - f1) if f_exp is not None and math.isfinite(f_exp) else 0.5 * h * abs(r1 - r0)
         return f1, r1, err
 
-    def _backward_euler(self, rate, f0: float, rate0: float, h: float) -> float:
+    @staticmethod
+    def _backward_euler(rate, f0: float, rate0: float, h: float) -> float:
         if rate0 == 0.0:
             return f0
         direction = 1.0 if rate0 > 0 else -1.0

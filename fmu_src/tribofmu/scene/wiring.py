@@ -15,7 +15,7 @@ with Friction's ``n`` [Pa] and ``T`` [K] held constant at the scene's conditions
 paper, a scene may list a Load FMU (``Load.n -> Friction.n``, a normal-stress program) and a
 Thermal FMU (``Thermal.T -> Friction.T``, fed ``Friction.F -> Thermal.F`` and
 ``BlockSpring.dv -> Thermal.dv``). The tribofmu master treats them apart from the dv -> F loop
-(:mod:`tribofmu.master.system`): Load steps with the drive (a function of time); Thermal
+(:mod:`tribofmu.coupling.system`): Load steps with the drive (a function of time); Thermal
 follows the solved loop, its T exchanged explicitly, and it gets the step's exact mean
 friction power through its input ``P`` instead of the F and dv connections (which an SSP
 master, able only to connect variables, uses).
@@ -234,9 +234,9 @@ def constant_inputs(scenario: "Scenario") -> dict[str, float]:
 
 
 def build_system(scenario: "Scenario", slaves: dict):
-    """The master's :class:`~tribofmu.master.system.CoupledSystem` of the scene, from its
+    """The master's :class:`~tribofmu.coupling.system.CoupledSystem` of the scene, from its
     slaves by FMU name (instantiated with :func:`fmu_parameters`)."""
-    from ..master.system import CoupledSystem
+    from ..coupling.system import CoupledSystem
 
     friction = slaves.get("Friction")
     return CoupledSystem(block=slaves["BlockSpring"], drive=slaves.get("Drive"), friction=friction,

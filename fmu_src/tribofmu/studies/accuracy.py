@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import NumericalError
-from ..master.interpolation import NS
+from ..coupling.interpolation import NS
 from ..physics.block import BlockState, advance_block
 from ..physics.drive import drive
 from ..physics.friction import DRY, FLUID
@@ -55,7 +55,7 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
     the rungs at least 2x faster and more accurate than it (none: on the front).
     progress: passed to every simulate call."""
     from ..api import simulate
-    from ..master.algorithms import make_algorithm
+    from ..coupling.algorithms import make_algorithm
 
     ladder = list(ladder if ladder is not None else (QUICK_LADDER if quick else LADDER))
     sim = scenario.simulation

@@ -8,7 +8,7 @@ block's mass: a stuck contact is the coupling algorithm's business (sgn(0) = 0 h
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, INPUT, OUTPUT
 from tribofmu.fmu.parameters import declare_friction_parameters, friction_law
-from tribofmu.physics.friction import BOUNDARY, FrictionLaw
+from tribofmu.physics.friction import FrictionLaw
 
 class Friction(Fmi2Slave):
     description = "Friction law of the seed paper: dry, fluid (power law) or boundary (Landau) friction"
@@ -25,6 +25,9 @@ class Friction(Fmi2Slave):
         self.declare("F", 0.0, OUTPUT, "N", "friction force on the lower block", depends_on=("dv", "n"),
                      getter=lambda: self.law().force(self.dv, self.n, self.f))
         self.declare("f", 0.0, OUTPUT, "1", "excess volume of the lubricant (0 = solid-like)")
+        self.declare("F_mean", 0.0, OUTPUT, "N",
+                     "mean friction force over the last step, dv moving linearly from the previous "
+                     "step's input to this one (a force peaking inside the step shows here)")
 
     def law(self) -> FrictionLaw:
         if self._law is None or self._law[0] != self._parameter_token:
@@ -40,6 +43,7 @@ class Friction(Fmi2Slave):
 
     def initialize(self):
         self.f = self.f0
+        self.F_mean = 0.0
         self.dv_previous = None
 
     internal_state_names = ("dv_previous",)
@@ -49,8 +53,8 @@ class Friction(Fmi2Slave):
         problems = law.input_problems(self.dv, self.n, self.T)
         if problems:
             return "; ".join(problems)
-        if law.regime == BOUNDARY:  # dry and fluid laws have no state: nothing to integrate
-            self.f = law.advance_f(self.f, self.dv, self.n, self.T, h, rtol=self.kinetics_tol,
-                                   atol=self.kinetics_tol, dv_start=self.dv_previous)
+        # (dry and fluid laws have no state: advance gives f unchanged and the mean force)
+        self.f, self.F_mean = law.advance(self.f, self.dv, self.n, self.T, h, rtol=self.kinetics_tol,
+                                          atol=self.kinetics_tol, dv_start=self.dv_previous)
         self.dv_previous = self.dv
         return None

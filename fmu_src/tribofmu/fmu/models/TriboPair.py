@@ -2,7 +2,7 @@
 
 The dv -> F -> dv loop is stiff and, at stick, set-valued: a master that exchanges F and dv
 once per step (every mainstream co-simulation master) chatters at stick. This FMU runs the
-tribofmu master's own implicit, error-controlled coupling (:mod:`tribofmu.master.pair`) on
+tribofmu master's own implicit, error-controlled coupling (:mod:`tribofmu.coupling.pair`) on
 the shipped physics inside its ``doStep``: as many internal steps as its ``tol`` needs within
 the host's step, stick held exactly, rejected internal steps rolled back internally. A host
 connects only the drive: ``V`` and, so that the pair follows V within the step instead of
@@ -14,7 +14,7 @@ Parameters: those of BlockSpring and Friction (same names, units and checks) and
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT, OUTPUT, positive
 from tribofmu.fmu.parameters import declare_block_parameters, declare_friction_parameters, friction_law
-from tribofmu.master.pair import PairModel, PairParameters
+from tribofmu.coupling.pair import PairModel, PairParameters
 
 OUTPUTS = ("x", "v", "a", "F", "f", "dv", "stuck")
 
@@ -64,7 +64,8 @@ class TriboPair(Fmi2Slave):
     def _parameters(self):
         # not the cached law: while a state is set, its parameters are in place but the cache
         # key (the parameter token) is renewed only afterwards
-        return PairParameters(self.M, self.K, self.x0, self.v0, friction_law(self), self.f0, self.tol)
+        return PairParameters(self.M, self.K, self.x0, self.v0, friction_law(self), self.f0, self.tol,
+                              self.kinetics_tol)
 
     def initialize(self):
         self._model = PairModel(self._parameters(), self.time, self.V, self.a_drive, self.n, self.T)

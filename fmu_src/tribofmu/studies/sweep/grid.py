@@ -155,7 +155,7 @@ def plan(scenario_path, grid: dict[str, list], overrides, algorithm, step, tol) 
             scenarios.append(base.with_overrides(point))
         except ScenarioError as exc:
             raise SweepError(f"--grid point {point_label(point)}: {exc}") from None
-    from ...master import make_algorithm
+    from ...coupling.algorithms import make_algorithm
     for value, name in ((step, "step"), (tol, "tol")):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise SweepError(f"--{name} must be > 0, got {value}")

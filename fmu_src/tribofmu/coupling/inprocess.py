@@ -1,8 +1,8 @@
 """In-process slaves: the pure physics behind the small protocol the coupling algorithms use.
 
-:class:`~tribofmu.master.system.CoupledSystem` and the algorithms of
-:mod:`tribofmu.master.algorithms` talk to their slaves through
-:class:`~tribofmu.master.system.SlaveLike` (value references, set/get reals, do_step,
+:class:`~tribofmu.coupling.system.CoupledSystem` and the algorithms of
+:mod:`tribofmu.coupling.algorithms` talk to their slaves through
+:class:`~tribofmu.coupling.system.SlaveLike` (value references, set/get reals, do_step,
 save/restore). These classes present :mod:`tribofmu.physics` through that protocol without
 any FMU: the TriboPair FMU runs the master's own implicit, error-controlled coupling on them
 inside its ``doStep``. Each mirrors the FMU of the same physics (inputs, outputs, internal
@@ -19,7 +19,7 @@ state), and saving is a plain copy of its variables.
 from __future__ import annotations
 
 from ..physics.block import BlockState, acceleration, advance_block
-from ..physics.friction import BOUNDARY, FrictionLaw
+from ..physics.friction import FrictionLaw
 
 
 class InProcessSlave:
@@ -88,14 +88,15 @@ class FrictionPart(InProcessSlave):
     """The friction law at relative velocity dv [m/s], normal stress n [Pa], temperature
     T [K]; F [N] is evaluated on demand (direct feedthrough), f [1] is the state."""
 
-    variables = ("dv", "n", "T", "F", "f")
-    state = ("dv", "n", "T", "f", "dv_previous")
+    variables = ("dv", "n", "T", "F", "f", "F_mean")
+    state = ("dv", "n", "T", "f", "F_mean", "dv_previous")
 
-    def __init__(self, instance: str, law: FrictionLaw, f0: float, n: float, T: float):
+    def __init__(self, instance: str, law: FrictionLaw, f0: float, n: float, T: float,
+                 kinetics_tol: float = 1e-5):
         super().__init__(instance)
-        self.law = law
+        self.law, self.kinetics_tol = law, kinetics_tol
         self.dv, self.n, self.T = 0.0, n, T
-        self.f = f0
+        self.f, self.F_mean = f0, 0.0
         self.dv_previous = None  # m/s, the input of the last step (None: none yet)
 
     @property
@@ -103,8 +104,8 @@ class FrictionPart(InProcessSlave):
         return self.law.force(self.dv, self.n, self.f)
 
     def advance(self, t: float, h: float) -> None:
-        if self.law.regime == BOUNDARY:  # dry and fluid laws have no state
-            self.f = self.law.advance_f(self.f, self.dv, self.n, self.T, h, dv_start=self.dv_previous)
+        self.f, self.F_mean = self.law.advance(self.f, self.dv, self.n, self.T, h, rtol=self.kinetics_tol,
+                                               atol=self.kinetics_tol, dv_start=self.dv_previous)
         self.dv_previous = self.dv
 
 

@@ -23,11 +23,11 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..master.interpolation import NS, hermite, velocity_slopes
+from ..coupling.interpolation import NS, hermite, velocity_slopes
+from ..coupling.quadrature import GAUSS_NODES, GAUSS_WEIGHTS
 
-# 3-point Gauss-Legendre on [0, 1]: exact for polynomials up to degree 5
-_GL_S = np.array([0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0])
-_GL_W = np.array([5.0, 8.0, 5.0]) / 18.0
+_GL_S = np.array(GAUSS_NODES)
+_GL_W = np.array(GAUSS_WEIGHTS)
 
 
 def step_integrals(points: Sequence[Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -137,25 +137,6 @@ class EnergyAudit:
 def energy_audit(points: Sequence[Any], scenario) -> dict[str, Any]:
     """:meth:`EnergyAudit.result` of a list of points."""
     return EnergyAudit(scenario).add(points).result()
-
-
-def step_dissipation(start: Any, end: Any) -> float:
-    """int F (V - v) dt [J] over the communication step start -> end, the same quadrature
-    as :func:`step_integrals` for one step, in plain floats (called once per step by a
-    master that feeds the friction power to a heat balance)."""
-    h = (end.t_ns - start.t_ns) / NS
-    if h <= 0.0:
-        return 0.0
-    v0_slope, v1_slope = velocity_slopes(start, end)
-    total = 0.0
-    for s, w in zip(_GL_S_LIST, _GL_W_LIST):
-        V = hermite(start.V, end.V, start.aX, end.aX, h, s)
-        v = hermite(start.v, end.v, v0_slope, v1_slope, h, s)
-        total += w * (end.F_start + end.F_rate * s * h) * (V - v)
-    return h * total
-
-
-_GL_S_LIST, _GL_W_LIST = [float(s) for s in _GL_S], [float(w) for w in _GL_W]
 
 
 def heat_audit(points: Sequence[Any], scenario) -> dict[str, Any]:

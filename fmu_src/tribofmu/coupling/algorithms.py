@@ -20,9 +20,11 @@ points (one per accepted communication step; none if it rejected and rolled back
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+import math
 from dataclasses import dataclass
 
 from ..physics.roots import illinois
+from .estimate import GlobalErrorEstimate
 from .interpolation import NS, hermite, hermite_mid, velocity_slopes
 from .system import CoupledSystem, Point, States
 
@@ -119,6 +121,7 @@ class ImplicitCoupling(CouplingAlgorithm):
         super().__init__(step, tol)
         self.loop_gain = 0.0  # |d(block dv)/dF * dF/d(dv)| of the last slip step ...
         self.loop_gain_step = 1.0  # ... whose length this was [s]
+        self.velocity_per_impulse = 0.0  # [m/s / (N s)] the block's, last measured (0: not yet)
 
     def expected_gain(self, h: float) -> float:
         """The loop gain a slip step of h [s] should meet: the last one's, scaled by the
@@ -190,7 +193,7 @@ class ImplicitStep:
         self.delta = 1e-10 * algorithm.scales.velocity  # "zero" relative velocity [m/s]
         self.root_tol = max(self.delta, algorithm.root_tolerance())  # m/s
         self.counters = algorithm.counters
-        self.friction_last = None  # (dv, F, f) of the friction's latest step; None: not stepped
+        self.friction_last = None  # (dv, F, f, F_mean) of the friction's latest step; None: not stepped
         self.block_last = None  # (F_end, x, v, a, F0, rate) of the block's latest step
         self.probes = {}  # side -> (friction at side * delta, block's dv and x under it, held)
 
@@ -199,8 +202,8 @@ class ImplicitStep:
         if self.friction_last is not None:
             for slave, handle in self.friction_state:
                 slave.restore(handle)
-        F, f = self.system.step_friction(dv, self.t, self.h)
-        self.friction_last = (dv, F, f)
+        F, f, F_mean = self.system.step_friction(dv, self.t, self.h)
+        self.friction_last = (dv, F, f, F_mean)
         return F, f
 
     def block_at(self, F0: float, rate: float) -> tuple[float, float]:
@@ -209,6 +212,13 @@ class ImplicitStep:
             for slave, handle in self.block_state:
                 slave.restore(handle)
         x, v, a = self.system.step_block(F0, rate, self.t, self.h)
+        impulse = (F0 + 0.5 * rate * self.h) * self.h
+        if self.block_last is not None:
+            # the block's velocity per unit impulse (1/M for a lone mass), from the secant
+            _, _, v_last, _, F0_last, rate_last = self.block_last
+            d_impulse = impulse - (F0_last + 0.5 * rate_last * self.h) * self.h
+            if d_impulse != 0.0 and v != v_last:
+                self.algorithm.velocity_per_impulse = abs((v - v_last) / d_impulse)
         self.block_last = (F0 + rate * self.h, x, v, a, F0, rate)
         return self.V - v, x
 
@@ -274,12 +284,13 @@ class ImplicitStep:
                 return None
             if self.friction_last[0] != dv:
                 self.friction_at(dv)
-            _, F, f = self.friction_last
+            _, F, f, F_mean = self.friction_last
             if self.block_last[0] != F:
                 self.block_under(F)
         F, x, v, a, F0, F_rate = self.block_last
         return Point(point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
-                     F_rate=F_rate, mode=mode, event=event, ramped=self.ramp)
+                     F_rate=F_rate, mode=mode, event=event, ramped=self.ramp,
+                     F_mean=F_mean if mode != 0 else math.nan)
 
     def predicted_slip(self, side: float) -> tuple[float, float] | None:
         """Slipping on, as before: start the root search at the predicted dv instead of at
@@ -423,7 +434,8 @@ class AdaptiveCoupling(ImplicitCoupling):
         self.max_ns = max(self.min_ns, int(scales.period / 20 * NS) & ~1)
         self.h_ns = min(max(self.step_ns & ~1, self.min_ns), self.max_ns)
         self._v_scale = self._x_scale = 0.0  # largest |v| [m/s] and |x| [m] of the block so far
-        self._F_scale = 0.0  # largest |F| [N] so far
+        self._F_scale = self._f_scale = 0.0  # largest |F| [N], |f| [1] so far
+        self.estimate = GlobalErrorEstimate()
 
     def advance(self, system, point, stop_ns):
         h_ns = min(self.h_ns, stop_ns - point.t_ns)
@@ -432,7 +444,9 @@ class AdaptiveCoupling(ImplicitCoupling):
         h_ns -= h_ns & 1  # two equal halves in integer nanoseconds
         if h_ns < 2:  # a last sliver of time: one plain implicit step
             self.counters.steps += 1
-            return [self.solve_step(system, point, stop_ns - point.t_ns)]
+            last = self.solve_step(system, point, stop_ns - point.t_ns)
+            last.global_error = self.estimate.advance((last.t_ns - point.t_ns) / NS, 0.0, 0.0, 0.0, last.mode == 0)
+            return [last]
         start = system.save()
         try:
             full = self.solve_step(system, point, h_ns)
@@ -448,7 +462,9 @@ class AdaptiveCoupling(ImplicitCoupling):
             # ramped with a held step would measure the held step's first-order error.
             mid = self.solve_step(system, point, h_ns // 2, full.ramped)
             end = self.solve_step(system, mid, h_ns // 2, full.ramped)
-            err = max(self._error(point, full, end), self._interpolation_error(point, mid, end, h_ns))
+            impulse = self._impulse_misses(point, mid, end)
+            err = max(self._error(point, full, end), self._interpolation_error(point, mid, end, h_ns),
+                      max(map(abs, impulse)) / (self.tol * self._v_scale or 1.0))
             end.est_error = mid.est_error = abs(full.v - end.v)  # m/s: step doubling's v estimate
             # local error ~ h^3 for a ramped step, h^2 for a held one
             factor = 0.9 * max(err, 1e-12) ** (-1.0 / 3.0 if full.ramped else -0.5)
@@ -456,6 +472,7 @@ class AdaptiveCoupling(ImplicitCoupling):
                 self.counters.forced += err > 1.0
                 self.counters.steps += 2
                 self.h_ns = int(min(max(h_ns * min(factor, 4.0), self.min_ns), self.max_ns))
+                self._carry_error(point, full, mid, end, impulse)
                 return [mid, end]
             system.restore(start)
             self.counters.rejected += 1
@@ -495,6 +512,40 @@ class AdaptiveCoupling(ImplicitCoupling):
     def root_tolerance(self) -> float:
         return self.root_tol_fraction * self.tol * self._v_scale
 
+    def _impulse_misses(self, start: Point, *ends: Point) -> list[float]:
+        """How far [m/s] the block's velocity after each of these steps is off because the
+        force ramp it felt has another mean than the friction's own mean force along the
+        step (reported by a friction with internal state); signed, computed less exact.
+
+        A lubricant that re-solidifies while dv passes 0 grips the block for a fraction of a
+        step: the force peaks inside the step and is back to nothing at its ends, so the
+        ends (all that step doubling compares) miss it. Its impulse does not."""
+        misses, previous = [], start
+        for end in ends:
+            miss = 0.0
+            if end.mode != 0 and end.F_mean == end.F_mean and end.f != 0.0:
+                h = (end.t_ns - previous.t_ns) / NS
+                felt = end.F_start + 0.5 * end.F_rate * h
+                miss = (felt - end.F_mean) * h * self.velocity_per_impulse
+            misses.append(miss)
+            previous = end
+        return misses
+
+    def _carry_error(self, start: Point, full: Point, mid: Point, end: Point, impulse: list[float]) -> None:
+        """Carry the global error estimate over the accepted halves (see master/estimate.py):
+        their local error is step doubling's difference over 2^p - 1 (p = 2 ramped, 1 held),
+        shared between the halves, plus each half's impulse miss."""
+        share = 0.5 / (3.0 if full.ramped else 1.0)
+        local_x, local_v = share * (full.x - end.x), share * (full.v - end.v)
+        # the friction's slope over the mass, from the loop gain: (h/M) c held, (h/2M) c ramped
+        damping = self.loop_gain / self.loop_gain_step * (2.0 if full.ramped else 1.0)
+        h = (mid.t_ns - start.t_ns) / NS
+        estimate = self.estimate
+        for point, miss in zip((mid, end), impulse):
+            estimate.observe(point.x, point.a, point.F, self.velocity_per_impulse, 1e-3 * self._x_scale)
+            point.global_error = estimate.advance(h, damping if point.mode != 0 else 0.0, local_x,
+                                                  local_v + miss, point.mode == 0)
+
     def _error(self, start: Point, full: Point, halves: Point) -> float:
         """The step's error relative to what tol allows: the difference between one step
         and two halves in v and x, measured against the block's own motion so far (its
@@ -516,6 +567,8 @@ class AdaptiveCoupling(ImplicitCoupling):
         if full.f != 0.0 or halves.f != 0.0:
             self._F_scale = max(self._F_scale, abs(halves.F), abs(full.F))
             error = max(error, abs(full.F - halves.F) / (self.tol * self._F_scale or 1.0))
+            self._f_scale = max(self._f_scale, abs(halves.f), abs(full.f))
+            error = max(error, abs(full.f - halves.f) / (self.tol * self._f_scale or 1.0))
         return error
 
 

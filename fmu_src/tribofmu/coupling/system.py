@@ -25,6 +25,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from .quadrature import step_dissipation  # the energy audit's own quadrature
+
 
 class SlaveLike(Protocol):
     instance: str
@@ -59,8 +61,10 @@ class Point:
     f: float = 0.0
     F_start: float = 0.0
     F_rate: float = 0.0
+    F_mean: float = math.nan  # N, the friction's own mean force over the step (nan: not reported)
     mode: int = 0
     est_error: float = 0.0  # m/s, the algorithm's own estimate of this step's error in v (0: none)
+    global_error: float = 0.0  # m/s, its estimate of the error in v carried to here (0: none)
     event: float = 1.0  # fraction of the step at which the contact broke away or stuck (1: none)
     ramped: bool = False  # the step ramped the force while slipping (else held or stuck)
     T: float = math.nan  # K, the friction's temperature input at this point (Thermal's output)
@@ -104,7 +108,8 @@ class CoupledSystem:
         if friction is not None:
             fr = friction.refs
             self._dv = [fr["dv"]]
-            self._friction_out = [fr["F"], fr["f"]]
+            # the mean force over the step, where the friction reports it (F twice where not)
+            self._friction_out = [fr["F"], fr["f"], fr.get("F_mean", fr["F"])]
             fed = {"n"} if load is not None else set()
             fed |= {"T"} if thermal is not None else set()
             held = {k: v for k, v in (conditions or {}).items() if k not in fed}
@@ -118,8 +123,6 @@ class CoupledSystem:
             self._n = load.get_reals(self._load_n)[0]
             friction.set_reals(self._friction_n, [self._n])
         if thermal is not None:
-            from ..studies.energy import step_dissipation  # the audit's own quadrature
-            self._step_dissipation = step_dissipation
             self._thermal_P = [thermal.refs["P"]]
             self._thermal_out = [thermal.refs["T"], thermal.refs["Q"]]
             self._T, self._Q = thermal.get_reals(self._thermal_out)
@@ -141,7 +144,7 @@ class CoupledSystem:
         if self.friction is None:
             return 0.0, 0.0
         self.friction.set_reals(self._dv, [dv])
-        return tuple(self.friction.get_reals(self._friction_out))
+        return tuple(self.friction.get_reals(self._friction_out[:2]))
 
     # -- steps --------------------------------------------------------------------------
     def step_drive(self, t: float, h: float) -> tuple[float, float, float]:
@@ -162,10 +165,11 @@ class CoupledSystem:
         self.block.do_step(t, h)
         return self.block_outputs()
 
-    def step_friction(self, dv: float, t: float, h: float) -> tuple[float, float]:
-        """Step the friction with dv [m/s] held; returns F, f at t + h for that dv."""
+    def step_friction(self, dv: float, t: float, h: float) -> tuple[float, float, float]:
+        """Step the friction to dv [m/s] at t + h; returns F, f at t + h and the mean force
+        [N] over the step (F where the friction does not report it)."""
         if self.friction is None:
-            return 0.0, 0.0
+            return 0.0, 0.0, 0.0
         self.friction.set_reals(self._dv, [dv])
         self.friction.do_step(t, h)
         return tuple(self.friction.get_reals(self._friction_out))
@@ -183,7 +187,7 @@ class CoupledSystem:
         if self.friction is None:
             return
         if self.thermal is not None:
-            power = self._step_dissipation(start, end) / h
+            power = step_dissipation(start, end) / h
             self.thermal.set_reals(self._thermal_P, [power])
             self.thermal.do_step(t, h)
             self._T, self._Q = self.thermal.get_reals(self._thermal_out)

@@ -1,9 +1,9 @@
 """The block and the friction law coupled inside one model, stepped by a host's steps.
 
 :class:`PairModel` is what the TriboPair FMU runs in its ``doStep``: the master's own
-:class:`~tribofmu.master.algorithms.AdaptiveCoupling` (implicit steps of the dv -> F -> dv
+:class:`~tribofmu.coupling.algorithms.AdaptiveCoupling` (implicit steps of the dv -> F -> dv
 loop with exact stick, step-doubling error control, rollback) on the in-process parts of
-:mod:`tribofmu.master.inprocess`, advanced over each host step [t, t + h] in integer
+:mod:`tribofmu.coupling.inprocess`, advanced over each host step [t, t + h] in integer
 nanoseconds with as many internal steps as the tolerance needs. Between host steps it keeps
 the current point and the adaptive step size; :meth:`PairModel.snapshot` and
 :meth:`PairModel.from_snapshot` carry all of it but the parameters (the parts' variables,
@@ -27,7 +27,8 @@ from .system import CoupledSystem, Point
 @dataclass(frozen=True)
 class PairParameters:
     """M [kg], K [N/m] per spring, x0 [m], v0 [m/s]; the friction law and f0 [1]; tol [1] of
-    the internal coupling (as ``tribofmu simulate --tol``)."""
+    the internal coupling (as ``tribofmu simulate --tol``); kinetics_tol [1] the lubricant
+    kinetics' own (as the Friction FMU's)."""
 
     M: float
     K: float
@@ -36,6 +37,7 @@ class PairParameters:
     law: FrictionLaw
     f0: float
     tol: float
+    kinetics_tol: float = 1e-5  # [1] of the lubricant kinetics, as the Friction FMU's
 
 
 class PairModel:
@@ -57,7 +59,7 @@ class PairModel:
         self.parameters = p
         self.drive = FollowedDrive("drive", t_start, V, a_drive)
         self.block = BlockPart("block", p.M, p.K, p.x0, p.v0)
-        self.friction = FrictionPart("friction", p.law, p.f0, n, T)
+        self.friction = FrictionPart("friction", p.law, p.f0, n, T, p.kinetics_tol)
         self.system = CoupledSystem(self.block, self.drive, self.friction, conditions={"n": n, "T": T})
         # The block's own period sets the coupling's shortest and longest steps (1e-7 and
         # 1/20 of it; the host's step bounds them too). A free mass has none: 1 s.
