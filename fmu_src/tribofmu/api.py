@@ -132,6 +132,7 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
              "tol": coupling.tol if name == "adaptive" else None,
              "ok": outcome.ok, "message": outcome.message, "wall_time": outcome.wall_time,
              "communication_steps": outcome.counters["steps"], "rejected_steps": outcome.counters["rejected"],
+             "landed_events": outcome.counters.get("landed", 0),
              "coupling_iterations": outcome.counters["iterations"],
              "stick_steps": outcome.counters["stick_steps"], "forced_steps": outcome.counters["forced"],
              "fmu_calls": outcome.calls, "fmu_calls_total": sum(outcome.calls.values()),

@@ -120,3 +120,21 @@ def test_pair_model_follows_a_newtonian_fluid_exactly_enough():
     sol = solve_ivp(lambda s, y: [y[1], (m * (-A * w * math.sin(w * s) - y[1]) - 2 * K * y[0]) / M],
                     (0.0, times[-1]), [0.0, 0.0], t_eval=times, rtol=1e-11, atol=1e-14, method="DOP853")
     assert np.max(np.abs(np.array(v) - sol.y[1])) <= 2e-3 * np.max(np.abs(sol.y[1]))
+
+
+def test_pair_passes_its_kinetics_tol_to_the_lubricant_kinetics(fmu_dir):
+    """TriboPair's kinetics_tol reaches the kinetics, as the Friction FMU's does: the same
+    boundary run at two kinetics tolerances gives two excess volumes (they would be equal
+    if the pair ran the kinetics at a fixed tolerance of its own)."""
+    from scenes import scene
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.scene.wiring import fmu_parameters
+
+    scenario = load_scenario(scene("fig6_boundary"))
+    parameters = {k: v for k, v in fmu_parameters(scenario)["Friction"].items() if k != "kinetics_tol"}
+    parameters.update(M=scenario.block.M, K=scenario.block.K, n=scenario.conditions.n, T=scenario.conditions.T)
+    times = np.linspace(0.0, 0.1, 51)
+    loose, tight = (run_pair(fmu_dir / "TriboPair.fmu", times, scenario.drive.A, scenario.drive.omega,
+                             kinetics_tol=tol, **parameters)["f"] for tol in (1e-2, 1e-9))
+    assert np.max(np.abs(loose - tight)) > 1e-6
+    assert np.max(np.abs(loose - tight)) < 0.1 * np.max(np.abs(tight))

@@ -7,7 +7,8 @@ loop with exact stick, step-doubling error control, rollback) on the in-process 
 nanoseconds with as many internal steps as the tolerance needs. Between host steps it keeps
 the current point and the adaptive step size; :meth:`PairModel.snapshot` and
 :meth:`PairModel.from_snapshot` carry all of it but the parameters (the parts' variables,
-the point, the algorithm's step size and loop gain), so a host's get/set FMU state continues exactly.
+the point, the algorithm's :meth:`~AdaptiveCoupling.export_state`), so a host's get/set FMU
+state continues exactly.
 
 The drive is the host's: V [m/s] and its acceleration a [m/s^2] at the start of each host
 step, followed linearly within it (a host that gives no acceleration holds V).
@@ -15,10 +16,10 @@ step, followed linearly within it (a host that gives no acceleration holds V).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, is_dataclass, replace
+from dataclasses import asdict, dataclass, replace
 
 from ..physics.friction import FrictionLaw
-from .algorithms import AdaptiveCoupling, Counters, Scales
+from .algorithms import AdaptiveCoupling, Scales
 from .inprocess import BlockPart, FollowedDrive, FrictionPart
 from .interpolation import NS
 from .system import CoupledSystem, Point
@@ -105,10 +106,9 @@ class PairModel:
     def snapshot(self) -> dict:
         """Everything the model needs to continue, besides its parameters, as plain values
         (JSON-able: pythonfmu serializes FMU states as JSON; floats round-trip exactly)."""
-        algorithm = {k: [type(v).__name__, asdict(v)] if is_dataclass(v) else v
-                     for k, v in vars(self.algorithm).items()}
         return {"drive": list(self.drive.save()), "block": list(self.block.save()),
-                "friction": list(self.friction.save()), "point": asdict(self.point), "algorithm": algorithm}
+                "friction": list(self.friction.save()), "point": asdict(self.point),
+                "algorithm": self.algorithm.export_state()}
 
     @classmethod
     def from_snapshot(cls, parameters: PairParameters, snapshot: dict) -> "PairModel":
@@ -120,10 +120,8 @@ class PairModel:
         model.block.restore(snapshot["block"])
         model.friction.restore(friction)
         model.point = Point(**snapshot["point"])
-        model.algorithm = AdaptiveCoupling.__new__(AdaptiveCoupling)
-        model.algorithm.__dict__.update(
-            {k: _STATE_TYPES[v[0]](**v[1]) if isinstance(v, list) else v for k, v in snapshot["algorithm"].items()})
+        state = snapshot["algorithm"]
+        model.algorithm = AdaptiveCoupling(tol=parameters.tol)
+        model.algorithm.prepare(model.system, Scales(*state["scales"]))
+        model.algorithm.import_state(state)
         return model
-
-
-_STATE_TYPES = {cls.__name__: cls for cls in (Counters, Scales)}  # the algorithm's dataclass fields

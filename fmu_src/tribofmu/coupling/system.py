@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from enum import IntEnum
 from typing import Any, Protocol
 
 from .quadrature import step_dissipation  # the energy audit's own quadrature
@@ -41,13 +42,27 @@ class SlaveLike(Protocol):
     def free_state(self, state: Any) -> None: ...
 
 
+class Contact(IntEnum):
+    """A point's contact mode (``Point.mode``)."""
+
+    BACKWARD = -1  # slipping with dv = V - v < 0
+    STUCK = 0  # dv held at 0 by the coupling
+    FORWARD = 1  # slipping with dv > 0
+    UNKNOWN = 2  # the start, before any step has classified the contact
+
+    @property
+    def slipping(self) -> bool:
+        return self in (Contact.FORWARD, Contact.BACKWARD)
+
+
 @dataclass
 class Point:
     """The coupled state at a communication point; SI units, time in integer nanoseconds.
 
     F is the force the block felt at the end of the step that led here; F_start and
     F_rate describe the force over that step (F_start + F_rate s), for energy audits.
-    mode: +1/-1 slipping with dv > 0 / < 0, 0 stuck (dv held at 0 by the coupling).
+    mode: a :class:`Contact` (+1/-1 slipping with dv > 0 / < 0, 0 stuck: dv held at 0 by the
+    coupling, 2 unknown: the start).
     """
 
     t_ns: int
@@ -213,8 +228,8 @@ class CoupledSystem:
         x, v, a = self.block_outputs()
         F, f = self.friction_outputs(V - v)
         if self.friction is None:
-            return Point(0, X, V, aX, x, v, a, F, f, F_start=F)
-        return Point(0, X, V, aX, x, v, a, F, f, F_start=F, T=self._T, n=self._n,
+            return Point(0, X, V, aX, x, v, a, F, f, F_start=F, mode=Contact.UNKNOWN)
+        return Point(0, X, V, aX, x, v, a, F, f, F_start=F, mode=Contact.UNKNOWN, T=self._T, n=self._n,
                      Q=self._Q if self.thermal is not None else 0.0)
 
     @property

@@ -206,7 +206,7 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
     wall = _time.perf_counter() - begin
     c = algorithm.counters
     return RunOutcome(recorder.kept(), ok, message, wall,
-                      counters=dict(steps=c.steps, rejected=c.rejected, iterations=c.iterations,
+                      counters=dict(steps=c.steps, rejected=c.rejected, landed=c.landed, iterations=c.iterations,
                                     forced=c.forced, stick_steps=c.stick_steps),
                       calls=system.calls)
 

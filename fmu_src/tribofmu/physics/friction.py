@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, field, fields
 
 from .roots import illinois
+from .stepsize import KINETICS_SUBSTEPS
 
 
 DRY, FLUID, BOUNDARY = 0, 1, 2
@@ -271,9 +272,9 @@ class FrictionLaw:
                 f, r0, s = f1, r1, s1
                 # Floored: a sub-step forced through at the minimum must not shrink the next
                 # one toward zero, or s would stop advancing.
-                sub = max(min_sub, sub * min(10.0, 0.9 * (tol / max(err, 1e-300)) ** 0.5))
+                sub = max(min_sub, sub * KINETICS_SUBSTEPS.factor(err / tol, order=1))
             else:
-                sub *= max(0.1, 0.9 * (tol / err) ** 0.5)
+                sub *= KINETICS_SUBSTEPS.factor(err / tol, order=1)
         if s >= h:
             return f, impulse / h
         raise ArithmeticError(f"eq. (21) needs more than {self.MAX_SUBSTEPS} sub-steps over "

@@ -1,0 +1,340 @@
+"""The contact state machine of one implicit step: classify, then solve.
+
+The friction pair is in one of three contact modes over a step, and before its first step
+in none yet (as Modelica's ``PartialFriction`` starts ``Unknown``):
+
+    UNKNOWN  --first step-->  STUCK | FORWARD | BACKWARD
+    FORWARD/BACKWARD  --dv reaches 0 inside the step-->  STUCK       (stick onset)
+    STUCK  --the force needed to stay stuck leaves the friction's bounds-->  slip (breakaway)
+    FORWARD <--> BACKWARD   (a reversal passes through one stuck step, or none for a law
+                             without a jump at dv = 0)
+
+One step (:class:`ImplicitStep`) first *classifies* the step from the friction at +-delta
+(or from the slip it predicts), then runs the solver of that mode: the slip root, the
+stick force, or the stick ramp. A ramped step (the force ramping over the step) that meets
+stiffness, a stick or a reversal ends in the explicit outcome :data:`RETRY_HELD`: the caller
+rolls back and solves the step again with the force held. The step reports what it measured
+(:class:`StepReport`: loop gain, the block's velocity per unit impulse, evaluations) instead
+of writing into the algorithm.
+
+The loop function H(dv) = (the block's relative velocity after the step under the friction
+at dv) - dv is decreasing, so the coupled answer is its single root, found on a bracket; on
+the jump of a discontinuous law (dry friction at dv = 0) there is no root: the blocks are
+stuck and the force is the one that keeps dv = 0.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..physics.roots import illinois
+from .interpolation import NS, hermite
+from .system import Contact, CoupledSystem, Point, States
+
+
+def slip_mode(dv: float, delta: float) -> Contact:
+    """The mode of a relative velocity dv [m/s] with |dv| <= delta [m/s] counted as stuck."""
+    return Contact((dv > delta) - (dv < -delta))
+
+
+@dataclass(frozen=True)
+class RetryHeld:
+    """The outcome of a ramped step that cannot stay ramped (why: stiff, stuck, reversing)."""
+
+    why: str
+
+
+RETRY_HELD_STIFF = RetryHeld("the loop is too stiff to ramp the force")
+RETRY_HELD_TRANSITION = RetryHeld("the contact sticks or reverses inside the step")
+
+
+@dataclass
+class StepReport:
+    """What one step measured, for the algorithm to keep or drop (a rolled-back step's
+    measurements are still good measurements of the system)."""
+
+    loop_gain: float | None = None  # |d(block dv)/dF * dF/d(dv)| of a slip step
+    velocity_per_impulse: float | None = None  # [m/s / (N s)] the block's (1/M for a lone mass)
+    iterations: int = 0  # evaluations of the coupling loop
+    stuck: bool = False
+
+
+@dataclass(frozen=True)
+class StepSettings:
+    """How one step solves: ``expected_gain`` the loop gain a slip step of this length should
+    meet (0: unknown), ``max_ramp_gain`` above which a ramp would ring, ``root_tol`` [m/s]
+    how far the slip root may miss, ``delta`` [m/s] the "zero" relative velocity,
+    ``max_iterations`` of any iteration, ``position_scale`` [m] for the stick ramp's fit."""
+
+    expected_gain: float
+    max_ramp_gain: float
+    root_tol: float
+    delta: float
+    max_iterations: int
+    position_scale: float
+
+
+class ImplicitStep:
+    """The solve of one implicit step: from ``point`` over ``h_ns`` with the drive already
+    at the step's end (``drive`` = X, V, aX), the block and friction saved in ``saved``."""
+
+    def __init__(self, settings: StepSettings, system: CoupledSystem, point: Point, saved: States,
+                 h_ns: int, drive: tuple[float, float, float], ramp: bool):
+        self.settings, self.system, self.point, self.ramp = settings, system, point, ramp
+        self.previous = Contact(point.mode)
+        self.h_ns, self.t, self.h = h_ns, point.t_ns / NS, h_ns / NS
+        self.X, self.V, self.aX = drive
+        self.block_state = [v for v in saved.handles.values() if v[0] is system.block]
+        self.friction_state = [v for v in saved.handles.values() if v[0] is system.friction]
+        self.delta = settings.delta
+        self.root_tol = max(self.delta, settings.root_tol)  # m/s
+        self.report = StepReport()
+        self.friction_last = None  # (dv, F, f, F_mean) of the friction's latest step; None: not stepped
+        self.block_last = None  # (F_end, x, v, a, F0, rate) of the block's latest step
+        self.probes = {}  # side -> (friction at side * delta, block's dv and x under it, held)
+        self.probe_slopes = {}  # side -> the relative acceleration at the end under that probe
+
+    # -- evaluations ----------------------------------------------------------------------
+    def friction_at(self, dv: float) -> tuple[float, float]:
+        if self.friction_last is not None:
+            for slave, handle in self.friction_state:
+                slave.restore(handle)
+        F, f, F_mean = self.system.step_friction(dv, self.t, self.h)
+        self.friction_last = (dv, F, f, F_mean)
+        return F, f
+
+    def block_at(self, F0: float, rate: float) -> tuple[float, float]:
+        """The block's relative velocity and position after the step under F0 + rate s."""
+        if self.block_last is not None:
+            for slave, handle in self.block_state:
+                slave.restore(handle)
+        x, v, a = self.system.step_block(F0, rate, self.t, self.h)
+        if self.block_last is not None:
+            # the block's velocity per unit impulse (1/M for a lone mass), from the secant
+            _, _, v_last, _, F0_last, rate_last = self.block_last
+            d_impulse = (F0 - F0_last + 0.5 * (rate - rate_last) * self.h) * self.h
+            if d_impulse != 0.0 and v != v_last:
+                self.report.velocity_per_impulse = abs((v - v_last) / d_impulse)
+        self.block_last = (F0 + rate * self.h, x, v, a, F0, rate)
+        return self.V - v, x
+
+    def block_under(self, F: float) -> float:
+        """The block's relative velocity after the step whose force ends at F."""
+        if self.ramp:
+            return self.block_at(self.point.F, (F - self.point.F) / self.h)[0]
+        return self.block_at(F, 0.0)[0]
+
+    def loop(self, dv: float) -> float:
+        """H(dv): how far the block's answer is from the assumed dv."""
+        self.report.iterations += 1
+        F, _ = self.friction_at(dv)
+        return self.block_under(F) - dv
+
+    def probe(self, side: float) -> float:
+        value = self.loop(side * self.delta)
+        self.probes[side] = (self.friction_last[1], self.V - self.block_last[2], self.block_last[1])
+        self.probe_slopes[side] = self.aX - self.block_last[3]  # d(dv)/dt at the end [m/s^2]
+        return value
+
+    # -- the machine ----------------------------------------------------------------------
+    def solve(self) -> Point | RetryHeld:
+        """The new point, or RETRY_HELD where a ramped step turns out stuck, reversing or stiff."""
+        classified = self.classify()
+        if isinstance(classified, RetryHeld):
+            return classified
+        mode, slip, event = classified
+        if mode == Contact.STUCK:
+            event = self.solve_stuck(event)
+            _, f = self.friction_at(0.0)
+            F_mean = math.nan  # the block felt the stick force, not the friction's
+        else:
+            dv, gain = slip
+            self.report.loop_gain = gain
+            if self.ramp and gain >= self.settings.max_ramp_gain:
+                return RETRY_HELD_STIFF
+            if self.friction_last[0] != dv:
+                self.friction_at(dv)
+            _, F, f, F_mean = self.friction_last
+            if self.block_last[0] != F:
+                self.block_under(F)
+        F, x, v, a, F0, F_rate = self.block_last
+        return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
+                     F_rate=F_rate, mode=mode, event=event, ramped=self.ramp, F_mean=F_mean)
+
+    def classify(self) -> tuple[Contact, tuple[float, float] | None, float] | RetryHeld:
+        """The step's contact mode, its slip root (dv [m/s], loop gain) when slipping, and the
+        fraction of the step at which a stuck contact broke away (1: none)."""
+        previous, delta = self.previous, self.delta
+        first = -1.0 if previous == Contact.BACKWARD else 1.0
+        if previous.slipping and self.settings.expected_gain > 0:
+            # (with no loop gain, as for dry friction, the first pass from +-delta is exact)
+            slip = self.predicted_slip(first)
+            if slip is not None:
+                return Contact(int(first)), slip, 1.0
+        for side in (first, -first):
+            h_side = self.probe(side)
+            if side * h_side > 0:  # the block slips past +-delta on this side
+                event = 1.0
+                if previous == Contact.STUCK and self.point.F_rate != 0.0:
+                    # It was stuck, its force ramping toward the bound: it broke away when
+                    # the ramp reached the bound, maybe well inside this step.
+                    reach = (self.probes[side][0] - self.point.F) / (self.point.F_rate * self.h)
+                    event = reach if 0.0 < reach < 1.0 else 1.0
+                return Contact(int(side)), self.slip_root(side * delta, h_side, side), event
+            if self.ramp:
+                return RETRY_HELD_TRANSITION
+        return Contact.STUCK, None, 1.0
+
+    def solve_stuck(self, event: float) -> float:
+        """Stuck at the step's end: the stick ramp (stuck all through), or the stick force
+        (it was slipping, or nothing is known before); returns the event fraction."""
+        self.report.stuck = True
+        previous = self.previous
+        if previous == Contact.STUCK:
+            event = self.stick_ramp()
+        elif previous.slipping:
+            # It was slipping and ends stuck: dv reached 0 inside the step, where the
+            # block's dv under the slip force (the probe on the slip side) crosses it:
+            # the root of its cubic Hermite interpolant (a straight line lands short of a
+            # curving dv, and the retried step then lands short again, and again).
+            side = -1.0 if previous == Contact.BACKWARD else 1.0
+            event = self.stick_onset(self.probes[side][1], self.probe_slopes[side])
+        if event < 1.0 or previous != Contact.STUCK:
+            self.stick_force()
+        return event
+
+    def stick_onset(self, dv_end: float, slope_end: float) -> float:
+        """The fraction of the step at which dv, slipping from the point's dv to dv_end [m/s]
+        (past 0) with slopes d(dv)/dt at both ends [m/s^2], reaches 0 (1: it does not)."""
+        point, h = self.point, self.h
+        dv0, slope0 = point.dv, point.aX - point.a
+        if dv0 == dv_end or dv0 * dv_end > 0.0:
+            return 1.0
+
+        def dv(s: float) -> float:
+            return hermite(dv0, dv_end, slope0, slope_end, h, s)
+
+        return min(1.0, max(0.0, illinois(dv, 0.0, 1.0, dv0, dv_end, xtol=1e-9, rtol=0.0)))
+
+    # -- the solvers ----------------------------------------------------------------------
+    def predicted_slip(self, side: float) -> tuple[float, float] | None:
+        """Slipping on, as before: start the root search at the predicted dv instead of at
+        +-delta, which saves the probe and keeps trial velocities near the answer (a trial
+        far beyond it can melt the lubricant: costly, and a detour for the root finder).
+        Returns (dv, gain), or None where the prediction does not show slip on this side."""
+        point, delta = self.point, self.delta
+        # dv moves with the drive's acceleration less the block's; the loop's own answer
+        # pulls it back by 1/(1 + gain) (a stiff loop hardly lets dv change).
+        guess = point.dv + (point.aX - point.a) * self.h / (1.0 + self.settings.expected_gain)
+        if not side * guess > delta:
+            return None
+        h_guess = self.loop(guess)
+        if side * h_guess > 0:  # the root lies beyond the guess: slip confirmed
+            return self.slip_root(guess, h_guess, side)
+        h_lo = self.probe(side)  # between +-delta and the guess, or no slip at all
+        if not side * h_lo > 0:
+            return None
+        return self.slip_root(side * delta, h_lo, side, guess, h_guess)
+
+    def slip_root(self, lo: float, h_lo: float, direction: float, hi: float | None = None,
+                  h_hi: float | None = None) -> tuple[float, float]:
+        """Root of the decreasing loop function beyond lo (slip in `direction`), on the
+        bracket [lo, hi] if given.
+
+        Returns (dv, loop gain): the gain is -(slope of the loop function) - 1, i.e. how
+        strongly the block's answer reacts to the assumed dv, measured on the bracket.
+        """
+        loop, delta, max_iterations = self.loop, self.delta, self.settings.max_iterations
+        if hi is None:
+            # Aim at the root with the last step's loop gain; where that falls short, the
+            # fixed-point pass from the nearer point lands beyond the root: the friction
+            # there is at least as large, so the block answers with a smaller dv.
+            gain = self.settings.expected_gain
+            for fraction in ((1.05 / (1.0 + gain), 1.0) if gain > 0 else (1.0,)):
+                hi = lo + fraction * h_lo
+                h_hi = loop(hi)
+                if direction * h_hi < 0 or h_hi == 0:
+                    break
+                lo, h_lo = hi, h_hi
+            else:  # not beyond even so: the law is not monotone here; widen
+                for _ in range(max_iterations):
+                    hi = lo + 2.0 * (h_lo if h_lo != 0 else direction * delta)
+                    h_hi = loop(hi)
+                    if direction * h_hi < 0 or h_hi == 0:
+                        break
+                    lo, h_lo = hi, h_hi
+        gain = max(0.0, -(h_hi - h_lo) / (hi - lo) - 1.0) if hi != lo else 0.0
+        if h_hi == 0:
+            return hi, gain
+        if abs(h_lo) <= self.root_tol:
+            return lo, gain
+        if abs(h_hi) <= self.root_tol:
+            return hi, gain
+        return illinois(loop, lo, hi, h_lo, h_hi, xtol=delta, rtol=0.0, ftol=self.root_tol,
+                        max_iterations=max_iterations), gain
+
+    def stick_force(self) -> float:
+        """The force that keeps the blocks together over the step (dv = 0 at its end).
+
+        It lies between the friction at -delta and at +delta (the probes already made);
+        the secant on the block's answer starts from those two evaluations.
+        """
+        (F_pos, a_pos, _), (F_neg, a_neg, _) = self.probes[1.0], self.probes[-1.0]
+        a, da, b, db = F_neg, a_neg, F_pos, a_pos
+        if da == db:
+            self.block_under(F_pos)
+            return F_pos
+        F = b
+        for _ in range(self.settings.max_iterations):
+            F = b - db * (b - a) / (db - da)
+            d = self.block_under(F)
+            if abs(d) <= self.delta or d == db:
+                break
+            a, da, b, db = b, db, F, d
+        return F
+
+    def stick_ramp(self) -> float:
+        """Stuck over the whole step: the force ramp F0 + rate s that keeps the blocks
+        together, i.e. ends with dv = 0 and moves the block exactly as far as the drive.
+
+        A held force can match only one of the two, and then the position drifts by
+        O(h^3) a step through the spring term; the ramp matches both, and needs no force
+        from the previous step (so no ringing). The block's answer is affine in (F0, rate)
+        for a linear block; it is not assumed: the Newton steps use secant slopes.
+        Returns the fraction of the step at which the ramp leaves the friction's bounds
+        (the contact breaks away there), 1.0 if it stays stuck throughout.
+        """
+        (F_pos, d_pos, x_pos), (F_neg, d_neg, x_neg) = self.probes[1.0], self.probes[-1.0]
+        if F_pos == F_neg:
+            return 0.0
+        h = self.h
+        x_target = self.point.x + self.X - self.point.X
+        # slopes in F0 from the two held probes, in rate from one more evaluation
+        dF = F_pos - F_neg
+        d_F, x_F = (d_pos - d_neg) / dF, (x_pos - x_neg) / dF
+        rate_probe = dF / h
+        F0, rate = F_neg, 0.0
+        d0, x0 = d_neg, x_neg
+        d_r, x_r = None, None
+        for _ in range(8):
+            if d_r is None:
+                d1, x1 = self.block_at(F0, rate + rate_probe)
+                d_r, x_r = (d1 - d0) / rate_probe, (x1 - x0) / rate_probe
+            det = d_F * x_r - d_r * x_F
+            if det == 0:
+                break
+            # Newton on (dv_end, x_end - x_target) = 0 with the secant Jacobian
+            rx = x0 - x_target
+            F0, rate = F0 - (d0 * x_r - d_r * rx) / det, rate - (d_F * rx - x_F * d0) / det
+            d0, x0 = self.block_at(F0, rate)
+            if abs(d0) <= self.delta and abs(x0 - x_target) <= 1e-12 * self.settings.position_scale:
+                break
+        low, high = min(F_neg, F_pos), max(F_neg, F_pos)
+        F1 = F0 + rate * h
+        if not low <= F0 <= high:
+            return 0.0
+        if F1 > high:
+            return (high - F0) / (F1 - F0)
+        if F1 < low:
+            return (low - F0) / (F1 - F0)
+        return 1.0
