@@ -89,19 +89,29 @@ class ImplicitStep:
         self.delta = settings.delta
         self.root_tol = max(self.delta, settings.root_tol)  # m/s
         self.report = StepReport()
-        self.friction_last = None  # (dv, F, f, F_mean) of the friction's latest step; None: not stepped
+        self.friction_last = None  # (dv, F, f, F_mean) of the friction's latest answer (F_mean: nan for a trial)
+        self.friction_stepped = False  # the friction has stepped (its state is at the step's end)
         self.block_last = None  # (F_end, x, v, a, F0, rate) of the block's latest step
         self.probes = {}  # side -> (friction at side * delta, block's dv and x under it, held)
         self.probe_slopes = {}  # side -> the relative acceleration at the end under that probe
 
     # -- evaluations ----------------------------------------------------------------------
     def friction_at(self, dv: float) -> tuple[float, float]:
-        if self.friction_last is not None:
+        """A trial: F [N], f [1] at the relative velocity dv [m/s] with the friction's state
+        where it stands (its output's direct feedthrough; no step)."""
+        F, f = self.system.friction_outputs(dv)
+        self.friction_last = (dv, F, f, math.nan)
+        return F, f
+
+    def step_friction(self, dv: float) -> None:
+        """The friction's step to dv [m/s] at the step's end (from the step's start again if
+        it stepped before): its state (the lubricant's f) moves along the way."""
+        if self.friction_stepped:
             for slave, handle in self.friction_state:
                 slave.restore(handle)
         F, f, F_mean = self.system.step_friction(dv, self.t, self.h)
+        self.friction_stepped = True
         self.friction_last = (dv, F, f, F_mean)
-        return F, f
 
     def block_at(self, F0: float, rate: float) -> tuple[float, float]:
         """The block's relative velocity and position after the step under F0 + rate s."""
@@ -145,21 +155,51 @@ class ImplicitStep:
         mode, slip, event = classified
         if mode == Contact.STUCK:
             event = self.solve_stuck(event)
-            _, f = self.friction_at(0.0)
-            F_mean = math.nan  # the block felt the stick force, not the friction's
+            self.step_friction(0.0)
+            f, F_mean = self.friction_last[2], math.nan  # the block felt the stick force, not the friction's
         else:
             dv, gain = slip
             self.report.loop_gain = gain
             if self.ramp and gain >= self.settings.max_ramp_gain:
                 return RETRY_HELD_STIFF
-            if self.friction_last[0] != dv:
-                self.friction_at(dv)
+            dv = self.settle(dv, gain, mode)
             _, F, f, F_mean = self.friction_last
             if self.block_last[0] != F:
                 self.block_under(F)
         F, x, v, a, F0, F_rate = self.block_last
         return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
                      F_rate=F_rate, mode=mode, event=event, ramped=self.ramp, F_mean=F_mean)
+
+    # Friction steps one slip step may take to settle its root with the state integrated.
+    # A law without state needs one; the lubricant, whose f moves the force, two or three.
+    max_settle_rounds = 6
+
+    def settle(self, dv: float, gain: float, mode: Contact) -> float:
+        """The slip root with the friction's state integrated along the step.
+
+        The trials that found dv held the friction's state at the step's start (its outputs'
+        direct feedthrough, no step): stepping the friction to dv integrates the state (the
+        lubricant kinetics, the costly part) once, instead of once a trial. Where the state
+        moved the force, G(dv) = (the block's answer to the force after the friction stepped
+        to dv) - dv is not yet 0: a secant on G (started with the loop's own slope,
+        -(1 + gain)) finds its root, one friction step an iterate."""
+        direction, floor = float(mode), self.delta
+        dv_a = g_a = None
+        for _ in range(self.max_settle_rounds):
+            self.step_friction(dv)
+            g = self.block_under(self.friction_last[1]) - dv
+            if abs(g) <= self.root_tol:
+                return dv
+            if dv_a is None or g == g_a:
+                new = dv + g / (1.0 + gain)
+            else:
+                new = dv - g * (dv - dv_a) / (g - g_a)
+            dv_a, g_a = dv, g
+            # stay on the slip side: the classification found slip
+            dv = new if direction * new > floor else 0.5 * (dv + direction * floor)
+        self.step_friction(dv)
+        self.block_under(self.friction_last[1])
+        return dv
 
     def classify(self) -> tuple[Contact, tuple[float, float] | None, float] | RetryHeld:
         """The step's contact mode, its slip root (dv [m/s], loop gain) when slipping, and the
