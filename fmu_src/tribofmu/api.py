@@ -140,6 +140,7 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
              "fmus": {name: {"file": str((fmu_dir / f"{name}.fmu").resolve()), "guid": getattr(slave, "guid", None)}
                       for name, slave in slaves.items()}}
     stats["estimated_error"] = estimated_error(coupling, error_audit)
+    stats["warnings"] = accuracy_warnings(coupling, stats["estimated_error"])
     stats["energy"] = audit.result()
     heat = audit.heat()
     if heat:
@@ -158,6 +159,20 @@ def estimated_error(coupling, audit: WindowError) -> dict[str, Any]:
     return {"nrms_v": value if math.isfinite(value) else None,
             "method": "step doubling's local errors in x and v (and the friction's impulse misses) "
                       "carried through the block's linearised motion to the window (master/estimate.py)"}
+
+
+# A run whose own estimate is past this many times its tol says so (README, "How accurate is a run").
+TOLERANCE_BAND = 3.0
+
+
+def accuracy_warnings(coupling, estimate: dict[str, Any]) -> list[str]:
+    """What the run says about its accuracy: its estimate past TOLERANCE_BAND x tol. The run
+    stays ok (it did what was asked of each step); the warning is in stats.json and on stderr."""
+    value = estimate.get("nrms_v")
+    if coupling.name != "adaptive" or value is None or value <= TOLERANCE_BAND * coupling.tol:
+        return []
+    return [f"estimated nRMS(v) {value:.2g} is {value / coupling.tol:.0f}x tol {coupling.tol:g}: "
+            f"rerun with --tol {coupling.tol * coupling.tol / value:.1g} for an error near tol"]
 
 
 def ensure_fmus(fmu_dir: Path, names, build: bool | None) -> None:

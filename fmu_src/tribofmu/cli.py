@@ -274,8 +274,12 @@ def cmd_simulate(args) -> int:
         for name in RUN_OUTPUTS:  # an older run's results must not look like this run's
             if not (tmp / name).exists() and (out / name).is_file():
                 (out / name).unlink()
+    estimate = result.stats["estimated_error"]["nrms_v"]
+    accuracy = f", estimated nRMS(v) {estimate:.2g}" if estimate is not None else ""
     print(f"{scenario.name}: {result.message}; {result.stats['communication_steps']} steps, "
-          f"{result.stats['wall_time']:.2f} s -> {out}/")
+          f"{result.stats['wall_time']:.2f} s{accuracy} -> {out}/")
+    for warning in result.stats["warnings"]:
+        print(f"tribofmu: warning: {warning}", file=sys.stderr)
     if not result.ok:
         print(f"tribofmu: {result.message}", file=sys.stderr)
         return EXIT_FAILED
