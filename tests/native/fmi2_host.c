@@ -4,6 +4,7 @@
  * usage: fmi2_host -h STEP -n STEPS
  *                  -f UNZIPPED_DIR MODEL_IDENTIFIER GUID   (repeat: FMU 0, 1, ...)
  *                  -s I VR VALUE      set real parameter/start VR of FMU I before initialization
+ *                  -i I VR VALUE      the same for an integer variable
  *                  -c I VR J VR       before every step, output VR of I -> input VR of J
  *                  -u I VR FILE       before step k, input VR of I = line k of FILE
  *                  -o I VR            print output VR of I at every communication point
@@ -53,6 +54,7 @@ typedef struct {
     fmi2Status (*enter_init)(fmi2Component);
     fmi2Status (*exit_init)(fmi2Component);
     fmi2Status (*set_real)(fmi2Component, const fmi2ValueReference *, size_t, const double *);
+    fmi2Status (*set_integer)(fmi2Component, const fmi2ValueReference *, size_t, const int *);
     fmi2Status (*get_real)(fmi2Component, const fmi2ValueReference *, size_t, double *);
     fmi2Status (*do_step)(fmi2Component, double, double, int);
     fmi2Status (*terminate)(fmi2Component);
@@ -82,7 +84,7 @@ int main(int argc, char **argv)
     long steps = -1;
     fmu_t fmus[MAX];
     int n_fmus = 0;
-    struct { int i; unsigned vr; double value; } sets[256];
+    struct { int i; unsigned vr; double value; int integer; } sets[256];
     int n_sets = 0;
     struct { int i; unsigned vr; int j; unsigned vr_to; } conns[64];
     int n_conns = 0;
@@ -98,7 +100,8 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[a], "-n") && a + 1 < argc) steps = atol(argv[++a]);
         else if (!strcmp(argv[a], "-f") && a + 3 < argc && n_fmus < MAX) {
             dirs[n_fmus] = argv[++a]; ids[n_fmus] = argv[++a]; guids[n_fmus] = argv[++a]; ++n_fmus;
-        } else if (!strcmp(argv[a], "-s") && a + 3 < argc && n_sets < 256) {
+        } else if ((!strcmp(argv[a], "-s") || !strcmp(argv[a], "-i")) && a + 3 < argc && n_sets < 256) {
+            sets[n_sets].integer = argv[a][1] == 'i';
             sets[n_sets].i = atoi(argv[++a]); sets[n_sets].vr = (unsigned)atol(argv[++a]);
             sets[n_sets].value = strtod(argv[++a], NULL); ++n_sets;
         } else if (!strcmp(argv[a], "-c") && a + 4 < argc && n_conns < 64) {
@@ -138,7 +141,7 @@ int main(int argc, char **argv)
         if (!(f->instantiate = sym(f->lib, "fmi2Instantiate")) || !(f->setup = sym(f->lib, "fmi2SetupExperiment"))
             || !(f->enter_init = sym(f->lib, "fmi2EnterInitializationMode"))
             || !(f->exit_init = sym(f->lib, "fmi2ExitInitializationMode"))
-            || !(f->set_real = sym(f->lib, "fmi2SetReal")) || !(f->get_real = sym(f->lib, "fmi2GetReal"))
+            || !(f->set_real = sym(f->lib, "fmi2SetReal")) || !(f->set_integer = sym(f->lib, "fmi2SetInteger")) || !(f->get_real = sym(f->lib, "fmi2GetReal"))
             || !(f->do_step = sym(f->lib, "fmi2DoStep")) || !(f->terminate = sym(f->lib, "fmi2Terminate"))
             || !(f->free_instance = sym(f->lib, "fmi2FreeInstance")))
             return 3;
@@ -149,9 +152,13 @@ int main(int argc, char **argv)
         if (!check(f->setup(f->c, 0, 0.0, 0.0, 0, 0.0), "fmi2SetupExperiment", i)) return 4;
         if (!check(f->enter_init(f->c), "fmi2EnterInitializationMode", i)) return 4;
     }
-    for (int s = 0; s < n_sets; ++s)
-        if (!check(fmus[sets[s].i].set_real(fmus[sets[s].i].c, &sets[s].vr, 1, &sets[s].value), "fmi2SetReal", sets[s].i))
-            return 4;
+    for (int s = 0; s < n_sets; ++s) {
+        fmu_t *f = &fmus[sets[s].i];
+        int integer = (int)sets[s].value;
+        fmi2Status status = sets[s].integer ? f->set_integer(f->c, &sets[s].vr, 1, &integer)
+                                            : f->set_real(f->c, &sets[s].vr, 1, &sets[s].value);
+        if (!check(status, sets[s].integer ? "fmi2SetInteger" : "fmi2SetReal", sets[s].i)) return 4;
+    }
     for (int i = 0; i < n_fmus; ++i)
         if (!check(fmus[i].exit_init(fmus[i].c), "fmi2ExitInitializationMode", i)) return 4;
 
