@@ -16,93 +16,16 @@ from __future__ import annotations
 
 import math
 import subprocess
-import xml.etree.ElementTree as ET
-import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from native_support import STEP, run_clean, table, vr
+
 pytestmark = [pytest.mark.integration, pytest.mark.native]
 
-HERE = Path(__file__).resolve().parent
-CLEAN_ENV = {"PATH": "/usr/bin:/bin"}
-STEP = 1e-4  # s, the issue's communication step
 FMI_ERROR = 3
-
-
-# -- fixtures -----------------------------------------------------------------------------
-@pytest.fixture(scope="module")
-def compiler() -> str:
-    from tribofmu.build import c_compiler, native_loader_supported
-
-    if not native_loader_supported():
-        pytest.skip("the native loader is built for Linux x86-64 only")
-    cc = c_compiler()
-    if cc is None:
-        pytest.skip("no C compiler (cc, gcc or clang): .ci/run installs gcc")
-    return cc
-
-
-@pytest.fixture(scope="module")
-def programs(compiler, tmp_path_factory) -> dict[str, Path]:
-    out = tmp_path_factory.mktemp("native_hosts")
-    built = {}
-    for name in ("fmi2_host", "fmi2_misuse"):
-        built[name] = _compile(compiler, [HERE / f"{name}.c"], out / name, ["-ldl"])
-    return built
-
-
-@pytest.fixture(scope="module")
-def cosim_host(compiler, tmp_path_factory) -> Path:
-    try:
-        import libcosimpy
-    except ImportError:
-        pytest.skip("libcosimpy (pip install -e .[ssp]) provides libcosimc")
-    libdir = Path(libcosimpy.__file__).parent / "libcosimc"
-    out = tmp_path_factory.mktemp("cosim_host") / "cosim_host"
-    return _compile(compiler, [HERE / "cosim_host.c"], out, [f"-L{libdir}", "-lcosimc", f"-Wl,-rpath,{libdir}"])
-
-
-def _compile(cc: str, sources: list[Path], out: Path, libs: list[str]) -> Path:
-    done = subprocess.run([cc, "-O1", "-Wall", "-o", str(out), *map(str, sources), *libs],
-                          capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-    return out
-
-
-@pytest.fixture(scope="module")
-def unzipped(fmu_dir, tmp_path_factory):
-    """FMU name -> (folder it is extracted to, its modelDescription root)."""
-    root = tmp_path_factory.mktemp("unzipped")
-    cache = {}
-
-    def get(name: str):
-        if name not in cache:
-            folder = root / name
-            with zipfile.ZipFile(fmu_dir / f"{name}.fmu") as archive:
-                archive.extractall(folder)
-            for binary in (folder / "binaries").rglob("*.so"):
-                binary.chmod(0o755)
-            cache[name] = folder, ET.parse(folder / "modelDescription.xml").getroot()
-        return cache[name]
-    return get
-
-
-def vr(description, name: str) -> int:
-    for variable in description.iter("ScalarVariable"):
-        if variable.get("name") == name:
-            return int(variable.get("valueReference"))
-    raise KeyError(name)
-
-
-def run_clean(command: list, extra_env: dict | None = None, timeout: float = 900) -> subprocess.CompletedProcess:
-    return subprocess.run([str(c) for c in command], env={**CLEAN_ENV, **(extra_env or {})},
-                          capture_output=True, text=True, timeout=timeout)
-
-
-def table(stdout: str) -> np.ndarray:
-    return np.array([[float(x) for x in line.split(",")] for line in stdout.strip().splitlines()])
 
 
 # -- the FMU binary -----------------------------------------------------------------------

@@ -151,7 +151,8 @@ static fmi3Status tf_unsupported(fmi3Instance instance, const char *call)
     tf_instance *I = tf_enter(instance, call);
     if (!I) return fmi3Error;
     tf_current = NULL;
-    tf_log(I, fmi3Error, "%s is not supported by this FMU (co-simulation only)", call);
+    tf_log(I, fmi3Error, "%s is not supported by this FMU (a co-simulation FMU whose variables "
+           "are Float64, Int32, UInt64, Boolean and String)", call);
     return fmi3Error;
 }
 
