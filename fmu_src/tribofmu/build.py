@@ -244,6 +244,7 @@ def _native_digest(fmi: int) -> bytes:
         return b""
     parts = [(NATIVE / "loader_common.h").read_bytes(), (NATIVE / LOADER_SOURCES[fmi]).read_bytes()]
     parts += [f"{k}={v}".encode() for k, v in sorted(recorded_python().items())]
+    parts.append(b"loader" if c_compiler() else b"no compiler: pythonfmu's binary only")
     return b"\0".join(parts)
 
 
@@ -274,7 +275,11 @@ def compile_native_loader(fmi: int, out: Path) -> Path:
     command = [compiler, "-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-Wl,-Bsymbolic",
                *(f"-D{k}={_c_string(v)}" for k, v in defines.items()),
                "-o", str(out), str(NATIVE / LOADER_SOURCES[fmi]), "-ldl", "-lpthread"]
-    done = subprocess.run(command, capture_output=True, text=True)
+    try:
+        done = subprocess.run(command, capture_output=True, text=True)
+    except OSError as exc:
+        raise TriboFMUError(f"cannot run the C compiler {compiler!r} to build the FMUs' native "
+                            f"loader: {exc.strerror or exc}") from None
     if done.returncode != 0:
         raise TriboFMUError(f"{compiler} failed to build the FMUs' native loader "
                             f"({LOADER_SOURCES[fmi]}): {done.stderr.strip()}")
@@ -284,9 +289,18 @@ def compile_native_loader(fmi: int, out: Path) -> Path:
 def install_native_loader(fmu: Path, fmi: int, work: Path) -> None:
     """Rewrite ``fmu`` (a pythonfmu-built archive) so its Linux binary is the native loader and
     pythonfmu's binary sits beside it as libpythonfmu-export.so. Other platforms' binaries are
-    left as pythonfmu made them."""
+    left as pythonfmu made them.
+
+    Without a C compiler the FMU keeps pythonfmu's binary, with a warning: it then runs in
+    Python hosts only (fmpy, libcosimpy, ecospy, this package's master)."""
+    import warnings
     import zipfile
     if not native_loader_supported():
+        return
+    if c_compiler() is None:
+        warnings.warn(f"{fmu.stem}: no C compiler (cc, gcc or clang, or $CC): built without the "
+                      "native loader, so the FMU loads only in hosts that already run Python; "
+                      "install one (e.g. apt-get install gcc) and build again", stacklevel=2)
         return
     loader = work / f"loader-fmi{fmi}.so"
     if not loader.exists():  # one compilation per build
