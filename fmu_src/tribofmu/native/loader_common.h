@@ -136,10 +136,14 @@ static int tf_start_interpreter(void *lib, const char *lib_path)
     const char *exe = TRIBOFMU_PYTHON_EXECUTABLE;
     tf_set_wstring_t set_program = (tf_set_wstring_t)dlsym(lib, "Py_SetProgramName");
     tf_decode_locale_t decode = (tf_decode_locale_t)dlsym(lib, "Py_DecodeLocale");
+    char started_as[PATH_MAX + 32] = "";
     if (exe[0] && access(exe, X_OK) == 0 && tf_same_file(lib_path, TRIBOFMU_LIBPYTHON)
         && set_program && decode) {
         wchar_t *wide = decode(exe, NULL);  /* kept: Python reads it at initialization */
-        if (wide) set_program(wide);
+        if (wide) {
+            set_program(wide);
+            snprintf(started_as, sizeof started_as, " (started as %s)", exe);
+        }
     }
     initialize(0);  /* 0: leave the host's signal handlers alone */
     char code[1024];
@@ -156,10 +160,10 @@ static int tf_start_interpreter(void *lib, const char *lib_path)
     int ok = missing && !missing[0];
     if (!ok) {
         snprintf(tf_python_problem, TF_MSG,
-                 "the Python loaded from %s cannot import %s (needed by this FMU). Install them "
+                 "the Python loaded from %s%s cannot import %s (needed by this FMU). Install them "
                  "into that Python with pip, or point %s at the libpython of a Python that has "
                  "them (an embedded Python finds packages in its own site-packages and PYTHONPATH)",
-                 lib_path, missing ? missing : "its standard library", TRIBOFMU_LIBPYTHON_ENV);
+                 lib_path, started_as, missing ? missing : "its standard library", TRIBOFMU_LIBPYTHON_ENV);
     }
     save_thread();
     return ok;
