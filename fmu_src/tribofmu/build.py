@@ -316,7 +316,9 @@ def install_native_loader(fmu: Path, fmi: int, work: Path) -> None:
         for item in source.infolist():
             data = source.read(item)
             if item.filename == binaries[0].filename:
-                target.writestr(f"{platform_dir}/{WRAPPER_FILE}", data)
+                wrapper = zipfile.ZipInfo(f"{platform_dir}/{WRAPPER_FILE}", date_time=item.date_time)
+                wrapper.external_attr, wrapper.compress_type = item.external_attr, zipfile.ZIP_DEFLATED
+                target.writestr(wrapper, data)
                 target.write(loader, item.filename)
             else:
                 target.writestr(item, data)
