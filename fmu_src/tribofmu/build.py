@@ -66,7 +66,7 @@ def source_hash(fmi: int = 2) -> str:
     else:
         import pythonfmu
         digest = hashlib.sha256(f"pythonfmu {pythonfmu.__version__}\n".encode())
-    digest.update(_PREAMBLE.encode())
+    digest.update(_PREAMBLE.encode() + _native_digest(fmi))
     for path in _shipped_sources():
         digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0")
         digest.update(path.read_bytes() + b"\0")
@@ -172,6 +172,7 @@ def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] = FMU_N
                 partial = FmuBuilder.build_FMU(
                     _stage_model(Path(tmp), name, private, fmi), dest=dest,
                     project_files=[package], **options)
+                install_native_loader(Path(partial), fmi, Path(tmp))
                 final = out_dir / f"{name}.fmu"
                 # same file system: an atomic rename; otherwise copy beside the target first
                 aside = out_dir / f".{name}.fmu.partial-{os.getpid()}"
@@ -189,3 +190,125 @@ def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] = FMU_N
 def _forget_private_modules() -> None:
     for module in [m for m in sys.modules if m.startswith(PRIVATE_PREFIX)]:
         del sys.modules[module]
+
+
+# -- the native loader: FMUs that load in hosts without Python ------------------------------
+#
+# pythonfmu's binary leaves the Python C API undefined (it has no DT_NEEDED entry for
+# libpython), so it only loads into a process that already holds a Python. The FMU's binary
+# becomes instead a small C loader (native/*_loader.c), compiled here with the system C
+# compiler: it uses the host's Python when there is one, otherwise loads the libpython of the
+# interpreter that built the FMU (or $TRIBOFMU_LIBPYTHON) with RTLD_GLOBAL, then opens
+# pythonfmu's binary, shipped beside it as libpythonfmu-export.so, and forwards every call.
+NATIVE = PACKAGE / "native"
+LOADER_SOURCES = {2: "fmi2_loader.c", 3: "fmi3_loader.c"}
+LOADER_PLATFORM_DIRS = {2: "binaries/linux64", 3: "binaries/x86_64-linux"}
+WRAPPER_FILE = "libpythonfmu-export.so"  # the name loader_common.h opens
+
+
+def native_loader_supported() -> bool:
+    """The loader is built for Linux x86-64 only (see the README's native-host section)."""
+    import platform
+    return sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")
+
+
+def recorded_python() -> dict[str, str]:
+    """What the loader records about the building interpreter: its shared libpython (absolute
+    path and soname) and its executable (so an embedded interpreter sees the same prefix,
+    virtual environment and site-packages)."""
+    import sysconfig
+    libdir = sysconfig.get_config_var("LIBDIR") or ""
+    soname = sysconfig.get_config_var("INSTSONAME") or ""
+    if not sysconfig.get_config_var("Py_ENABLE_SHARED"):
+        # A static-only build (no libpython*.so): record the soname a packaged shared
+        # library of the same version would have; the loader then searches the loader path.
+        soname = f"libpython{sysconfig.get_python_version()}.so.1.0"
+    path = os.path.join(libdir, soname) if libdir and soname else ""
+    return {"libpython": path if path and os.path.exists(path) else "",
+            "soname": soname, "executable": sys.executable or ""}
+
+
+def _native_digest(fmi: int) -> bytes:
+    if not native_loader_supported():
+        return b""
+    parts = [(NATIVE / "loader_common.h").read_bytes(), (NATIVE / LOADER_SOURCES[fmi]).read_bytes()]
+    parts += [f"{k}={v}".encode() for k, v in sorted(recorded_python().items())]
+    parts.append(b"loader" if c_compiler() else b"no compiler: pythonfmu's binary only")
+    return b"\0".join(parts)
+
+
+def c_compiler() -> str | None:
+    """$CC, else cc, gcc or clang on PATH."""
+    if os.environ.get("CC"):
+        return os.environ["CC"]
+    return next((shutil.which(c) for c in ("cc", "gcc", "clang") if shutil.which(c)), None)
+
+
+def _c_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def compile_native_loader(fmi: int, out: Path) -> Path:
+    """Compile the loader for FMI ``fmi`` into ``out`` (a shared library); raises
+    :class:`~tribofmu.errors.TriboFMUError` naming the compiler and its message on failure."""
+    import subprocess
+    from .errors import TriboFMUError
+    compiler = c_compiler()
+    if compiler is None:
+        raise TriboFMUError("no C compiler (cc, gcc or clang on PATH, or $CC) to build the FMUs' "
+                            "native loader; install one, e.g. apt-get install gcc")
+    python = recorded_python()
+    required = "pythonfmu3,numpy" if fmi == 3 else "pythonfmu,numpy"
+    defines = {"TRIBOFMU_LIBPYTHON": python["libpython"], "TRIBOFMU_LIBPYTHON_SONAME": python["soname"],
+               "TRIBOFMU_PYTHON_EXECUTABLE": python["executable"], "TRIBOFMU_REQUIRED_MODULES": required}
+    command = [compiler, "-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-Wl,-Bsymbolic",
+               *(f"-D{k}={_c_string(v)}" for k, v in defines.items()),
+               "-o", str(out), str(NATIVE / LOADER_SOURCES[fmi]), "-ldl", "-lpthread"]
+    try:
+        done = subprocess.run(command, capture_output=True, text=True)
+    except OSError as exc:
+        raise TriboFMUError(f"cannot run the C compiler {compiler!r} to build the FMUs' native "
+                            f"loader: {exc.strerror or exc}") from None
+    if done.returncode != 0:
+        raise TriboFMUError(f"{compiler} failed to build the FMUs' native loader "
+                            f"({LOADER_SOURCES[fmi]}): {done.stderr.strip()}")
+    return out
+
+
+def install_native_loader(fmu: Path, fmi: int, work: Path) -> None:
+    """Rewrite ``fmu`` (a pythonfmu-built archive) so its Linux binary is the native loader and
+    pythonfmu's binary sits beside it as libpythonfmu-export.so. Other platforms' binaries are
+    left as pythonfmu made them.
+
+    Without a C compiler the FMU keeps pythonfmu's binary, with a warning: it then runs in
+    Python hosts only (fmpy, libcosimpy, ecospy, this package's master)."""
+    import warnings
+    import zipfile
+    if not native_loader_supported():
+        return
+    if c_compiler() is None:
+        warnings.warn(f"{fmu.stem}: no C compiler (cc, gcc or clang, or $CC): built without the "
+                      "native loader, so the FMU loads only in hosts that already run Python; "
+                      "install one (e.g. apt-get install gcc) and build again", stacklevel=2)
+        return
+    loader = work / f"loader-fmi{fmi}.so"
+    if not loader.exists():  # one compilation per build
+        compile_native_loader(fmi, loader)
+    platform_dir = LOADER_PLATFORM_DIRS[fmi]
+    rewritten = fmu.with_name(fmu.name + ".loader")
+    with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(rewritten, "w", zipfile.ZIP_DEFLATED) as target:
+        binaries = [i for i in source.infolist()
+                    if i.filename.startswith(platform_dir + "/") and i.filename.endswith(".so")]
+        if len(binaries) != 1:
+            raise RuntimeError(f"{fmu.name}: expected one binary in {platform_dir}, "
+                               f"found {[i.filename for i in binaries]}")
+        for item in source.infolist():
+            data = source.read(item)
+            if item.filename == binaries[0].filename:
+                wrapper = zipfile.ZipInfo(f"{platform_dir}/{WRAPPER_FILE}", date_time=item.date_time)
+                wrapper.external_attr, wrapper.compress_type = item.external_attr, zipfile.ZIP_DEFLATED
+                target.writestr(wrapper, data)
+                target.write(loader, item.filename)
+            else:
+                target.writestr(item, data)
+    os.replace(rewritten, fmu)
