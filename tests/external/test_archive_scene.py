@@ -91,3 +91,24 @@ def test_pair_archive_runs_its_scene_without_parameter_bindings(name, fmu_dir, t
     error = nrms(fmpy_run["time"], fmpy_run["v"], ours.time, ours.v, scenario.window)
     print(f"\n[archive-scene] {name}: h={h:g} s, steps={len(fmpy_run['time'])}, nrms(v)={error:.3g}")
     assert error <= TARGET
+
+
+@pytest.mark.parametrize("pair", [True, False], ids=["pair", "three FMUs"])
+def test_archive_fmus_pass_the_independent_checker(pair, fmu_dir, tmp_path):
+    """The rewritten modelDescription.xml files stay valid: fmpy's validation and the
+    fmu-manipulation-toolbox checker (see test_fmu_checker) find nothing."""
+    from fmpy.validation import validate_fmu
+    from tribofmu import api
+    from tribofmu.scene.ssp import export_ssp
+
+    ssp = export_ssp(api.load(scene("fig6_boundary")), tmp_path / "fig6.ssp", fmu_dir, pair=pair)
+    with zipfile.ZipFile(ssp) as archive:
+        members = [m for m in archive.namelist() if m.endswith(".fmu")]
+        archive.extractall(tmp_path, members)
+    for member in members:
+        fmu = tmp_path / member
+        assert validate_fmu(str(fmu)) == [], member
+        check = subprocess.run([sys.executable, "-m", "fmu_manipulation_toolbox.cli.fmutool", "-input",
+                                str(fmu), "-check"], capture_output=True, text=True, timeout=120)
+        assert check.returncode == 0 and "No semantic error" in check.stdout + check.stderr, \
+            check.stdout + check.stderr
