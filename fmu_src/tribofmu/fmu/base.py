@@ -20,7 +20,9 @@ pythonfmu 0.7.0 (FMI 2.0) returns fmi2OK whenever the Python method returns, fmi
 ``do_step`` returns False, and fmi2Fatal on any Python exception, after which it has already
 released the Python instance (every further call on it is a use after free). pythonfmu3
 0.3.4 (FMI 3.0) does the same, except that ``do_step`` may return any status. So nothing here
-raises; a refused call leaves no effect, logs an Error-status message and, where the call
+raises; a refused call leaves no effect, logs an Error-status message in the category
+:data:`CALL_STATUS_CATEGORY` (the FMUs' native loader, between host and pythonfmu's binary,
+makes that status the call's: fmi2Error) and, where the call
 would otherwise have changed what the model computes (a setter, setting an FMU state), puts
 the instance into an error state: every following ``doStep`` is refused (fmi2Discard,
 fmi3Error) until fmi2Reset or restoring a good FMU state. A host that ignores the logger
@@ -71,6 +73,12 @@ _TYPE_NAMES = {Real: "Float64" if FMI_VERSION == 3 else "Real",
                Integer: "Int32" if FMI_VERSION == 3 else "Integer", Boolean: "Boolean"}
 _STATE = "FMUState" if FMI_VERSION == 3 else "FMUstate"
 
+# The log category of a refusal: the FMUs' native loader (tribofmu.native, between the host and
+# pythonfmu's binary) returns the status of such a message as the status of the call, so a
+# refused setter, getter, initialization or FMU state answers fmi2Error/fmi3Error there. The
+# loader hands the message on under the usual logStatusError category.
+CALL_STATUS_CATEGORY = "tribofmuCallStatus"
+
 # The FMI states a co-simulation instance passes through (error is a flag beside them).
 INSTANTIATED, INITIALIZATION, STEP, TERMINATED = (
     "instantiated", "initialization mode", "step mode", "terminated")
@@ -108,6 +116,8 @@ class TriboModel(_PythonFMUSlave):
     author = AUTHOR
     license = LICENSE
     version = VERSION
+    log_categories = {**_PythonFMUSlave.log_categories,
+                      CALL_STATUS_CATEGORY: "A refused call; its status (Error) is the call's status."}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -218,7 +228,7 @@ class TriboModel(_PythonFMUSlave):
                     # refused: never stored, so nothing computes with it; every step and
                     # every output that depends on the values is refused until it is replaced
                     self._log(f"{_PREFIX}Set{_TYPE_NAMES[_KINDS[kind]]}: {name} {why}: refused",
-                              Status.error)
+                              Status.error, CALL_STATUS_CATEGORY)
                     return
                 # in range is checked when initialization ends (parameters) or at the step
             else:
@@ -245,26 +255,27 @@ class TriboModel(_PythonFMUSlave):
         def get() -> Any:
             if self._describing:
                 return getter()
-            problems = self.problems()
+            # the model's own validation runs once per parameter set: usually nothing to join
+            problems = self.problems() if self._bad or self._model_problems != [] else None
             if problems:
                 why = "; ".join(problems)
                 self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} cannot be evaluated while {why}; "
-                          f"reads as NaN", Status.error)
+                          f"reads as NaN", Status.error, CALL_STATUS_CATEGORY)
                 return math.nan
             try:
                 value = getter()
             except Exception as exc:
                 self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} cannot be evaluated "
                           f"({type(exc).__name__}: {exc}) at {self._inputs_text()}; reads as NaN",
-                          Status.error)
+                          Status.error, CALL_STATUS_CATEGORY)
                 return math.nan
             if isinstance(value, float) and not math.isfinite(value):
                 self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} is not finite ({value}) at "
-                          f"{self._inputs_text()}", Status.error)
+                          f"{self._inputs_text()}", Status.error, CALL_STATUS_CATEGORY)
             return value
         return get
 
-    def _log(self, msg: str, status: Status) -> None:
+    def _log(self, msg: str, status: Status, category: str | None = None) -> None:
         text = f"{self.instance_name}: {msg}"
         if FMI_VERSION == 2:
             # pythonfmu hands the text to the host's logger as its printf format string
@@ -272,7 +283,7 @@ class TriboModel(_PythonFMUSlave):
             # instance name, makes a formatting host read arguments that are not there.
             # FMI 3.0's logMessage takes plain text: nothing to escape.
             text = text.replace("%", "%%")
-        self.log(text, status)
+        self.log(text, status, category)
 
     def _inputs_text(self) -> str:
         names = [v.name for v in self.vars.values() if v.causality == Causality.input]
@@ -282,7 +293,7 @@ class TriboModel(_PythonFMUSlave):
     def _refuse(self, call: str, why: str, enter_error: bool = False) -> None:
         """Log a refused call (status Error); enter_error: the host may believe something
         happened that did not, so every doStep is refused until reset or a state is restored."""
-        self._log(f"{_PREFIX}{call}: {why}", Status.error)
+        self._log(f"{_PREFIX}{call}: {why}", Status.error, CALL_STATUS_CATEGORY)
         if enter_error and self._error is None:
             self._error = f"{_PREFIX}{call} was refused ({why})"
 
@@ -409,7 +420,7 @@ class TriboModel(_PythonFMUSlave):
         if self._mode != STEP or self._error:
             why = self._error or (f"not allowed in {self._mode} (only after "
                                   f"{_PREFIX}ExitInitializationMode, before {_PREFIX}Terminate)")
-            self._log(f"{_PREFIX}DoStep: {why}; step refused", Status.error)
+            self._log(f"{_PREFIX}DoStep: {why}; step refused", Status.error, CALL_STATUS_CATEGORY)
             return self._refused(misuse=True)
         saved = None
         misuse = True
@@ -429,8 +440,11 @@ class TriboModel(_PythonFMUSlave):
         if saved is not None:
             for name, value in saved.items():
                 setattr(self, name, value)
+        # misuse and bad values: fmi2Error through the native loader; a numerical failure
+        # stays fmi2Discard (a smaller step may succeed)
+        category = CALL_STATUS_CATEGORY if misuse else None
         for problem in problems:
-            self._log(f"{problem}; step refused", Status.error)
+            self._log(f"{problem}; step refused", Status.error, category)
         return self._refused(misuse)
 
     @staticmethod
