@@ -427,12 +427,12 @@ class TriboModel(_PythonFMUSlave):
         try:
             problems = self._step_problems(current_time, step_size)
             if not problems:
-                misuse = False
                 # Only what a step can change: parameters and inputs change through setters.
                 saved = {name: getattr(self, name) for name in self._dynamic_names()}
                 saved.update({name: copy.copy(getattr(self, name)) for name in self.internal_state_names})
-                problems = self._step(current_time, step_size)
+                problems, misuse = self._step(current_time, step_size)
         except Exception as exc:
+            misuse = False
             problems = [f"numerical failure ({type(exc).__name__}: {exc}) at {self._inputs_text()}, "
                         f"h={step_size}"]
         if not problems:
@@ -461,13 +461,15 @@ class TriboModel(_PythonFMUSlave):
             problems.append(f"communication point t must be finite, got t={current_time}, h={step_size}")
         return problems
 
-    def _step(self, t: float, h: float) -> list[str]:
+    def _step(self, t: float, h: float) -> tuple[list[str], bool]:
+        """The reasons to refuse the step (none: it is taken), and whether they are bad input
+        values (advance's reasons) rather than a numerical failure."""
         if not self._initialized:  # initialization was refused; the values are fine now
             self.initialize()
             self._initialized = True
         why = self.advance(t, h)
         if why:
-            return [why]
+            return [why], True
         self.time = t + h
         bad = []
         for name in self._real_outputs():
@@ -480,8 +482,8 @@ class TriboModel(_PythonFMUSlave):
                     continue
             bad.append(f"{name}={value}")
         if bad:
-            return [f"outputs would not be finite ({', '.join(bad)}) at {self._inputs_text()}, h={h}"]
-        return []
+            return [f"outputs would not be finite ({', '.join(bad)}) at {self._inputs_text()}, h={h}"], False
+        return [], False
 
     def _real_outputs(self) -> list[str]:
         if self._real_output_names is None:
@@ -522,7 +524,8 @@ class TriboModel(_PythonFMUSlave):
         Caches derived from parameters should key on ``self._parameter_token`` instead."""
 
     def advance(self, t: float, h: float) -> str | None:
-        """Advance the model from t to t + h [s]; return a reason to refuse the step, or None."""
+        """Advance the model from t to t + h [s]; return why the inputs cannot be stepped
+        (a bad value the host must replace: the step is refused), or None."""
         raise NotImplementedError
 
     # -- FMU state ----------------------------------------------------------------------
