@@ -454,3 +454,19 @@ def test_reset_leaves_the_error_state(probe, fmi):
     assert p.call("reset") == OK
     p.start()
     assert p.step() == OK and p.get("M")[1] == float(p.vars["M"].start)
+
+
+@pytest.mark.parametrize("fmi", VERSIONS)
+def test_simulate_fmu_with_a_bad_parameter_raises(fmu_dir, fmu3_dir, fmi):
+    """The issue's case: fmpy's simulate_fmu with M = -1 used to return two rows and no error."""
+    from fmpy import simulate_fmu
+
+    path = (fmu3_dir if fmi == 3 else fmu_dir) / "TriboPair.fmu"
+    with zipfile.ZipFile(path) as archive:
+        loader = any(name in LOADERS for name in archive.namelist())
+    if fmi == 2 and not loader:
+        pytest.skip("pythonfmu's binary alone answers fmi2OK to exitInitializationMode and fmi2Discard "
+                    "to doStep, where fmpy stops without an error (README: state table)")
+    with pytest.raises(FMICallException, match="status 3"):
+        simulate_fmu(str(path), start_values={"M": -1.0}, stop_time=0.01, output_interval=1e-3,
+                     logger=lambda *args: None)
