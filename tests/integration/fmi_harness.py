@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import struct
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -29,6 +30,14 @@ from tribofmu.master.instance import extract as extract_once
 
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load", "TriboPair")
+
+
+def has_native_loader(fmu_path: Path) -> bool:
+    """The FMU's binary is tribofmu's native loader, with pythonfmu's binary beside it: a
+    refused call then answers fmi2Error (the status its log message carries); pythonfmu's
+    binary alone answers OK, and fmi2Discard for a refused doStep."""
+    with zipfile.ZipFile(fmu_path) as archive:
+        return "binaries/linux64/libpythonfmu-export.so" in archive.namelist()
 
 
 class FmuFatal(AssertionError):
@@ -52,6 +61,10 @@ class Instance:
         self.messages: list[tuple[int, str, str]] = []
         self.raw_messages: list[str] = []  # as received: printf formats
         self.lost = False
+        # the status of a refused call (a bad value, a call in the wrong state)
+        loader = has_native_loader(fmu_path)
+        self.refused = ERROR if loader else OK
+        self.step_refused = ERROR if loader else DISCARD
 
         def logger(env, instance, status, category, message):
             # The message is a printf format (FMI 2.0); the FMUs pass no arguments, so
@@ -75,34 +88,41 @@ class Instance:
         self.fmu.instantiate(callbacks=callbacks, loggingOn=logging_on)
 
     # -- raw calls, with fmi2Fatal/fmi2Error turned into a test failure ---------------------
-    def call(self, function, *args):
-        """Call an FMU2Slave method; returns its result. Status >= fmi2Error fails the test."""
+    def call(self, function, *args, refusable: bool = False):
+        """Call an FMU2Slave method; returns its result. Status >= fmi2Error fails the test,
+        but for a refusal (fmi2Error, logged) where ``refusable``: then None."""
         assert not self.lost, "instance was lost by an earlier fmi2Fatal"
         try:
             return function(*args)
         except FMICallException as exc:
+            if refusable and exc.status == ERROR == self.refused:
+                return None
             if exc.status >= ERROR:
                 self.lost = exc.status == FATAL
                 raise FmuFatal(f"{function.__name__}{args}: status {exc.status}; log: {self.messages[-3:]}")
             raise
 
     def set(self, **values) -> None:
+        """Set variables; a refused value (logged as an error) is not a test failure here."""
         for name, value in values.items():
             var = self.vars[name]
             vr = [var.valueReference]
             if var.type == "Real":
-                self.call(self.fmu.setReal, vr, [float(value)])
+                self.call(self.fmu.setReal, vr, [float(value)], refusable=True)
             elif var.type == "Integer":
-                self.call(self.fmu.setInteger, vr, [int(value)])
+                self.call(self.fmu.setInteger, vr, [int(value)], refusable=True)
             elif var.type == "Boolean":
-                self.call(self.fmu.setBoolean, vr, [bool(value)])
+                self.call(self.fmu.setBoolean, vr, [bool(value)], refusable=True)
             else:  # pragma: no cover
                 raise TypeError(f"{name}: {var.type}")
 
     def get(self, *names: str) -> list[float]:
-        """Values of Real variables, in the order asked."""
+        """Values of Real variables, in the order asked (NaN where the read is refused)."""
         vrs = [self.vars[n].valueReference for n in names]
-        return self.call(self.fmu.getReal, vrs)
+        values = self.call(self.fmu.getReal, vrs, refusable=True)
+        if values is None:  # refused: fmpy raised before returning the buffer
+            return [math.nan] * len(names)
+        return values
 
     def get_outputs(self) -> dict[str, float]:
         names = [n for n in self.outputs if self.vars[n].type == "Real"]
@@ -113,15 +133,19 @@ class Instance:
         self.call(self.fmu.setupExperiment, None, start_time)
         self.call(self.fmu.enterInitializationMode)
         self.set(**parameters)
-        self.call(self.fmu.exitInitializationMode)
+        self.call(self.fmu.exitInitializationMode, refusable=True)  # refused for a bad parameter
 
     def step(self, t: float, h: float) -> int:
-        """fmi2DoStep; returns fmi2OK or fmi2Discard (anything worse fails the test)."""
+        """fmi2DoStep; returns fmi2OK, fmi2Discard or a refusal's status (fmi2Fatal fails the test)."""
+        assert not self.lost, "instance was lost by an earlier fmi2Fatal"
         try:
-            self.call(self.fmu.doStep, t, h)
-            return OK
+            self.fmu.doStep(t, h)
         except FMICallException as exc:
+            if exc.status == FATAL:
+                self.lost = True
+                raise FmuFatal(f"doStep({t}, {h}): fmi2Fatal; log: {self.messages[-3:]}")
             return exc.status
+        return OK
 
     def reset(self) -> None:
         self.call(self.fmu.reset)

@@ -292,14 +292,16 @@ class FMUInstance:
         vr, n, buf = self._buffer(refs)
         buf[:] = values
         args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)  # FMI 3: + nValues
-        self._check(self._names["set"], self._c["set"](self._component, *args), len(self.messages))
+        mark = len(self.messages)  # before the call: its messages explain a bad status
+        self._check(self._names["set"], self._c["set"](self._component, *args), mark)
 
     def get_reals(self, refs: list[int]) -> list[float]:
         """fmi2GetReal / fmi3GetFloat64."""
         self.calls += 1
         vr, n, buf = self._buffer(refs)
         args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)
-        self._check(self._names["get"], self._c["get"](self._component, *args), len(self.messages))
+        mark = len(self.messages)
+        self._check(self._names["get"], self._c["get"](self._component, *args), mark)
         return buf[:]
 
     def do_step(self, t: float, h: float) -> None:
@@ -317,18 +319,19 @@ class FMUInstance:
     def save(self):
         self.calls += 1
         state = self._state_type()
-        self._check(self._names["save"], self._c["save"](self._component, ctypes.byref(state)),
-                    len(self.messages))
+        mark = len(self.messages)
+        self._check(self._names["save"], self._c["save"](self._component, ctypes.byref(state)), mark)
         return state
 
     def restore(self, state) -> None:
         self.calls += 1
-        self._check(self._names["restore"], self._c["restore"](self._component, state), len(self.messages))
+        mark = len(self.messages)
+        self._check(self._names["restore"], self._c["restore"](self._component, state), mark)
 
     def free_state(self, state) -> None:
         self.calls += 1
-        self._check(self._names["free"], self._c["free"](self._component, ctypes.byref(state)),
-                    len(self.messages))
+        mark = len(self.messages)
+        self._check(self._names["free"], self._c["free"](self._component, ctypes.byref(state)), mark)
 
     def close(self) -> None:
         """Terminate and free the instance (errors here lose nothing: ignore them). The
