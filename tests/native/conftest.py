@@ -77,3 +77,47 @@ def _unzipper(fmu_dir: Path, root: Path):
             cache[name] = folder, ET.parse(folder / "modelDescription.xml").getroot()
         return cache[name]
     return get
+
+
+GATE_MODEL = '''
+from pythonfmu import Fmi2Causality, Fmi2Slave, Real
+from pythonfmu.enums import Fmi2Status
+
+
+class Gate(Fmi2Slave):
+    """Logs by the value of its input u at every step."""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.u = 0.0
+        self.register_variable(Real("u", causality=Fmi2Causality.input))
+
+    def do_step(self, current_time, step_size):
+        self.log(f"debug: stepping at u={self.u}")
+        if self.u < 0:
+            self.log(f"u must be >= 0, got {self.u}", Fmi2Status.error, category="tribofmuCallStatus")
+        elif self.u > 100:
+            self.log(f"u={self.u} is large", Fmi2Status.warning, category="tribofmuCallStatus")
+        return True
+'''
+
+
+@pytest.fixture(scope="session")
+def gate(compiler, tmp_path_factory):
+    """A small plain pythonfmu FMU (not ours) behind our loader: (folder, modelDescription root).
+    Plain pythonfmu answers an unknown value reference with fmi2Fatal, which ours never do."""
+    from pythonfmu.builder import FmuBuilder
+
+    from tribofmu.build import install_native_loader
+
+    work = tmp_path_factory.mktemp("gate")
+    script = work / "Gate.py"
+    script.write_text(GATE_MODEL)
+    fmu = FmuBuilder.build_FMU(script, dest=work / "Gate.fmu")
+    install_native_loader(fmu, 2, work)
+    folder = work / "unzipped"
+    with zipfile.ZipFile(fmu) as archive:
+        archive.extractall(folder)
+    for binary in (folder / "binaries").rglob("*.so"):
+        binary.chmod(0o755)
+    return folder, ET.parse(folder / "modelDescription.xml").getroot()

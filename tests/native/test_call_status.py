@@ -9,56 +9,11 @@ run in the C host with debug logging off:
 """
 from __future__ import annotations
 
-import xml.etree.ElementTree as ET
-import zipfile
-
 import pytest
 
 from native_support import run_clean, vr
 
 pytestmark = [pytest.mark.integration, pytest.mark.native]
-
-MODEL = '''
-from pythonfmu import Fmi2Causality, Fmi2Slave, Real
-from pythonfmu.enums import Fmi2Status
-
-
-class Gate(Fmi2Slave):
-    """Logs by the value of its input u at every step."""
-
-    def __init__(self, **kwargs):
-        super().__init__(**kwargs)
-        self.u = 0.0
-        self.register_variable(Real("u", causality=Fmi2Causality.input))
-
-    def do_step(self, current_time, step_size):
-        self.log(f"debug: stepping at u={self.u}")
-        if self.u < 0:
-            self.log(f"u must be >= 0, got {self.u}", Fmi2Status.error, category="tribofmuCallStatus")
-        elif self.u > 100:
-            self.log(f"u={self.u} is large", Fmi2Status.warning, category="tribofmuCallStatus")
-        return True
-'''
-
-
-@pytest.fixture(scope="module")
-def gate(compiler, tmp_path_factory):
-    from pythonfmu.builder import FmuBuilder
-
-    from tribofmu.build import install_native_loader
-
-    work = tmp_path_factory.mktemp("gate")
-    script = work / "Gate.py"
-    script.write_text(MODEL)
-    fmu = FmuBuilder.build_FMU(script, dest=work / "Gate.fmu")
-    install_native_loader(fmu, 2, work)
-    folder = work / "unzipped"
-    with zipfile.ZipFile(fmu) as archive:
-        archive.extractall(folder)
-    for binary in (folder / "binaries").rglob("*.so"):
-        binary.chmod(0o755)
-    return folder, ET.parse(folder / "modelDescription.xml").getroot()
-
 
 def run_gate(programs, gate, tmp_path, inputs):
     folder, description = gate

@@ -154,16 +154,25 @@ def test_named_libpython_is_used(programs, unzipped):
 
 
 # -- misuse that crashed the host ---------------------------------------------------------
-def misuse(programs, unzipped, scenario: str) -> list[tuple[str, int]]:
-    folder, description = unzipped("Drive")
-    done = run_clean([programs["fmi2_misuse"], folder, "Drive", description.get("guid"), scenario])
+def misuse(programs, unzipped, scenario: str, fmu=None) -> list[tuple[str, int]]:
+    folder, description = fmu or unzipped("Drive")
+    model = description.get("modelName")
+    done = run_clean([programs["fmi2_misuse"], folder, model, description.get("guid"), scenario])
     assert done.returncode == 0, f"host ended with {done.returncode}: {done.stderr[-2000:]}"
     calls = [line.split() for line in done.stdout.splitlines() if not line.endswith("done")]
     return [(call, int(status)) for call, status in calls[3:]], done  # after start-up's three OKs
 
 
-def test_calls_after_fatal_are_errors_not_crashes(programs, unzipped):
+def test_unknown_value_references_are_errors_in_our_fmus(programs, unzipped):
     calls, done = misuse(programs, unzipped, "after-fatal")
+    assert calls[:5] == [("fmi2GetReal", FMI_ERROR)] * 5  # refused with a log message, no Fatal
+    assert done.stdout.rstrip().endswith("fmi2FreeInstance done")
+
+
+def test_calls_after_fatal_are_errors_not_crashes(programs, unzipped, gate):
+    """A plain pythonfmu FMU behind the loader: its Fatal (an unknown value reference) no
+    longer leaves the host calling into a freed Python instance."""
+    calls, done = misuse(programs, unzipped, "after-fatal", fmu=gate)
     assert calls[0] == ("fmi2GetReal", 4)  # unknown value reference: pythonfmu's Fatal
     assert calls[1:] == [("fmi2GetReal", FMI_ERROR)] * 5 + [("fmi2DoStep", FMI_ERROR)]
     assert "allows only fmi2FreeInstance" in done.stderr
