@@ -2,7 +2,7 @@
 
     PYTHONPATH=fmu_src python docs/heat_figures.py [build]
 
-Runs the FMUs through the master (wiring.build_system) and the extended reference.
+Runs the FMUs through the master (api.build_system) and the extended reference.
 """
 from __future__ import annotations
 
@@ -19,7 +19,8 @@ from tribofmu.coupling.interpolation import sample
 from tribofmu.master import FMUInstance, run
 from tribofmu.physics.friction import BOUNDARY, FrictionLaw
 from tribofmu.scene.scenario import load_scenario, scales
-from tribofmu.scene.wiring import build_system, fmu_parameters, input_signals
+from tribofmu.api import build_system
+from tribofmu.scene.wiring import fmu_parameters, input_signals
 from tribofmu.master.energy import heat_audit
 from tribofmu.studies.reference import nrms, reference_solution
 

@@ -19,11 +19,12 @@ from .errors import FMUError
 from .coupling.algorithms import Scales, make_algorithm
 from .coupling.estimate import WindowError
 from .coupling.interpolation import INPUT_SIGNALS
+from .coupling.system import CoupledSystem
 from .master import FMUCallError, FMUFileError, FMUInstance, GridRecorder, RunLimits, run
 from .master.energy import EnergyAudit
 from .master.run import COLUMNS
 from .scene.scenario import Scenario, ScenarioError, load_scenario, scales
-from .scene.wiring import build_system, fmu_parameters
+from .scene.wiring import constant_inputs, fmu_parameters
 
 
 
@@ -173,6 +174,15 @@ def accuracy_warnings(coupling, estimate: dict[str, Any]) -> list[str]:
         return []
     return [f"estimated nRMS(v) {value:.2g} is {value / coupling.tol:.0f}x tol {coupling.tol:g}: "
             f"rerun with --tol {coupling.tol * coupling.tol / value:.1g} for an error near tol"]
+
+
+def build_system(scenario: Scenario, slaves: dict) -> CoupledSystem:
+    """The scene's :class:`~tribofmu.coupling.system.CoupledSystem` from its instances by FMU
+    name (made with :func:`~tribofmu.scene.wiring.fmu_parameters`)."""
+    friction = slaves.get("Friction")
+    return CoupledSystem(block=slaves["BlockSpring"], drive=slaves.get("Drive"), friction=friction,
+                         conditions=constant_inputs(scenario) if friction is not None else None,
+                         load=slaves.get("Load"), thermal=slaves.get("Thermal"))
 
 
 def ensure_fmus(fmu_dir: Path, names, build: bool | None) -> None:

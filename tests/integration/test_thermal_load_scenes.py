@@ -13,7 +13,8 @@ from tribofmu.coupling.algorithms import Scales, make_algorithm
 from tribofmu.coupling.interpolation import sample
 from tribofmu.master import FMUInstance, run
 from tribofmu.scene.scenario import LoadTable, ThermalTable, load_scenario, scales
-from tribofmu.scene.wiring import build_system, fmu_parameters, input_signals
+from tribofmu.api import build_system
+from tribofmu.scene.wiring import fmu_parameters, input_signals
 from tribofmu.coupling.quadrature import step_dissipation
 from tribofmu.master.energy import energy_audit, heat_audit, step_integrals
 from tribofmu.studies.reference import nrms, reference_solution

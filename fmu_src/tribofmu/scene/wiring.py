@@ -32,13 +32,13 @@ replaces.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING, Callable
+from typing import Callable
 
 from ..physics.friction import REGIMES, Effects, LubricantConstants
 from ..physics.load import PROGRAMS
 
-if TYPE_CHECKING:  # the scenario module validates scenes with this one: no import at run time
-    from .scenario import Scenario
+# "Scenario" in annotations is :class:`tribofmu.scene.scenario.Scenario`, not imported: the
+# scenario module validates scenes with this one, which must not import it back.
 
 Value = float | int | bool  # Python types carry the FMI types: Real, Integer, Boolean
 
@@ -231,17 +231,6 @@ def constant_inputs(scenario: "Scenario") -> dict[str, float]:
     """The Friction FMU's constant inputs (n [Pa], T [K]), as the coupled system takes them
     today (``CoupledSystem(conditions=...)``); every FMU's are in :func:`instances`."""
     return next((inst.constant_inputs for inst in instances(scenario) if inst.fmu.name == "Friction"), {})
-
-
-def build_system(scenario: "Scenario", slaves: dict):
-    """The master's :class:`~tribofmu.coupling.system.CoupledSystem` of the scene, from its
-    slaves by FMU name (instantiated with :func:`fmu_parameters`)."""
-    from ..coupling.system import CoupledSystem
-
-    friction = slaves.get("Friction")
-    return CoupledSystem(block=slaves["BlockSpring"], drive=slaves.get("Drive"), friction=friction,
-                         conditions=constant_inputs(scenario) if friction is not None else None,
-                         load=slaves.get("Load"), thermal=slaves.get("Thermal"))
 
 
 def input_signals(points, grid) -> dict:
