@@ -127,15 +127,21 @@ def solve_free(p: Problem, t_eval: np.ndarray) -> Trajectory:
 
 # -- root location -------------------------------------------------------------------------------
 def first_fall(g: Callable[[float], float], t0: float, t1: float, step: float,
-                xtol: float) -> float | None:
+               xtol: float, past: bool = False) -> float | None:
     """First time in [t0, t1] [s] where g reaches 0 from above; None if g stays > 0.
 
     g must be smooth and g(t0) >= 0. A zero at t0 itself counts only if g falls right away
     (g may start at 0 and rise, e.g. dv at the start of a slip). ``step`` [s] is the sampling
     interval: a dip of g below 0 that starts and ends between two samples is caught by
-    minimising g around every sampled local minimum.
+    minimising g around every sampled local minimum. past: return a time where g <= 0 (at most
+    about xtol after the zero): with a loose xtol a root on the near side would start the next
+    phase before its condition holds (a stick that has not reached the bound), which chatters.
     """
-    root = lambda a, b: brentq(g, a, b, xtol=xtol, rtol=4 * EPS, maxiter=500)
+    def root(a: float, b: float) -> float:
+        r = brentq(g, a, b, xtol=xtol, rtol=4 * EPS, maxiter=500)
+        while past and r < b and g(r) > 0:
+            r = min(r + xtol, b)
+        return r
     t_a, g_a = t0, g(t0)
     if g_a < 0:
         return t0
@@ -190,17 +196,19 @@ def _chattering(segments: list, stalls: int, t: float) -> str:
 
 
 def _stick_end(p: Problem, stick: Stick, bound: Callable[[float], float], t_end: float,
-               xtol: float) -> float | None:
+               xtol: float, loose: bool) -> float | None:
     """When |F_stick| reaches mu L (None: stuck to t_end). The kink of |.| at F_stick = 0 is a
     maximum of the margin, far from its zeros, so it does not disturb the root finding."""
     return first_fall(lambda tt: bound(tt) - abs(p.stick_force(tt, stick.x(tt))),
-                      stick.t_start, t_end, p.period / 64, xtol)
+                      stick.t_start, t_end, p.period / 64, xtol, past=loose)
 
 
 # -- dry friction: piecewise exact ----------------------------------------------------------------
-def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float) -> Trajectory:
+def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float, xtol: float | None = None) -> Trajectory:
+    """xtol [s]: how closely events are located (default: machine precision)."""
     bound = abs(p.law.force(1.0, p.n))  # mu L [N]: slip force magnitude and static limit
-    xtol = 4 * EPS * max(t_end, p.period)
+    loose = xtol is not None
+    xtol = xtol if loose else 4 * EPS * max(t_end, p.period)
     b = p.scenario.block
     segments: list[Stick | HarmonicSlip] = []
     events: list[tuple[float, str]] = []
@@ -216,7 +224,7 @@ def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float) -> Trajectory:
             break
         if mode == "stick":
             stick = Stick(p, t, t_end, x, p.T)
-            t_next = _stick_end(p, stick, lambda _: bound, t_end, xtol)
+            t_next = _stick_end(p, stick, lambda _: bound, t_end, xtol, loose)
             segments.append(stick if t_next is None else replace(stick, t_end=t_next))
             if t_next is None:
                 break
@@ -230,7 +238,7 @@ def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float) -> Trajectory:
             def rel_velocity(tt: float) -> float:
                 return slip.s * (p.drive(tt)[1] - slip.state(tt).v)
 
-            t_next = first_fall(rel_velocity, t, t_end, p.shortest_period() / 64, xtol)
+            t_next = first_fall(rel_velocity, t, t_end, p.shortest_period() / 64, xtol, past=loose)
             segments.append(slip if t_next is None else replace(slip, t_end=t_next))
             if t_next is None:
                 break
@@ -244,7 +252,7 @@ def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float) -> Trajectory:
                 # dv reached 0 with the blocks pushed apart harder than mu L: slip reverses.
                 s = 1 if F_stick > 0 else -1
                 events.append((t_next, "reversal"))
-        stalls = stalls + 1 if segments[-1].t_end - segments[-1].t_start <= xtol else 0
+        stalls = stalls + 1 if segments[-1].t_end - segments[-1].t_start <= (0.0 if loose else xtol) else 0
         t = segments[-1].t_end
 
     stats = segment_stats("exact piecewise (harmonic slip, rigid stick), brentq events", segments, events)
@@ -253,18 +261,21 @@ def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float) -> Trajectory:
 
 
 # -- dry friction under a varying load, or heating: exact stick, DOP853 slip ------------------
-def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float) -> Trajectory:
+def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float,
+                      xtol: float | None = None) -> Trajectory:
     """Dry friction with n = n(t) and/or the film temperature as a state.
 
     Stick: x = x_s + X(t) - X(t_s), v = V, T relaxes exactly toward T_ambient (no power);
     it ends where |F_stick| reaches mu L(t) (brentq on the exact margin). Slip: y = (x, v[, T])
     by DOP853 (rtol 1e-12) with F = s mu S (-n(t)), ending where dv reaches 0 (event), then
     stick or reversal as in :func:`solve_dry`. Integration also stops at load breakpoints.
+    xtol [s]: how closely stick onsets are located (default: machine precision).
     """
     law, M, K = p.law, p.M, p.K
     heated = p.thermal is not None
     bound = lambda tt: abs(law.force(1.0, p.n_at(tt)))  # mu L(t) [N]
-    xtol = 4 * EPS * max(t_end, p.period)
+    loose = xtol is not None
+    xtol = xtol if loose else 4 * EPS * max(t_end, p.period)
     scale = state_scale(p)
     atol = np.array([1e-12 * scale[0], 1e-12 * scale[1]] + ([1e-12 * scale[3]] if heated else []))
     b = p.scenario.block
@@ -282,7 +293,7 @@ def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float) -> Trajector
             break
         if mode == "stick":
             stick = Stick(p, t, t_end, x, T)
-            t_next = _stick_end(p, stick, bound, t_end, xtol)
+            t_next = _stick_end(p, stick, bound, t_end, xtol, loose)
             segments.append(stick if t_next is None else replace(stick, t_end=t_next))
             if t_next is None:
                 break
@@ -323,7 +334,7 @@ def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float) -> Trajector
                 else:
                     s = 1 if F_stick > 0 else -1
                     events.append((t_new, "reversal"))
-        stalls = stalls + 1 if segments[-1].t_end - segments[-1].t_start <= xtol else 0
+        stalls = stalls + 1 if segments[-1].t_end - segments[-1].t_start <= (0.0 if loose else xtol) else 0
         t = segments[-1].t_end
 
     stats = segment_stats("exact stick, DOP853 slip (rtol 1e-12), brentq/event stick-slip", segments, events)
