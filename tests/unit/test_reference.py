@@ -418,3 +418,85 @@ def test_dry_stick_margin_dip_in_the_first_sample_is_caught():
                     atol=[1e-14, 1e-12], t_eval=ref.time, max_step=1e-4)
     assert reg.success
     assert nrms(ref.time, reg.y[1], ref.time, ref.v, sc.window) < 2e-3
+
+
+# -- typed segments ----------------------------------------------------------------------------
+def test_sampling_takes_each_time_from_its_segment_and_leaves_the_rest_nan():
+    """A time on a boundary belongs to the later segment; nothing after ``until``."""
+    from dataclasses import dataclass
+
+    from tribofmu.studies.reference.segments import sample_segments
+
+    @dataclass
+    class Line:
+        t_start: float
+        t_end: float
+        slope: float
+        kind: str = "slip"
+
+        def sample(self, t):
+            return {"x": self.slope * t, "v": np.full_like(t, self.slope), "F": -t, "f": 0 * t, "T": 1 + 0 * t}
+
+    segments = [Line(0.0, 1.0, 1.0), Line(1.0, 1.0, 5.0), Line(1.0, 2.5, 2.0)]  # a zero-length one
+    t = np.array([0.0, 0.5, 1.0, 1.0, 2.0, 2.5, 3.0])
+    out = sample_segments(segments, t, until=2.5)
+    assert np.array_equal(out["v"][:6], [1.0, 1.0, 2.0, 2.0, 2.0, 2.0])
+    assert np.array_equal(out["x"][:6], [0.0, 0.5, 2.0, 2.0, 4.0, 5.0])
+    assert all(np.isnan(out[k][6]) for k in out)
+    assert np.all(np.isnan(sample_segments([], t, until=10.0)["x"]))
+
+
+# -- monolithic anchors ------------------------------------------------------------------------
+def test_monolithic_lsoda_matches_the_newtonian_closed_form_off_the_scene():
+    """gamma = 0 at a drive frequency no scene uses: the one-shot LSODA solve converges to the
+    linear oscillator's closed form as rtol tightens."""
+    from tribofmu.studies.reference.monolithic import solve_monolithic
+
+    sc = scenario("fig5_newtonian", **{"drive.omega": 47.0})
+    exact = reference_solution(sc, rtol=1e-11)
+    errors = {rtol: nrms(r.time, r.v, exact.time, exact.v, sc.window)
+              for rtol, r in ((rtol, solve_monolithic(sc, "LSODA", rtol)) for rtol in (1e-5, 1e-8))}
+    assert errors[1e-8] < 1e-6
+    assert errors[1e-8] < 0.01 * errors[1e-5]
+
+
+def test_regularised_dry_converges_to_the_exact_solution():
+    """mu L tanh(dv/eps), eps = 100 rtol A omega: each decade of rtol brings the monolithic solve
+    closer to the piecewise exact one (off the scene: omega = 40, K = 5000). Radau: LSODA on
+    these stiff regularised equations is erratic (it may land 10x off at a tighter rtol)."""
+    from tribofmu.studies.reference.monolithic import solve_monolithic
+
+    sc = scenario("fig2_dry", **{"drive.omega": 40.0, "block.K": 5000.0})
+    exact = reference_solution(sc)
+    err = {}
+    for rtol in (1e-6, 1e-7):
+        r = solve_monolithic(sc, "Radau", rtol)
+        assert r.ok, r.message
+        assert r.stats["width"] == pytest.approx(100 * rtol * sc.drive.A * sc.drive.omega)
+        err[rtol] = nrms(r.time, r.v, exact.time, exact.v, sc.window)
+    assert err[1e-7] < 3e-4
+    assert err[1e-7] < 0.3 * err[1e-6]
+
+
+def test_event_driven_dry_with_loose_events_converges_to_the_exact_one():
+    from tribofmu.studies.reference.monolithic import solve_event_driven
+
+    sc = scenario("fig2_dry", **{"drive.omega": 23.0, "block.M": 0.2})
+    exact = reference_solution(sc)
+    err = {tol: nrms(r.time, r.v, exact.time, exact.v, sc.window)
+           for tol, r in ((tol, solve_event_driven(sc, tol)) for tol in (1e-3, 1e-5))}
+    assert err[1e-5] < 1e-6
+    assert 0 < err[1e-5] < 0.1 * err[1e-3]
+    loose = solve_event_driven(sc, 1e-3)
+    assert loose.ok and len(loose.stats["event_times"]) == len(exact.stats["event_times"])
+
+
+def test_monolithic_anchors_reject_misuse():
+    from tribofmu.studies.reference.monolithic import solve_event_driven, solve_monolithic
+
+    with pytest.raises(ValueError):
+        solve_monolithic(scenario("fig2_dry"), "LSODA", 0.0)
+    with pytest.raises(ValueError):
+        solve_monolithic(scenario("free_oscillator"), "LSODA", 1e-4)
+    with pytest.raises(ValueError):
+        solve_event_driven(scenario("fig6_boundary"), 1e-4)
