@@ -156,6 +156,8 @@ def main() -> int:
             case["lsoda"].append(anchor("lsoda", sc, ref))
             if case["dry"]:
                 case["event"].append(anchor("event", sc, ref))
+            print(f"    {case['name']}: ours {case['ours'][-1]['wall']:.2f} s, LSODA {case['lsoda'][-1]['wall']:.3f} s"
+                  + (f", event-driven {case['event'][-1]['wall']:.3f} s" if case["dry"] else ""), flush=True)
         print(f"  round {round_ + 1}/{args.repeat} done ({load_avg()})", flush=True)
 
     report = {"load_start": load_avg(), "cases": {}, "tol_ladder": {}, "scenes": {}}

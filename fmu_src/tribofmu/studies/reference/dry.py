@@ -203,6 +203,19 @@ def _stick_end(p: Problem, stick: Stick, bound: Callable[[float], float], t_end:
                       stick.t_start, t_end, p.period / 64, xtol, past=loose)
 
 
+def _at_dv_zero(p: Problem, t: float, x: float, bound: float, s: int,
+                events: list[tuple[float, str]]) -> tuple[str, int]:
+    """(mode, slip sign) after dv reached 0 at t [s] with the block at x [m]: stuck if the
+    stick force is within mu L = bound [N], else the slip reverses (the blocks are pushed apart
+    harder than mu L). Records the event."""
+    F_stick = p.stick_force(t, x)
+    if abs(F_stick) <= bound:
+        events.append((t, "stick"))
+        return "stick", s
+    events.append((t, "reversal"))
+    return "slip", 1 if F_stick > 0 else -1
+
+
 # -- dry friction: piecewise exact ----------------------------------------------------------------
 def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float, xtol: float | None = None) -> Trajectory:
     """xtol [s]: how closely events are located (default: machine precision)."""
@@ -244,14 +257,7 @@ def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float, xtol: float | None =
                 break
             x = slip.state(t_next).x
             v = p.drive(t_next)[1]  # dv = 0 here by construction; remove the roundoff
-            F_stick = p.stick_force(t_next, x)
-            if abs(F_stick) <= bound:
-                mode = "stick"
-                events.append((t_next, "stick"))
-            else:
-                # dv reached 0 with the blocks pushed apart harder than mu L: slip reverses.
-                s = 1 if F_stick > 0 else -1
-                events.append((t_next, "reversal"))
+            mode, s = _at_dv_zero(p, t_next, x, bound, s, events)
         stalls = stalls + 1 if segments[-1].t_end - segments[-1].t_start <= (0.0 if loose else xtol) else 0
         t = segments[-1].t_end
 
@@ -327,13 +333,7 @@ def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float,
             T = float(sol.y[2, -1]) if heated else p.T
             if sol.status == 1:  # dv reached 0
                 v = p.drive(t_new)[1]
-                F_stick = p.stick_force(t_new, x)
-                if abs(F_stick) <= bound(t_new):
-                    mode = "stick"
-                    events.append((t_new, "stick"))
-                else:
-                    s = 1 if F_stick > 0 else -1
-                    events.append((t_new, "reversal"))
+                mode, s = _at_dv_zero(p, t_new, x, bound(t_new), s, events)
         stalls = stalls + 1 if segments[-1].t_end - segments[-1].t_start <= (0.0 if loose else xtol) else 0
         t = segments[-1].t_end
 

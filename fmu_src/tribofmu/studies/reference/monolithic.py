@@ -44,6 +44,13 @@ def default_grid(scenario: Scenario, samples_per_period: int = 1000) -> np.ndarr
     return np.arange(n_steps + 1) * (scenario.drive.period / samples_per_period)
 
 
+def _checked_grid(scenario: Scenario, t_eval, name: str, tol: float) -> np.ndarray:
+    """t_eval as an array (default :func:`default_grid`), after checking tol > 0."""
+    if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
+        raise ValueError(f"{name} must be a finite number > 0, got {tol!r}")
+    return default_grid(scenario) if t_eval is None else np.asarray(t_eval, dtype=float)
+
+
 def _result(problem: Problem, t_eval, x, v, F, f, wall, stats, ok, message, T=None):
     from . import ReferenceResult
     X, V = problem.output_drive(t_eval)
@@ -65,9 +72,7 @@ def solve_monolithic(scenario: Scenario, method: str = "LSODA", rtol: float = 1e
     """
     if "Friction" not in scenario.fmus or "Drive" not in scenario.fmus:
         raise ValueError("a monolithic anchor needs a Drive and a Friction FMU in the scene")
-    if not (math.isfinite(rtol) and rtol > 0):
-        raise ValueError(f"rtol must be a finite number > 0, got {rtol!r}")
-    t_eval = default_grid(scenario) if t_eval is None else np.asarray(t_eval, dtype=float)
+    t_eval = _checked_grid(scenario, t_eval, "rtol", rtol)
     start = _time.perf_counter()
     p = Problem(scenario)
     law = p.law
@@ -121,9 +126,7 @@ def solve_event_driven(scenario: Scenario, event_tol: float = 1e-6, t_eval: np.n
     ``event_tol`` [1] times the drive period. Raises ValueError for another regime."""
     if "Friction" not in scenario.fmus or scenario.friction.law().regime != DRY:
         raise ValueError("the event-driven solve is for dry friction")
-    if not (math.isfinite(event_tol) and event_tol > 0):
-        raise ValueError(f"event_tol must be a finite number > 0, got {event_tol!r}")
-    t_eval = default_grid(scenario) if t_eval is None else np.asarray(t_eval, dtype=float)
+    t_eval = _checked_grid(scenario, t_eval, "event_tol", event_tol)
     start = _time.perf_counter()
     p = Problem(scenario)
     t_end = max(scenario.stop_time, float(t_eval[-1]))

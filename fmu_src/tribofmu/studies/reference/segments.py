@@ -15,7 +15,7 @@ __all__ = ["Segment", "Samples", "Trajectory", "sample_segments", "SIGNALS"]
 
 SIGNALS = ("x", "v", "F", "f", "T")  # m, m/s, N, 1, K
 
-Samples = dict  # signal name (one of SIGNALS) -> values [SI] at the times asked for
+Samples = dict[str, np.ndarray]  # signal name (one of SIGNALS) -> values [SI] at the times asked for
 
 
 class Segment(Protocol):
