@@ -141,7 +141,7 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
                 log(f"{algorithm} {setting:g}: skipped (estimated > {max_run_s:g} s)")
                 continue
         if algorithm in MONOLITHIC:
-            row = _anchor_row(scenario, algorithm, tol, ref, window, inside, v_scale)
+            row = _anchor_row(scenario, algorithm, tol, ref, window, inside, v_scale, max_run_s)
         else:
             row = _coupling_row(scenario, algorithm, step, tol, default, fmu_dir, progress, ref, window,
                                 inside, v_scale)
@@ -218,7 +218,7 @@ def _coupling_row(scenario, algorithm, step, tol, default, fmu_dir, progress, re
     return row
 
 
-def _anchor_row(scenario, solver, tol, ref, window, inside, v_scale) -> dict:
+def _anchor_row(scenario, solver, tol, ref, window, inside, v_scale, max_run_s) -> dict:
     """One monolithic run on the reference's own grid."""
     import warnings
     with warnings.catch_warnings():  # LSODA warns on its way to a failure we report anyway
@@ -226,7 +226,8 @@ def _anchor_row(scenario, solver, tol, ref, window, inside, v_scale) -> dict:
         if solver == "event-driven":
             result, wall = timed(lambda: solve_event_driven(scenario, tol, t_eval=ref.time))
         else:
-            result, wall = timed(lambda: solve_monolithic(scenario, solver, tol, t_eval=ref.time))
+            result, wall = timed(lambda: solve_monolithic(scenario, solver, tol, t_eval=ref.time,
+                                                          max_wall=max_run_s))
     row: dict[str, Any] = dict(algorithm=solver, family="monolithic", step=None, tol=tol, wall_time_s=wall,
                                default=False, steps=result.stats.get("n_segments"), fmu_calls=None,
                                rhs_evals=result.stats.get("n_rhs"), rollbacks=None, ok=result.ok)

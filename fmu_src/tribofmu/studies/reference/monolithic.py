@@ -61,14 +61,21 @@ def _result(problem: Problem, t_eval, x, v, F, f, wall, stats, ok, message, T=No
                            message=message, T=T, n=n)
 
 
+class _OutOfTime(Exception):
+    pass
+
+
 def solve_monolithic(scenario: Scenario, method: str = "LSODA", rtol: float = 1e-4,
-                     t_eval: np.ndarray | None = None, width: float | None = None):
+                     t_eval: np.ndarray | None = None, width: float | None = None,
+                     max_wall: float | None = None):
     """Solve ``scenario`` as one ODE system with scipy's ``method`` at ``rtol`` [1].
 
     atol is rtol times each state's scale (A, A omega, 1, T), as for the reference. width [m/s]:
     the dry law's regularisation width eps (default 100 rtol A omega). t_eval [s]: default every
-    T/1000. wall_time covers the solve and the sampling onto t_eval. A failure is returned with
-    ok False. Raises ValueError on misuse (no Friction FMU, rtol not > 0).
+    T/1000. wall_time covers the solve and the sampling onto t_eval. max_wall [s]: give up after
+    this long (a solver crawling at dv = 0 of a law with an infinite slope there, e.g. LSODA
+    on the boundary law at gamma = -0.95). A failure is returned with ok False. Raises
+    ValueError on misuse (no Friction FMU, rtol not > 0).
     """
     if "Friction" not in scenario.fmus or "Drive" not in scenario.fmus:
         raise ValueError("a monolithic anchor needs a Drive and a Friction FMU in the scene")
@@ -86,7 +93,12 @@ def solve_monolithic(scenario: Scenario, method: str = "LSODA", rtol: float = 1e
             return abs(law.force(1.0, p.n_at(t))) * math.tanh(dv / eps)
         return law.force(dv, p.n_at(t), f)
 
+    calls = [0]
+
     def rhs(t, y):
+        calls[0] += 1
+        if max_wall is not None and calls[0] % 1000 == 0 and _time.perf_counter() - start > max_wall:
+            raise _OutOfTime
         x, v = y[0], y[1]
         dv = p.drive(t)[1] - v
         f = y[2] if boundary else 0.0
@@ -104,7 +116,14 @@ def solve_monolithic(scenario: Scenario, method: str = "LSODA", rtol: float = 1e
     scale = state_scale(p)
     atol = rtol * np.array([scale[0], scale[1]] + ([scale[2]] if boundary else []) + ([scale[3]] if heated else []))
     t_end = max(scenario.stop_time, float(t_eval[-1]))
-    sol = solve_ivp(rhs, (0.0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval)
+    try:
+        sol = solve_ivp(rhs, (0.0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval)
+    except _OutOfTime:
+        wall = _time.perf_counter() - start
+        nan = np.full_like(t_eval, np.nan)
+        stats = {"solver": f"{method} (monolithic)", "rtol": rtol, "n_rhs": calls[0], "event_times": []}
+        return _result(p, t_eval, nan, nan, nan, nan, wall, stats, False,
+                       f"{method} gave up after {wall:.0f} s ({calls[0]} right-hand sides)")
     y = np.full((len(y0), len(t_eval)), np.nan)  # NaN where the solver did not reach
     reached = np.asarray(sol.y, dtype=float)
     if reached.ndim == 2:
