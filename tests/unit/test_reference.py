@@ -500,3 +500,11 @@ def test_monolithic_anchors_reject_misuse():
         solve_monolithic(scenario("free_oscillator"), "LSODA", 1e-4)
     with pytest.raises(ValueError):
         solve_event_driven(scenario("fig6_boundary"), 1e-4)
+
+
+def test_monolithic_solver_out_of_time_is_a_failed_result_not_a_hang():
+    from tribofmu.studies.reference.monolithic import solve_monolithic
+
+    r = solve_monolithic(scenario("fig6_boundary"), "LSODA", 1e-4, max_wall=0.0)
+    assert not r.ok and "gave up" in r.message
+    assert np.all(np.isnan(r.v))
