@@ -192,7 +192,8 @@ def main() -> int:
               f"{fmt(row['steps'], 'd'):6s} {fmt(row['rejected_per_accepted'], '.2f'):8s} "
               f"{fmt(row['fmu_calls'], 'd'):10s} {fmt(row['lsoda_wall_median_s'], '.3f')} / "
               f"{fmt(row['lsoda_nrms_v'], '.1e'):12s} {fmt(row['event_wall_median_s'], '.3f')} / "
-              f"{fmt(row['event_nrms_v'], '.1e'):14s} {fmt(row['ratio'], '.1f')}x {row['ratio_to']}"
+              f"{fmt(row['event_nrms_v'], '.1e'):14s} "
+              f"{fmt(row['ratio'], '.1f') + 'x ' + row['ratio_to'] if row['ratio'] is not None else 'n/a'}"
               + (f"  ({row['runs']} run)" if row["runs"] < 2 else "")
               + (f"  LSODA: {row['lsoda_message']}" if row["lsoda_message"] else "")
               + ("" if row["ok"] else f"  NOT OK: {row['message']}"))
