@@ -307,22 +307,50 @@ def test_near_dry_fluid_starting_from_rest_follows_the_drive_at_once():
 
 def test_mass_form_radau_crosses_a_vanishing_mass():
     """y^2 y' = y^2 cos t + sin t - y has the solution y = sin t, on which the mass y^2 vanishes
-    at every zero crossing (relaxation rate 1/y^2, unbounded there)."""
-    from tribofmu.studies.reference.radau import solve_radau_mass
+    at every zero crossing (relaxation rate 1/y^2, unbounded there). Through solve_ivp: its
+    events and dense output work on the mass-form solver."""
+    from scipy.integrate import solve_ivp
+
+    from tribofmu.studies.reference.radau import RadauMass
 
     def stop_falling(t, y):
         return y[0]
     stop_falling.terminal, stop_falling.direction = True, -1
-    sol = solve_radau_mass(lambda t, y: np.array([y[0] ** 2 * math.cos(t) + math.sin(t) - y[0]]),
-                           lambda y: np.array([y[0] ** 2]), lambda y: np.array([2 * y[0]]),
-                           lambda t, y: np.array([[2 * y[0] * math.cos(t) - 1.0]]),
-                           (0.5, 12.0), [math.sin(0.5)], rtol=1e-10, atol=np.array([1e-12]),
-                           events=[stop_falling])
+    sol = solve_ivp(lambda t, y: np.array([y[0] ** 2 * math.cos(t) + math.sin(t) - y[0]]), (0.5, 12.0),
+                    [math.sin(0.5)], method=RadauMass, mass=lambda y: np.array([y[0] ** 2]),
+                    mass_slope=lambda y: np.array([2 * y[0]]),
+                    jac=lambda t, y: np.array([[2 * y[0] * math.cos(t) - 1.0]]),
+                    rtol=1e-10, atol=np.array([1e-12]), events=[stop_falling], dense_output=True)
     assert sol.status == 1
     assert sol.t[-1] == pytest.approx(math.pi, abs=1e-9)  # sin t falls through 0 at pi
     assert sol.t_events[0].size == 1
     t = np.linspace(0.5, math.pi, 777)
     assert np.max(np.abs(sol.sol(t)[0] - np.sin(t))) < 1e-8
+    assert sol.nfev > 0 and sol.njev > 0 and sol.nlu > 0
+
+
+def test_mass_form_radau_with_unit_mass_matches_scipy_radau():
+    """E = 1: the mass form is an ordinary ODE; a stiff linear system (rates 1 and 1e4) must
+    agree with scipy's Radau and the closed form."""
+    from scipy.integrate import solve_ivp
+
+    from tribofmu.studies.reference.radau import RadauMass
+
+    L = np.array([[-1.0, 0.0], [1e4, -1e4]])
+    t_end = 3.0
+    mine = solve_ivp(lambda t, y: L @ y, (0.0, t_end), [1.0, 0.0], method=RadauMass,
+                     mass=lambda y: np.ones(2), mass_slope=lambda y: np.zeros(2), jac=lambda t, y: L,
+                     rtol=1e-9, atol=1e-12, dense_output=True)
+    assert mine.success, mine.message
+    t = np.linspace(0.0, t_end, 301)
+    y1 = np.exp(-t)
+    y2 = 1e4 / (1e4 - 1) * (np.exp(-t) - np.exp(-1e4 * t))
+    assert np.max(np.abs(mine.sol(t)[0] - y1)) < 1e-8
+    assert np.max(np.abs(mine.sol(t)[1] - y2)) < 1e-8
+    scipy_radau = solve_ivp(lambda t, y: L @ y, (0.0, t_end), [1.0, 0.0], method="Radau", jac=L,
+                            rtol=1e-9, atol=1e-12)
+    # An order-5 stiff solver: comparable work to scipy's (not 10x more steps).
+    assert len(mine.t) < 3 * len(scipy_radau.t)
 
 
 # -- nrms and misuse ---------------------------------------------------------------------------
@@ -390,3 +418,93 @@ def test_dry_stick_margin_dip_in_the_first_sample_is_caught():
                     atol=[1e-14, 1e-12], t_eval=ref.time, max_step=1e-4)
     assert reg.success
     assert nrms(ref.time, reg.y[1], ref.time, ref.v, sc.window) < 2e-3
+
+
+# -- typed segments ----------------------------------------------------------------------------
+def test_sampling_takes_each_time_from_its_segment_and_leaves_the_rest_nan():
+    """A time on a boundary belongs to the later segment; nothing after ``until``."""
+    from dataclasses import dataclass
+
+    from tribofmu.studies.reference.segments import sample_segments
+
+    @dataclass
+    class Line:
+        t_start: float
+        t_end: float
+        slope: float
+        kind: str = "slip"
+
+        def sample(self, t):
+            return {"x": self.slope * t, "v": np.full_like(t, self.slope), "F": -t, "f": 0 * t, "T": 1 + 0 * t}
+
+    segments = [Line(0.0, 1.0, 1.0), Line(1.0, 1.0, 5.0), Line(1.0, 2.5, 2.0)]  # a zero-length one
+    t = np.array([0.0, 0.5, 1.0, 1.0, 2.0, 2.5, 3.0])
+    out = sample_segments(segments, t, until=2.5)
+    assert np.array_equal(out["v"][:6], [1.0, 1.0, 2.0, 2.0, 2.0, 2.0])
+    assert np.array_equal(out["x"][:6], [0.0, 0.5, 2.0, 2.0, 4.0, 5.0])
+    assert all(np.isnan(out[k][6]) for k in out)
+    assert np.all(np.isnan(sample_segments([], t, until=10.0)["x"]))
+
+
+# -- monolithic anchors ------------------------------------------------------------------------
+def test_monolithic_lsoda_matches_the_newtonian_closed_form_off_the_scene():
+    """gamma = 0 at a drive frequency no scene uses: the one-shot LSODA solve converges to the
+    linear oscillator's closed form as rtol tightens."""
+    from tribofmu.studies.reference.monolithic import solve_monolithic
+
+    sc = scenario("fig5_newtonian", **{"drive.omega": 47.0})
+    exact = reference_solution(sc, rtol=1e-11)
+    errors = {rtol: nrms(r.time, r.v, exact.time, exact.v, sc.window)
+              for rtol, r in ((rtol, solve_monolithic(sc, "LSODA", rtol)) for rtol in (1e-5, 1e-8))}
+    assert errors[1e-8] < 1e-6
+    assert errors[1e-8] < 0.01 * errors[1e-5]
+
+
+def test_regularised_dry_converges_to_the_exact_solution():
+    """mu L tanh(dv/eps), eps = 100 rtol A omega: each decade of rtol brings the monolithic solve
+    closer to the piecewise exact one (off the scene: omega = 40, K = 5000). Radau: LSODA on
+    these stiff regularised equations is erratic (it may land 10x off at a tighter rtol)."""
+    from tribofmu.studies.reference.monolithic import solve_monolithic
+
+    sc = scenario("fig2_dry", **{"drive.omega": 40.0, "block.K": 5000.0})
+    exact = reference_solution(sc)
+    err = {}
+    for rtol in (1e-6, 1e-7):
+        r = solve_monolithic(sc, "Radau", rtol)
+        assert r.ok, r.message
+        assert r.stats["width"] == pytest.approx(100 * rtol * sc.drive.A * sc.drive.omega)
+        err[rtol] = nrms(r.time, r.v, exact.time, exact.v, sc.window)
+    assert err[1e-7] < 3e-4
+    assert err[1e-7] < 0.3 * err[1e-6]
+
+
+def test_event_driven_dry_with_loose_events_converges_to_the_exact_one():
+    from tribofmu.studies.reference.monolithic import solve_event_driven
+
+    sc = scenario("fig2_dry", **{"drive.omega": 23.0, "block.M": 0.2})
+    exact = reference_solution(sc)
+    err = {tol: nrms(r.time, r.v, exact.time, exact.v, sc.window)
+           for tol, r in ((tol, solve_event_driven(sc, tol)) for tol in (1e-3, 1e-5))}
+    assert err[1e-5] < 1e-6
+    assert 0 < err[1e-5] < 0.1 * err[1e-3]
+    loose = solve_event_driven(sc, 1e-3)
+    assert loose.ok and len(loose.stats["event_times"]) == len(exact.stats["event_times"])
+
+
+def test_monolithic_anchors_reject_misuse():
+    from tribofmu.studies.reference.monolithic import solve_event_driven, solve_monolithic
+
+    with pytest.raises(ValueError):
+        solve_monolithic(scenario("fig2_dry"), "LSODA", 0.0)
+    with pytest.raises(ValueError):
+        solve_monolithic(scenario("free_oscillator"), "LSODA", 1e-4)
+    with pytest.raises(ValueError):
+        solve_event_driven(scenario("fig6_boundary"), 1e-4)
+
+
+def test_monolithic_solver_out_of_time_is_a_failed_result_not_a_hang():
+    from tribofmu.studies.reference.monolithic import solve_monolithic
+
+    r = solve_monolithic(scenario("fig6_boundary"), "LSODA", 1e-4, max_wall=0.0)
+    assert not r.ok and "gave up" in r.message
+    assert np.all(np.isnan(r.v))

@@ -1,5 +1,10 @@
 """Accuracy study: every coupling algorithm over a ladder of steps / tolerances, against the
-monolithic reference solution.
+monolithic reference solution, with the monolithic solvers a user would run instead drawn on
+the same accuracy-time front (the anchors, :mod:`tribofmu.studies.reference.monolithic`):
+scipy's LSODA and Radau on the same equations (x, v[, f][, T]; dry friction regularised as
+mu L tanh(dv/eps), eps = 100 rtol A omega) over a ladder of rtol, and for dry friction the
+exact event-driven solve with its events located to a ladder of tolerances. All runs are
+interleaved in one process; a run under 0.5 s is repeated and its median time kept.
 
     from tribofmu.studies.accuracy import accuracy_study
     rows, summary = accuracy_study(scenario, out_dir)
@@ -9,7 +14,7 @@ Per run: nRMS error of v on the shown window (:func:`tribofmu.studies.reference.
 ``simulate`` call [s], communication steps, FMU calls, rollbacks (rejected steps). For the
 adaptive algorithm also how well its own error estimate tracks the true local error
 (:func:`estimate_tracking`). Writes accuracy.csv, accuracy.png and summary.json (the default's
-place on the front) whole or not at all.
+place on the front and its time against each anchor at matched accuracy) whole or not at all.
 """
 from __future__ import annotations
 
@@ -29,10 +34,11 @@ from ..physics.drive import drive
 from ..physics.friction import DRY, FLUID
 from ..scene.scenario import Scenario, scales
 from .reference import nrms, reference_solution
+from .reference.monolithic import REGULARISATION, solve_event_driven, solve_monolithic
 
-COLUMNS = ("algorithm", "step", "tol", "default", "nrms_v", "max_err_v", "wall_time_s", "steps", "fmu_calls",
-           "rollbacks", "ok", "est_true_ratio_median", "est_true_ratio_p10", "est_true_ratio_p90",
-           "est_underestimated_frac")
+COLUMNS = ("algorithm", "family", "step", "tol", "default", "nrms_v", "max_err_v", "wall_time_s", "steps",
+           "fmu_calls", "rhs_evals", "rollbacks", "ok", "est_true_ratio_median", "est_true_ratio_p10",
+           "est_true_ratio_p90", "est_underestimated_frac")
 
 # (algorithm, step [s] or None, tol or None): the whole fig2_dry ladder takes about 1 min
 LADDER = ([("jacobi", h, None) for h in (1e-3, 3e-4, 1e-4, 3e-5)]
@@ -44,17 +50,66 @@ QUICK_LADDER = ([("jacobi", h, None) for h in (1e-3, 1e-4)]
                 + [("implicit", h, None) for h in (1e-3, 1e-4)]
                 + [("adaptive", None, tol) for tol in (1e-2, 1e-3, 1e-4)])
 
+# The anchors: (solver, None, tolerance). LSODA/Radau: rtol (dry friction's regularisation width
+# is 100 rtol A omega, so its ladder sits lower); event-driven: event location / drive period.
+ANCHORS = {"smooth": [(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7)],
+           "dry": ([(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-5, 1e-6, 1e-7, 1e-8)]
+                   + [("event-driven", None, tol) for tol in (1e-2, 1e-3, 1e-4, 1e-6)])}
+QUICK_ANCHORS = {"smooth": [(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-3, 1e-5)],
+                 "dry": ([(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-5, 1e-7)]
+                         + [("event-driven", None, tol) for tol in (1e-3, 1e-5)])}
+MONOLITHIC = ("LSODA", "Radau", "event-driven")
+REPEAT_BELOW_S = 0.5  # runs shorter than this are timed 3 times (median): timer and scheduler noise
+
+
+def anchors_for(scenario: Scenario, quick: bool = False) -> list[tuple]:
+    """The monolithic rungs that apply to ``scenario`` (none without a Drive and a Friction FMU)."""
+    if "Friction" not in scenario.fmus or "Drive" not in scenario.fmus:
+        return []
+    table = QUICK_ANCHORS if quick else ANCHORS
+    return list(table["dry" if scenario.friction.law().regime == DRY else "smooth"])
+
+
+def interleave(first: list, second: list) -> list:
+    """first and second merged evenly (so both are measured under the same machine load)."""
+    if not second:
+        return list(first)
+    out, every = [], max(1, len(first) // len(second))
+    rest = list(second)
+    for k, item in enumerate(first):
+        out.append(item)
+        if rest and (k + 1) % every == 0:
+            out.append(rest.pop(0))
+    return out + rest
+
+
+def timed(run, repeat_below_s: float = REPEAT_BELOW_S):
+    """(result, wall time [s]) of run(); a run under repeat_below_s is run twice more and the
+    median time kept (with the last result)."""
+    t0 = time.perf_counter()
+    result = run()
+    walls = [time.perf_counter() - t0]
+    if walls[0] < repeat_below_s:
+        for _ in range(2):
+            t0 = time.perf_counter()
+            result = run()
+            walls.append(time.perf_counter() - t0)
+    return result, float(np.median(walls))
+
 
 def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick: bool = False,
-                   ladder=None, max_run_s: float = 60.0, log=print, progress=None) -> tuple[list[dict], dict]:
-    """Run the ladder; returns (rows, summary). A rung whose finer neighbour would exceed
+                   ladder=None, max_run_s: float = 60.0, log=print, progress=None,
+                   anchors: bool = True) -> tuple[list[dict], dict]:
+    """Run the ladder and, with ``anchors``, the monolithic solvers (:func:`anchors_for`)
+    interleaved with it; returns (rows, summary). A rung whose finer neighbour would exceed
     max_run_s (estimated from the last run of the same algorithm) is skipped and logged.
 
     The scene's own default setting is always one of the rungs (``default`` is True on its
     row); the summary says whether it is on the accuracy-time front: ``dominated_by`` lists
-    the rungs at least 2x faster and more accurate than it (none: on the front).
-    progress: passed to every simulate call."""
-    from ..api import simulate
+    the rungs at least 2x faster and more accurate than it (none: on the front), and
+    ``anchors`` the default's wall time over each monolithic solver's at matched accuracy
+    (its fastest run at least as accurate as the default). progress: passed to every
+    simulate call."""
     from ..coupling.algorithms import make_algorithm
 
     ladder = list(ladder if ladder is not None else (QUICK_LADDER if quick else LADDER))
@@ -76,44 +131,33 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
     v_scale = float(np.max(np.abs(ref.v[inside])))
     rows: list[dict] = []
     last: dict[str, tuple[float, float]] = {}  # algorithm -> (setting, wall time)
-    for algorithm, step, tol in ladder:
+    rungs = interleave(ladder, anchors_for(scenario, quick) if anchors else [])
+    for algorithm, step, tol in rungs:
         setting = step if step is not None else tol
-        if algorithm in last:  # cost grows like 1/step (fixed) or tol^-1/2 (adaptive)
+        if algorithm in last:  # cost grows like 1/step (fixed) or tol^-1/2 (adaptive, anchors)
             prev_setting, prev_wall = last[algorithm]
             power = 1.0 if step is not None else 0.5
             if prev_wall * (prev_setting / setting) ** power > max_run_s:
                 log(f"{algorithm} {setting:g}: skipped (estimated > {max_run_s:g} s)")
                 continue
-        t0 = time.perf_counter()
-        result = simulate(scenario, algorithm=algorithm, step=step, tol=tol, fmu_dir=fmu_dir, build=False,
-                          keep_points=algorithm == "adaptive", progress=progress)
-        wall = time.perf_counter() - t0
-        last[algorithm] = (setting, wall)
-        row: dict[str, Any] = dict(algorithm=algorithm, step=step, tol=tol, wall_time_s=wall,
-                                   default=(algorithm, step, tol) == default,
-                                   steps=result.stats["communication_steps"],
-                                   fmu_calls=result.stats["fmu_calls_total"],
-                                   rollbacks=result.stats["rejected_steps"], ok=result.ok)
-        try:
-            row["nrms_v"] = nrms(result.time, result.v, ref.time, ref.v, window)
-            v_on_ref = np.interp(ref.time[inside], result.time, result.v)
-            row["max_err_v"] = float(np.max(np.abs(v_on_ref - ref.v[inside])) / v_scale)
-        except ValueError:  # the run stopped before the window ended
-            row["nrms_v"] = row["max_err_v"] = math.nan
-        if algorithm == "adaptive":
-            track = estimate_tracking(result.points, scenario)
-            row.update({f"est_true_ratio_{k}": track[k] for k in ("median", "p10", "p90")})
-            row["est_underestimated_frac"] = track["underestimated_frac"]
-            row["est_pairs"] = track["pairs"]
+        if algorithm in MONOLITHIC:
+            row = _anchor_row(scenario, algorithm, tol, ref, window, inside, v_scale, max_run_s)
+        else:
+            row = _coupling_row(scenario, algorithm, step, tol, default, fmu_dir, progress, ref, window,
+                                inside, v_scale)
+        last[algorithm] = (setting, row["wall_time_s"])
         rows.append(row)
-        log(f"{algorithm:12s} {'h=%g' % step if step else 'tol=%g' % tol:12s} nRMS(v)={row['nrms_v']:.3g} "
-            f"max={row['max_err_v']:.3g} {wall:6.2f} s {row['steps']:7d} steps {row['fmu_calls']:8d} calls"
+        label = f"h={step:g}" if step else (f"rtol={tol:g}" if algorithm in ("LSODA", "Radau") else f"tol={tol:g}")
+        log(f"{algorithm:12s} {label:12s} nRMS(v)={row['nrms_v']:.3g} max={row['max_err_v']:.3g} "
+            f"{row['wall_time_s']:6.2f} s"
+            + (f" {row['steps']:7d} steps {row['fmu_calls']:8d} calls" if row["family"] == "coupling" else
+               f" {row['rhs_evals'] or 0:8d} rhs evaluations")
             + (f"  est/true median {row.get('est_true_ratio_median', math.nan):.3g}"
                if algorithm == "adaptive" else ""))
     summary = {"reference_wall_time_s": ref_wall, "total_wall_time_s": time.perf_counter() - begin}
     chosen = next((r for r in rows if r["default"]), None)
     if chosen is not None:
-        better = [r for r in rows if r is not chosen and r["nrms_v"] < chosen["nrms_v"]
+        better = [r for r in rows if r is not chosen and r["family"] == "coupling" and r["nrms_v"] < chosen["nrms_v"]
                   and 2.0 * r["wall_time_s"] <= chosen["wall_time_s"]]
         summary["default"] = {k: chosen[k] for k in ("algorithm", "step", "tol", "nrms_v", "wall_time_s")}
         summary["dominated_by"] = [{k: r[k] for k in ("algorithm", "step", "tol", "nrms_v", "wall_time_s")}
@@ -121,7 +165,75 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
         log(f"default ({chosen['algorithm']} {'h=%g' % chosen['step'] if chosen['step'] else 'tol=%g' % chosen['tol']}): "
             + ("on the accuracy-time front" if not better else
                f"NOT on the front: {len(better)} setting(s) at least 2x faster and more accurate"))
+        summary["anchors"] = matched_anchors(rows, chosen)
+        for name, anchor in summary["anchors"].items():
+            log(f"default vs {name}: " + (f"{anchor['ratio']:.3g}x its time at tol {anchor['tol']:g} "
+                                          f"(nRMS(v) {anchor['nrms_v']:.3g})" if anchor["tol"] is not None
+                                          else "no run of it as accurate as the default"))
+    summary["regularisation"] = REGULARISATION
+    summary["regime"] = "dry" if "Friction" in scenario.fmus and scenario.friction.law().regime == DRY else "smooth"
     return rows, summary
+
+
+def matched_anchors(rows: list[dict], chosen: dict) -> dict:
+    """Per monolithic solver, its fastest ok run at least as accurate as ``chosen``, and the
+    ratio chosen's wall time / its wall time (tol None: no run that accurate)."""
+    out = {}
+    for name in dict.fromkeys(r["algorithm"] for r in rows if r["family"] == "monolithic"):
+        good = [r for r in rows if r["algorithm"] == name and r["ok"] and np.isfinite(r["nrms_v"])
+                and r["nrms_v"] <= chosen["nrms_v"]]
+        best = min(good, key=lambda r: r["wall_time_s"], default=None)
+        out[name] = {"tol": None, "nrms_v": None, "wall_time_s": None, "ratio": None} if best is None else {
+            "tol": best["tol"], "nrms_v": best["nrms_v"], "wall_time_s": best["wall_time_s"],
+            "ratio": chosen["wall_time_s"] / best["wall_time_s"]}
+    return out
+
+
+def _errors(time_, v, ref, window, inside, v_scale) -> tuple[float, float]:
+    """(nRMS(v), max |v - v_ref| / max |v_ref|) on the window; NaN when the run stopped early."""
+    try:
+        value = nrms(time_, v, ref.time, ref.v, window)
+        v_on_ref = np.interp(ref.time[inside], time_, v)
+        return value, float(np.max(np.abs(v_on_ref - ref.v[inside])) / v_scale)
+    except ValueError:
+        return math.nan, math.nan
+
+
+def _coupling_row(scenario, algorithm, step, tol, default, fmu_dir, progress, ref, window, inside,
+                  v_scale) -> dict:
+    from ..api import simulate
+    result, wall = timed(lambda: simulate(scenario, algorithm=algorithm, step=step, tol=tol, fmu_dir=fmu_dir,
+                                          build=False, keep_points=algorithm == "adaptive", progress=progress))
+    row: dict[str, Any] = dict(algorithm=algorithm, family="coupling", step=step, tol=tol, wall_time_s=wall,
+                               default=(algorithm, step, tol) == default,
+                               steps=result.stats["communication_steps"],
+                               fmu_calls=result.stats["fmu_calls_total"], rhs_evals=None,
+                               rollbacks=result.stats["rejected_steps"], ok=result.ok)
+    row["nrms_v"], row["max_err_v"] = _errors(result.time, result.v, ref, window, inside, v_scale)
+    if algorithm == "adaptive":
+        track = estimate_tracking(result.points, scenario)
+        row.update({f"est_true_ratio_{k}": track[k] for k in ("median", "p10", "p90")})
+        row["est_underestimated_frac"] = track["underestimated_frac"]
+        row["est_pairs"] = track["pairs"]
+    return row
+
+
+def _anchor_row(scenario, solver, tol, ref, window, inside, v_scale, max_run_s) -> dict:
+    """One monolithic run on the reference's own grid."""
+    import warnings
+    with warnings.catch_warnings():  # LSODA warns on its way to a failure we report anyway
+        warnings.simplefilter("ignore")
+        if solver == "event-driven":
+            result, wall = timed(lambda: solve_event_driven(scenario, tol, t_eval=ref.time))
+        else:
+            result, wall = timed(lambda: solve_monolithic(scenario, solver, tol, t_eval=ref.time,
+                                                          max_wall=max_run_s))
+    row: dict[str, Any] = dict(algorithm=solver, family="monolithic", step=None, tol=tol, wall_time_s=wall,
+                               default=False, steps=result.stats.get("n_segments"), fmu_calls=None,
+                               rhs_evals=result.stats.get("n_rhs"), rollbacks=None, ok=result.ok)
+    row["nrms_v"], row["max_err_v"] = _errors(result.time, result.v, ref, window, inside, v_scale) \
+        if result.ok else (math.nan, math.nan)
+    return row
 
 
 # -- the adaptive's error estimate against the true local error ---------------------------------
@@ -210,15 +322,19 @@ def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> No
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7.0, 4.8))
-    for k, name in enumerate(dict.fromkeys(r["algorithm"] for r in rows)):
-        sel = [r for r in rows if r["algorithm"] == name and np.isfinite(r["nrms_v"]) and r["nrms_v"] > 0]
+    names = list(dict.fromkeys(r["algorithm"] for r in rows))
+    for k, name in enumerate(names):
+        # nRMS >= 1 is no solution (a solver that "succeeded" far off): in the CSV, not drawn
+        sel = [r for r in rows if r["algorithm"] == name and np.isfinite(r["nrms_v"]) and 0 < r["nrms_v"] < 1]
         if not sel:
             continue
+        anchor = sel[0]["family"] == "monolithic"
         sel.sort(key=lambda r: r["wall_time_s"])
-        ax.loglog([r["wall_time_s"] for r in sel], [r["nrms_v"] for r in sel], "o-", color=f"C{k}", label=name,
-                  ms=4)
+        ax.loglog([r["wall_time_s"] for r in sel], [r["nrms_v"] for r in sel], "s--" if anchor else "o-",
+                  color=f"C{k}", label=_legend(name, summary), ms=4, lw=1.0 if anchor else 1.5)
         for j, r in enumerate(sel):  # alternate above/below so neighbours' labels do not collide
-            text = f"h={r['step']:g} s" if r["step"] else f"tol={r['tol']:g}"
+            text = (f"h={r['step']:g} s" if r["step"] else f"rtol={r['tol']:g}" if name in ("LSODA", "Radau")
+                    else f"{r['tol']:g} T" if name == "event-driven" else f"tol={r['tol']:g}")
             ax.annotate(text, (r["wall_time_s"], r["nrms_v"]), fontsize=6, color=f"C{k}",
                         xytext=(4, 5 if j % 2 == 0 else -9), textcoords="offset points")
             if r.get("default"):
@@ -234,6 +350,15 @@ def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> No
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+def _legend(name: str, summary: dict) -> str:
+    if name in ("LSODA", "Radau"):
+        dry = "dry" in summary.get("regime", "")
+        return f"{name}, monolithic, same ODEs" + (f" ({summary.get('regularisation', '')})" if dry else "")
+    if name == "event-driven":
+        return "exact event-driven dry solve (events to tol x T)"
+    return name
 
 
 def write_study(rows: list[dict], summary: dict, scenario: Scenario, out: Path) -> None:

@@ -11,11 +11,13 @@ is not smooth:
   precision; ``rtol``/``atol`` are not used (:mod:`.dry`).
 * fluid and boundary: integrated between events, restarted at every event, in one of two
   equivalent state forms (:mod:`.smooth`); the quasi-stick u-form of the fluid law is an
-  implicit system with a vanishing mass, solved by :mod:`.radau`.
+  implicit system with a vanishing mass, solved by solve_ivp with the mass-form Radau IIA of
+  :mod:`.radau` (a :class:`scipy.integrate.OdeSolver`).
 
 The package: :mod:`.problem` (the scenario as functions of time and state), :mod:`.dry`,
-:mod:`.smooth`, :mod:`.radau`, and here the driver :func:`reference_solution` and its
-:class:`ReferenceResult`. :func:`nrms` lives in :mod:`tribofmu.studies.measures`.
+:mod:`.smooth`, :mod:`.radau`, :mod:`.segments` (each solver's answer as typed segments between
+events, sampled onto the output grid by one function), and here the driver
+:func:`reference_solution` and its :class:`ReferenceResult`. :func:`nrms` lives in :mod:`tribofmu.studies.measures`.
 
 Beyond the paper, a scene may list a Load FMU (the normal stress is a function of time
 n(t), :mod:`tribofmu.physics.load`) and a Thermal FMU (the film temperature T [K] is a state,
@@ -130,11 +132,8 @@ def reference_solution(scenario: Scenario, t_eval: np.ndarray | None = None, rto
     wall = _time.perf_counter() - start
 
     X, V = problem.output_drive(t_eval)
-    T = out.get("T")
-    if T is None:
-        T = np.full_like(t_eval, problem.T)
+    T = out.T if out.T is not None else np.full_like(t_eval, problem.T)
     n = np.array([problem.n_at(float(ti)) for ti in t_eval]) if problem.program is not None \
         else np.full_like(t_eval, problem.n)
-    return ReferenceResult(time=t_eval, X=X, V=V, x=out["x"], v=out["v"], F=out["F"], f=out["f"],
-                           wall_time=wall, stats=out["stats"], ok=out["ok"], message=out["message"],
-                           T=T, n=n)
+    return ReferenceResult(time=t_eval, X=X, V=V, x=out.x, v=out.v, F=out.F, f=out.f, wall_time=wall,
+                           stats=out.stats, ok=out.ok, message=out.message, T=T, n=n)

@@ -11,6 +11,7 @@ closed form as no power is dissipated) and slip is integrated by DOP853 at rtol 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -19,32 +20,128 @@ from scipy.optimize import brentq, minimize_scalar
 
 from ...physics.block import BlockState, acceleration, advance_block
 from .problem import EPS, MAX_EVENTS, MAX_STALLS, Problem, state_scale
+from .segments import Samples, Segment, Trajectory
 
-__all__ = ["solve_free", "solve_dry", "solve_dry_varying", "first_fall"]
+__all__ = ["solve_free", "solve_dry", "solve_dry_varying", "first_fall", "Stick", "HarmonicSlip",
+           "IntegratedSlip"]
+
+
+# -- the pieces of a dry motion ----------------------------------------------------------------
+@dataclass(frozen=True)
+class Free:
+    """No friction: the free oscillator from (x0 [m], v0 [m/s]) at t = 0."""
+
+    p: Problem = field(repr=False)
+    x0: float
+    v0: float
+    t_start: float = 0.0
+    t_end: float = math.inf
+    kind: str = "free"
+
+    def sample(self, t: np.ndarray) -> Samples:
+        xv = np.array([[s.x, s.v] for s in (advance_block(BlockState(self.x0, self.v0), 0.0, 0.0, float(tt),
+                                                          self.p.M, self.p.K) for tt in t)]).reshape(len(t), 2)
+        zeros = np.zeros_like(t)
+        return {"x": xv[:, 0], "v": xv[:, 1], "F": zeros, "f": zeros.copy(), "T": np.full_like(t, self.p.T)}
+
+
+@dataclass(frozen=True)
+class Stick:
+    """The blocks stuck together from t_start [s]: x = x_s + X(t) - X(t_start), v = V(t), F the
+    stick force; the film temperature relaxes from T_s [K] toward ambient (no power)."""
+
+    p: Problem = field(repr=False)
+    t_start: float
+    t_end: float
+    x_s: float
+    T_s: float
+    kind: str = "stick"
+
+    def x(self, t: float) -> float:
+        return self.x_s + self.p.drive(t)[0] - self.p.drive(self.t_start)[0]
+
+    def temperature(self, t: float) -> float:
+        th = self.p.thermal
+        if th is None:
+            return self.p.T
+        if th.G == 0.0:
+            return self.T_s
+        return th.T_ambient + (self.T_s - th.T_ambient) * math.exp(-th.G / th.C * (t - self.t_start))
+
+    def sample(self, t: np.ndarray) -> Samples:
+        X_s = self.p.drive(self.t_start)[0]
+        x = np.array([self.x_s + self.p.drive(float(tt))[0] - X_s for tt in t])
+        return {"x": x, "v": np.array([self.p.drive(float(tt))[1] for tt in t]),
+                "F": np.array([self.p.stick_force(float(tt), xx) for tt, xx in zip(t, x)]),
+                "f": np.zeros_like(t), "T": np.array([self.temperature(float(tt)) for tt in t])}
+
+
+@dataclass(frozen=True)
+class HarmonicSlip:
+    """Slip at the constant force s mu L [N] from (x_s [m], v_s [m/s]) at t_start: the
+    harmonic oscillator in closed form."""
+
+    p: Problem = field(repr=False)
+    t_start: float
+    t_end: float
+    x_s: float
+    v_s: float
+    s: int  # sign of dv while slipping
+    bound: float  # mu L [N]
+    kind: str = "slip"
+
+    def state(self, t: float) -> BlockState:
+        return advance_block(BlockState(self.x_s, self.v_s), self.s * self.bound, 0.0, t - self.t_start,
+                             self.p.M, self.p.K)
+
+    def sample(self, t: np.ndarray) -> Samples:
+        xv = np.array([[st.x, st.v] for st in (self.state(float(tt)) for tt in t)]).reshape(len(t), 2)
+        return {"x": xv[:, 0], "v": xv[:, 1], "F": np.full_like(t, self.s * self.bound), "f": np.zeros_like(t),
+                "T": np.full_like(t, self.p.T)}
+
+
+@dataclass(frozen=True)
+class IntegratedSlip:
+    """Slip at F = s mu L(t) [N] integrated by solve_ivp: ``dense`` gives (x, v[, T])."""
+
+    p: Problem = field(repr=False)
+    t_start: float
+    t_end: float
+    dense: Callable = field(repr=False)
+    s: int
+    kind: str = "slip"
+
+    def sample(self, t: np.ndarray) -> Samples:
+        y = np.asarray(self.dense(np.minimum(t, self.t_end))).reshape(-1, len(t))
+        F = np.array([self.s * abs(self.p.law.force(1.0, self.p.n_at(float(tt)))) for tt in t])
+        T = y[2] if self.p.thermal is not None else np.full_like(t, self.p.T)
+        return {"x": y[0], "v": y[1], "F": F, "f": np.zeros_like(t), "T": T}
 
 
 # -- no friction: the free oscillator ------------------------------------------------------------
-def solve_free(p: Problem, t_eval: np.ndarray) -> dict:
+def solve_free(p: Problem, t_eval: np.ndarray) -> Trajectory:
     b = p.scenario.block
-    state0 = BlockState(b.x0, b.v0)
-    xv = np.array([[s.x, s.v] for s in (advance_block(state0, 0.0, 0.0, float(t), p.M, p.K)
-                                        for t in t_eval)]).reshape(len(t_eval), 2)
-    zeros = np.zeros_like(t_eval)
-    return {"x": xv[:, 0], "v": xv[:, 1], "F": zeros, "f": zeros.copy(), "ok": True, "message": "",
-            "stats": {"solver": "exact (free oscillator)", "n_rhs": 0, "event_times": []}}
+    stats = {"solver": "exact (free oscillator)", "n_rhs": 0, "event_times": []}
+    return Trajectory.from_segments([Free(p, b.x0, b.v0)], t_eval, math.inf, True, "", stats, heated=False)
 
 
 # -- root location -------------------------------------------------------------------------------
 def first_fall(g: Callable[[float], float], t0: float, t1: float, step: float,
-                xtol: float) -> float | None:
+               xtol: float, past: bool = False) -> float | None:
     """First time in [t0, t1] [s] where g reaches 0 from above; None if g stays > 0.
 
     g must be smooth and g(t0) >= 0. A zero at t0 itself counts only if g falls right away
     (g may start at 0 and rise, e.g. dv at the start of a slip). ``step`` [s] is the sampling
     interval: a dip of g below 0 that starts and ends between two samples is caught by
-    minimising g around every sampled local minimum.
+    minimising g around every sampled local minimum. past: return a time where g <= 0 (at most
+    about xtol after the zero): with a loose xtol a root on the near side would start the next
+    phase before its condition holds (a stick that has not reached the bound), which chatters.
     """
-    root = lambda a, b: brentq(g, a, b, xtol=xtol, rtol=4 * EPS, maxiter=500)
+    def root(a: float, b: float) -> float:
+        r = brentq(g, a, b, xtol=xtol, rtol=4 * EPS, maxiter=500)
+        while past and r < b and g(r) > 0:
+            r = min(r + xtol, b)
+        return r
     t_a, g_a = t0, g(t0)
     if g_a < 0:
         return t0
@@ -83,133 +180,114 @@ def first_fall(g: Callable[[float], float], t0: float, t1: float, step: float,
     return None
 
 
-def segment_stats(solver: str, segments: list, events: list[tuple[float, str]]) -> dict:
-    """The dry solvers' stats: segments (t_start, t_end, kind, ...), events (t [s], kind)."""
+def segment_stats(solver: str, segments: list[Segment], events: list[tuple[float, str]]) -> dict:
+    """The dry solvers' stats from their segments and events (t [s], kind)."""
     return {"solver": solver, "n_rhs": 0, "n_segments": len(segments), "event_times": events,
-            "stick_intervals": [(seg[0], seg[1]) for seg in segments if seg[2] == "stick" and seg[1] > seg[0]],
+            "stick_intervals": [(seg.t_start, seg.t_end) for seg in segments
+                                if seg.kind == "stick" and seg.t_end > seg.t_start],
             "n_stick": sum(1 for _, k in events if k == "stick"),
             "n_slip": sum(1 for _, k in events if k == "slip"),
             "n_reversal": sum(1 for _, k in events if k == "reversal")}
 
 
+def _chattering(segments: list, stalls: int, t: float) -> str:
+    return (f"dry friction: gave up at t = {t:.6g} s after {len(segments)} "
+            f"segments ({stalls} of zero length in a row): chattering")
+
+
+def _stick_end(p: Problem, stick: Stick, bound: Callable[[float], float], t_end: float,
+               xtol: float, loose: bool) -> float | None:
+    """When |F_stick| reaches mu L (None: stuck to t_end). The kink of |.| at F_stick = 0 is a
+    maximum of the margin, far from its zeros, so it does not disturb the root finding."""
+    return first_fall(lambda tt: bound(tt) - abs(p.stick_force(tt, stick.x(tt))),
+                      stick.t_start, t_end, p.period / 64, xtol, past=loose)
+
+
+def _at_dv_zero(p: Problem, t: float, x: float, bound: float, s: int,
+                events: list[tuple[float, str]]) -> tuple[str, int]:
+    """(mode, slip sign) after dv reached 0 at t [s] with the block at x [m]: stuck if the
+    stick force is within mu L = bound [N], else the slip reverses (the blocks are pushed apart
+    harder than mu L). Records the event."""
+    F_stick = p.stick_force(t, x)
+    if abs(F_stick) <= bound:
+        events.append((t, "stick"))
+        return "stick", s
+    events.append((t, "reversal"))
+    return "slip", 1 if F_stick > 0 else -1
+
+
 # -- dry friction: piecewise exact ----------------------------------------------------------------
-def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float) -> dict:
-    law, M, K = p.law, p.M, p.K
-    bound = abs(law.force(1.0, p.n))  # mu L [N]: slip force magnitude and static limit
-    xtol = 4 * EPS * max(t_end, p.period)
+def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float, xtol: float | None = None) -> Trajectory:
+    """xtol [s]: how closely events are located (default: machine precision)."""
+    bound = abs(p.law.force(1.0, p.n))  # mu L [N]: slip force magnitude and static limit
+    loose = xtol is not None
+    xtol = xtol if loose else 4 * EPS * max(t_end, p.period)
     b = p.scenario.block
-    # segments: (t_start, t_end, kind, x_start, v_start, slip sign s)
-    segments: list[tuple[float, float, str, float, float, int]] = []
+    segments: list[Stick | HarmonicSlip] = []
     events: list[tuple[float, str]] = []
     ok, message = True, ""
 
-    def slip_state(t: float, t_s: float, x_s: float, v_s: float, s: int) -> BlockState:
-        return advance_block(BlockState(x_s, v_s), s * bound, 0.0, t - t_s, M, K)
-
     t, x, v = 0.0, b.x0, b.v0
     dv = p.drive(0.0)[1] - v
-    if dv != 0.0:
-        mode, s = "slip", (1 if dv > 0 else -1)
-    else:
-        mode, s = "stick", 0
+    mode, s = ("slip", 1 if dv > 0 else -1) if dv != 0.0 else ("stick", 0)
     stalls = 0
     while t < t_end:
         if len(segments) > MAX_EVENTS or stalls > MAX_STALLS:
-            ok, message = False, (f"dry friction: gave up at t = {t:.6g} s after {len(segments)} "
-                                  f"segments ({stalls} of zero length in a row): chattering")
+            ok, message = False, _chattering(segments, stalls, t)
             break
         if mode == "stick":
-            X_s = p.drive(t)[0]
-            t_s, x_s = t, x
-
-            def stick_x(tt: float) -> float:
-                return x_s + p.drive(tt)[0] - X_s
-
-            # Stuck until |F_stick| reaches mu L. The kink of |.| at F_stick = 0 is a maximum
-            # of the margin, far from its zeros, so it does not disturb the root finding.
-            t_next = first_fall(lambda tt: bound - abs(p.stick_force(tt, stick_x(tt))),
-                                 t_s, t_end, p.period / 64, xtol)
-            segments.append((t_s, t_end if t_next is None else t_next, "stick", x_s, 0.0, 0))
+            stick = Stick(p, t, t_end, x, p.T)
+            t_next = _stick_end(p, stick, lambda _: bound, t_end, xtol, loose)
+            segments.append(stick if t_next is None else replace(stick, t_end=t_next))
             if t_next is None:
                 break
-            x, v = stick_x(t_next), p.drive(t_next)[1]
-            F_stick = p.stick_force(t_next, x)
-            s = 1 if F_stick > 0 else -1
+            x, v = stick.x(t_next), p.drive(t_next)[1]
+            s = 1 if p.stick_force(t_next, x) > 0 else -1
             mode = "slip"
             events.append((t_next, "slip"))
         else:
-            t_s, x_s, v_s, s_seg = t, x, v, s
+            slip = HarmonicSlip(p, t, t_end, x, v, s, bound)
 
             def rel_velocity(tt: float) -> float:
-                return s_seg * (p.drive(tt)[1] - slip_state(tt, t_s, x_s, v_s, s_seg).v)
+                return slip.s * (p.drive(tt)[1] - slip.state(tt).v)
 
-            t_next = first_fall(rel_velocity, t_s, t_end, p.shortest_period() / 64, xtol)
-            segments.append((t_s, t_end if t_next is None else t_next, "slip", x_s, v_s, s_seg))
+            t_next = first_fall(rel_velocity, t, t_end, p.shortest_period() / 64, xtol, past=loose)
+            segments.append(slip if t_next is None else replace(slip, t_end=t_next))
             if t_next is None:
                 break
-            x = slip_state(t_next, t_s, x_s, v_s, s_seg).x
+            x = slip.state(t_next).x
             v = p.drive(t_next)[1]  # dv = 0 here by construction; remove the roundoff
-            F_stick = p.stick_force(t_next, x)
-            if abs(F_stick) <= bound:
-                mode = "stick"
-                events.append((t_next, "stick"))
-            else:
-                # dv reached 0 with the blocks pushed apart harder than mu L: slip reverses.
-                s = 1 if F_stick > 0 else -1
-                events.append((t_next, "reversal"))
-        stalls = stalls + 1 if segments[-1][1] - segments[-1][0] <= xtol else 0
-        t = segments[-1][1]
+            mode, s = _at_dv_zero(p, t_next, x, bound, s, events)
+        stalls = stalls + 1 if segments[-1].t_end - segments[-1].t_start <= (0.0 if loose else xtol) else 0
+        t = segments[-1].t_end
 
-    x_out = np.full_like(t_eval, np.nan)
-    v_out, F_out = x_out.copy(), x_out.copy()
-    starts = np.array([seg[0] for seg in segments])
-    # A time on a segment boundary belongs to the later segment; states are continuous there.
-    index = np.searchsorted(starts, t_eval, side="right") - 1
-    covered_until = segments[-1][1] if ok else t
-    for i, tt in enumerate(t_eval):
-        if index[i] < 0 or tt > covered_until:
-            continue
-        t_s, _, kind, x_s, v_s, s_seg = segments[index[i]]
-        if kind == "stick":
-            X_s = p.drive(t_s)[0]
-            x_out[i] = x_s + p.drive(tt)[0] - X_s
-            v_out[i] = p.drive(tt)[1]
-            F_out[i] = p.stick_force(tt, x_out[i])
-        else:
-            st = slip_state(tt, t_s, x_s, v_s, s_seg)
-            x_out[i], v_out[i], F_out[i] = st.x, st.v, s_seg * bound
     stats = segment_stats("exact piecewise (harmonic slip, rigid stick), brentq events", segments, events)
-    return {"x": x_out, "v": v_out, "F": F_out, "f": np.zeros_like(t_eval), "ok": ok,
-            "message": message, "stats": stats}
+    return Trajectory.from_segments(segments, t_eval, segments[-1].t_end if ok and segments else t, ok, message, stats,
+                                    heated=False)
 
 
 # -- dry friction under a varying load, or heating: exact stick, DOP853 slip ------------------
-def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float) -> dict:
+def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float,
+                      xtol: float | None = None) -> Trajectory:
     """Dry friction with n = n(t) and/or the film temperature as a state.
 
     Stick: x = x_s + X(t) - X(t_s), v = V, T relaxes exactly toward T_ambient (no power);
     it ends where |F_stick| reaches mu L(t) (brentq on the exact margin). Slip: y = (x, v[, T])
     by DOP853 (rtol 1e-12) with F = s mu S (-n(t)), ending where dv reaches 0 (event), then
     stick or reversal as in :func:`solve_dry`. Integration also stops at load breakpoints.
+    xtol [s]: how closely stick onsets are located (default: machine precision).
     """
     law, M, K = p.law, p.M, p.K
     heated = p.thermal is not None
     bound = lambda tt: abs(law.force(1.0, p.n_at(tt)))  # mu L(t) [N]
-    xtol = 4 * EPS * max(t_end, p.period)
+    loose = xtol is not None
+    xtol = xtol if loose else 4 * EPS * max(t_end, p.period)
     scale = state_scale(p)
     atol = np.array([1e-12 * scale[0], 1e-12 * scale[1]] + ([1e-12 * scale[3]] if heated else []))
     b = p.scenario.block
-    segments: list[tuple] = []  # (t0, t1, "stick", x_s, X_s, T_s) or (t0, t1, "slip", dense, s)
+    segments: list[Stick | IntegratedSlip] = []
     events: list[tuple[float, str]] = []
     ok, message = True, ""
-
-    def stick_T(tt: float, t_s: float, T_s: float) -> float:
-        if not heated:
-            return p.T
-        th = p.thermal
-        if th.G == 0.0:
-            return T_s
-        return th.T_ambient + (T_s - th.T_ambient) * math.exp(-th.G / th.C * (tt - t_s))
 
     t, x, v, T = 0.0, b.x0, b.v0, p.T
     dv = p.drive(0.0)[1] - v
@@ -217,19 +295,15 @@ def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float) -> dict:
     stalls = 0
     while t < t_end - xtol:
         if len(segments) > MAX_EVENTS or stalls > MAX_STALLS:
-            ok, message = False, (f"dry friction: gave up at t = {t:.6g} s after {len(segments)} "
-                                  f"segments ({stalls} of zero length in a row): chattering")
+            ok, message = False, _chattering(segments, stalls, t)
             break
         if mode == "stick":
-            X_s = p.drive(t)[0]
-            t_s, x_s, T_s = t, x, T
-            stick_x = lambda tt: x_s + p.drive(tt)[0] - X_s
-            t_next = first_fall(lambda tt: bound(tt) - abs(p.stick_force(tt, stick_x(tt))),
-                                 t_s, t_end, p.period / 64, xtol)
-            segments.append((t_s, t_end if t_next is None else t_next, "stick", x_s, X_s, T_s))
+            stick = Stick(p, t, t_end, x, T)
+            t_next = _stick_end(p, stick, bound, t_end, xtol, loose)
+            segments.append(stick if t_next is None else replace(stick, t_end=t_next))
             if t_next is None:
                 break
-            x, v, T = stick_x(t_next), p.drive(t_next)[1], stick_T(t_next, t_s, T_s)
+            x, v, T = stick.x(t_next), p.drive(t_next)[1], stick.temperature(t_next)
             s = 1 if p.stick_force(t_next, x) > 0 else -1
             mode = "slip"
             events.append((t_next, "slip"))
@@ -254,41 +328,15 @@ def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float) -> dict:
                 ok, message = False, f"DOP853 failed at t = {sol.t[-1]:.6g} s: {sol.message}"
                 break
             t_new = float(sol.t[-1])
-            segments.append((t, t_new, "slip", sol.sol, s_seg))
+            segments.append(IntegratedSlip(p, t, t_new, sol.sol, s_seg))
             x, v = float(sol.y[0, -1]), float(sol.y[1, -1])
             T = float(sol.y[2, -1]) if heated else p.T
             if sol.status == 1:  # dv reached 0
                 v = p.drive(t_new)[1]
-                F_stick = p.stick_force(t_new, x)
-                if abs(F_stick) <= bound(t_new):
-                    mode = "stick"
-                    events.append((t_new, "stick"))
-                else:
-                    s = 1 if F_stick > 0 else -1
-                    events.append((t_new, "reversal"))
-        stalls = stalls + 1 if segments[-1][1] - segments[-1][0] <= xtol else 0
-        t = segments[-1][1]
+                mode, s = _at_dv_zero(p, t_new, x, bound(t_new), s, events)
+        stalls = stalls + 1 if segments[-1].t_end - segments[-1].t_start <= (0.0 if loose else xtol) else 0
+        t = segments[-1].t_end
 
-    x_out = np.full_like(t_eval, np.nan)
-    v_out, F_out, T_out = x_out.copy(), x_out.copy(), x_out.copy()
-    starts = np.array([seg[0] for seg in segments])
-    index = np.searchsorted(starts, t_eval, side="right") - 1
-    covered_until = segments[-1][1] if segments else 0.0
-    for i, tt in enumerate(t_eval):
-        if index[i] < 0 or tt > covered_until + xtol:
-            continue
-        seg = segments[index[i]]
-        if seg[2] == "stick":
-            t_s, _, _, x_s, X_s, T_s = seg
-            x_out[i] = x_s + p.drive(tt)[0] - X_s
-            v_out[i] = p.drive(tt)[1]
-            F_out[i] = p.stick_force(tt, x_out[i])
-            T_out[i] = stick_T(tt, t_s, T_s)
-        else:
-            y = seg[3](min(tt, seg[1]))
-            x_out[i], v_out[i] = y[0], y[1]
-            F_out[i] = seg[4] * bound(tt)
-            T_out[i] = y[2] if heated else p.T
     stats = segment_stats("exact stick, DOP853 slip (rtol 1e-12), brentq/event stick-slip", segments, events)
-    return {"x": x_out, "v": v_out, "F": F_out, "f": np.zeros_like(t_eval), "ok": ok,
-            "message": message, "stats": stats, "T": T_out if heated else None}
+    until = (segments[-1].t_end if segments else 0.0) + xtol
+    return Trajectory.from_segments(segments, t_eval, until, ok, message, stats, heated)

@@ -1,5 +1,10 @@
-"""Radau IIA (order 5) for implicit systems ``E(y) y' = G(t, y)`` with a diagonal, state-dependent
-"mass" ``E`` that may vanish.
+"""Radau IIA (order 5) for implicit systems ``diag(E(y)) y' = G(t, y)`` whose diagonal,
+state-dependent "mass" ``E`` may vanish, as a :class:`scipy.integrate.OdeSolver`:
+
+    solve_ivp(G, t_span, y0, method=RadauMass, mass=E, mass_slope=dE, jac=dG_dy,
+              rtol=..., atol=..., events=..., dense_output=True)
+
+so events, dense output and the result are solve_ivp's own.
 
 Why not scipy's Radau or BDF: they solve ``y' = f(t, y)``. The fluid law's u-form has
 ``f_u = (F_stick - m u) / eps(u)`` with ``eps(u) = M d|u|^(1/q)/du ~ |u|^((1-q)/q)``: near
@@ -10,236 +15,192 @@ as ``eps(u) u' = F_stick - m u`` the stage residual is smooth and monotone in ``
 to the algebraic equation ``u = F_stick / m`` as ``eps -> 0``; Radau IIA is stiffly accurate,
 so it is exact in that limit (an index-1 DAE) and in between.
 
-The method follows Hairer & Wanner's RADAU5 (and scipy's port): 3-stage collocation, the
-embedded error estimate filtered through ``(gamma0/h E - J)^-1``, the Gustafsson step-size
-controller. Differences: the stage system is solved by Newton with ``E`` and ``dE/dy``
-re-evaluated at every iterate (``J = dG/dy`` is frozen per step; ``G`` is nearly linear in
-the states here, ``E`` is not), and the system is small (n <= 4), so the 3n x 3n Newton matrix
-is factorised whole. Dense output is the collocation polynomial. Events are located by brentq
-on it after each accepted step.
+The method follows Hairer & Wanner's RADAU5 and scipy's ``Radau`` (same tableau, embedded
+estimate filtered through ``(gamma0/h E - J)^-1``, Gustafsson's predictive step-size
+controller, ``MIN_FACTOR``/``MAX_FACTOR``). Differences: ``fun`` is ``G``, not ``y'``; the stage
+system is solved by Newton with ``E`` and ``dE/dy`` re-evaluated at every iterate (``J = dG/dy``
+is evaluated once per step; ``G`` is nearly linear in the states here, ``E`` is not), and the
+system is small (n <= 4), so the 3n x 3n Newton matrix is factorised whole instead of through
+scipy's complex eigen-split. Dense output is the collocation polynomial.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Callable
 
 import numpy as np
+from scipy.integrate import DenseOutput, OdeSolver
 from scipy.linalg import lu_factor, lu_solve
-from scipy.optimize import brentq
 
-__all__ = ["ImplicitResult", "solve_radau_mass"]
+__all__ = ["RadauMass"]
 
 _S6 = math.sqrt(6.0)
-_C = np.array([(4.0 - _S6) / 10.0, (4.0 + _S6) / 10.0, 1.0])
+C = np.array([(4.0 - _S6) / 10.0, (4.0 + _S6) / 10.0, 1.0])  # collocation nodes
 _A = np.array([[(88.0 - 7.0 * _S6) / 360.0, (296.0 - 169.0 * _S6) / 1800.0, (-2.0 + 3.0 * _S6) / 225.0],
                [(296.0 + 169.0 * _S6) / 1800.0, (88.0 + 7.0 * _S6) / 360.0, (-2.0 - 3.0 * _S6) / 225.0],
                [(16.0 - _S6) / 36.0, (16.0 + _S6) / 36.0, 1.0 / 9.0]])
-_A_INV = np.linalg.inv(_A)
-_E_COEF = np.array([-13.0 - 7.0 * _S6, -13.0 + 7.0 * _S6, -1.0]) / 3.0  # embedded estimate
-_MU_REAL = 3.0 + 3.0 ** (2.0 / 3.0) - 3.0 ** (1.0 / 3.0)  # 1 / gamma0
-_VANDER_INV = np.linalg.inv(np.vander(_C, 4, increasing=True)[:, 1:])  # Z(tau) = sum Q_k tau^k
-_NEWTON_MAXITER = 8
-_MIN_FACTOR, _MAX_FACTOR = 0.2, 10.0
+A_INV = np.linalg.inv(_A)
+E_COEF = np.array([-13.0 - 7.0 * _S6, -13.0 + 7.0 * _S6, -1.0]) / 3.0  # embedded estimate
+MU_REAL = 3.0 + 3.0 ** (2.0 / 3.0) - 3.0 ** (1.0 / 3.0)  # 1 / gamma0
+_VANDER_INV = np.linalg.inv(np.vander(C, 4, increasing=True)[:, 1:])  # Z(tau) = sum Q_k tau^k
+NEWTON_MAXITER = 8
+SAFETY = 0.9
+MIN_FACTOR, MAX_FACTOR = 0.2, 10.0  # step-size change limits per step
+FIRST_STEP_FRACTION = 1e-6  # first step as a fraction of the span (the mass may vanish at y0)
 _EPS = float(np.finfo(float).eps)
 
 
-class _Dense:
-    """Piecewise collocation polynomials of the accepted steps: y(t) for t in [t_first, t_last]."""
+class CollocationDense(DenseOutput):
+    """The collocation polynomial of one step: ``y(t) = y_old + sum_k Q_k tau^k``,
+    ``tau = (t - t_old) / h``, k = 1..3."""
 
-    def __init__(self):
-        self.t0: list[float] = []
-        self.h: list[float] = []
-        self.y0: list[np.ndarray] = []
-        self.Q: list[np.ndarray] = []
+    def __init__(self, t_old: float, t: float, y_old: np.ndarray, Q: np.ndarray):
+        super().__init__(t_old, t)
+        self.h = t - t_old
+        self.y_old = y_old
+        self.Q = Q  # (3, n): the tau, tau^2, tau^3 coefficients
 
-    def add(self, t0: float, h: float, y0: np.ndarray, Q: np.ndarray) -> None:
-        self.t0.append(t0)
-        self.h.append(h)
-        self.y0.append(y0)
-        self.Q.append(Q)
-
-    def one(self, j: int, t: float) -> np.ndarray:
-        tau = (t - self.t0[j]) / self.h[j]
-        return self.y0[j] + tau * (self.Q[j][0] + tau * (self.Q[j][1] + tau * self.Q[j][2]))
-
-    def __call__(self, t):
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        idx = np.clip(np.searchsorted(np.asarray(self.t0), t, side="right") - 1, 0, len(self.t0) - 1)
-        return np.array([self.one(int(j), float(tt)) for j, tt in zip(idx, t)]).T
+    def _call_impl(self, t):
+        tau = (np.asarray(t, dtype=float) - self.t_old) / self.h
+        Q = self.Q
+        if tau.ndim == 0:
+            return self.y_old + tau * (Q[0] + tau * (Q[1] + tau * Q[2]))
+        tau = tau[None, :]
+        return self.y_old[:, None] + tau * (Q[0][:, None] + tau * (Q[1][:, None] + tau * Q[2][:, None]))
 
 
-@dataclass
-class ImplicitResult:
-    """What :func:`scipy.integrate.solve_ivp` returns, as far as the reference solver uses it.
+class RadauMass(OdeSolver):
+    """Radau IIA for ``diag(E(y)) y' = G(t, y)``; ``fun`` is G.
 
-    status: 0 reached the end, 1 a terminal event, -1 failure (message says why).
+    mass(y), mass_slope(y) -> arrays (n): the diagonal E of the mass and dE_i/dy_i (E_i depends
+    on y_i only). jac(t, y) -> (n, n) dG/dy. rtol, atol: error control per component on
+    ``atol + rtol |y|`` (RMS norm). first_step [s]: default a millionth of the span.
     """
 
-    t: np.ndarray
-    y: np.ndarray
-    sol: Callable
-    t_events: list
-    status: int
-    message: str
-    nfev: int = 0
-    njev: int = 0
-    nlu: int = 0
-    extra: dict = field(default_factory=dict)
+    def __init__(self, fun, t0, y0, t_bound, mass: Callable, mass_slope: Callable, jac: Callable,
+                 rtol: float = 1e-3, atol=1e-6, first_step: float | None = None, vectorized=False,
+                 **extraneous):
+        if extraneous:
+            raise TypeError(f"RadauMass got unexpected options {sorted(extraneous)}")
+        super().__init__(fun, t0, y0, t_bound, vectorized)
+        self.mass, self.mass_slope, self._jac = mass, mass_slope, jac
+        self.rtol = float(rtol)
+        self.atol = np.broadcast_to(np.asarray(atol, dtype=float), (self.n,)).copy()
+        span = abs(t_bound - t0)
+        self.h_abs = first_step if first_step is not None else (
+            min(FIRST_STEP_FRACTION * max(span, 1e-300), span) if span > 0 else 0.0)
+        self.newton_tol = max(10 * _EPS / self.rtol, min(0.03, self.rtol ** 0.5))
+        self.h_old: float | None = None  # last accepted step [s] and its error norm
+        self.err_old: float | None = None
+        self.previous: CollocationDense | None = None  # its polynomial, for the starting guess
+        self.t_old = None
 
+    def jac(self, t, y) -> np.ndarray:
+        self.njev += 1
+        return np.asarray(self._jac(t, y), dtype=float)
 
-def solve_radau_mass(G: Callable, E: Callable, dE: Callable, jac: Callable, t_span: tuple[float, float],
-                     y0: Sequence[float], rtol: float, atol: np.ndarray,
-                     events: Sequence[Callable] = ()) -> ImplicitResult:
-    """Integrate ``diag(E(y)) y' = G(t, y)`` over ``t_span``.
+    def _starting_guess(self, h: float) -> np.ndarray:
+        """Z_i = y(t + c_i h) - y from the previous step's polynomial extrapolated, else 0."""
+        prev = self.previous
+        if prev is None or not self.h_old:
+            return np.zeros((3, self.n))
+        tau = 1.0 + C * h / self.h_old
+        Q = prev.Q
+        Z = np.array([tau_i * (Q[0] + tau_i * (Q[1] + tau_i * Q[2])) for tau_i in tau])
+        return Z - (Q[0] + Q[1] + Q[2])
 
-    G(t, y) -> array (n); E(y), dE(y) -> arrays (n): the diagonal of the mass and the derivative
-    of each entry with respect to its own component (E_i depends on y_i only); jac(t, y) -> n x n
-    dG/dy. rtol, atol: error control per component on ``atol + rtol |y|`` (RMS norm).
-    events: functions g(t, y) with optional ``terminal`` and ``direction`` attributes as in
-    solve_ivp; zeros are found on the dense output.
-    """
-    t0, t1 = map(float, t_span)
-    y = np.array(y0, dtype=float)
-    n = y.size
-    atol = np.asarray(atol, dtype=float)
-    counts = {"nfev": 0, "njev": 0, "nlu": 0}
-
-    def fun(t, yy):
-        counts["nfev"] += 1
-        return np.asarray(G(t, yy), dtype=float)
-
-    dense = _Dense()
-    ts, ys = [t0], [y.copy()]
-    t_events: list[list[float]] = [[] for _ in events]
-    g_prev = [float(ev(t0, y)) for ev in events]
-    t = t0
-    span = t1 - t0
-    h = min(1e-6 * max(span, 1e-300), span) if span > 0 else 0.0
-    h_old = err_old = None
-    Q_prev = None  # last step's polynomial, for the starting guess
-    rejected = False
-    status, message = 0, "reached the end of the interval"
-    while t < t1:
-        h = min(h, t1 - t)
-        if h < 10 * _EPS * max(abs(t), 1.0):
-            status, message = -1, f"step size {h:.3g} s fell below the spacing of numbers at t = {t:.9g} s"
-            break
-        Gn = fun(t, y)
-        J = np.asarray(jac(t, y), dtype=float)
-        counts["njev"] += 1
-        En = np.asarray(E(y), dtype=float)
-        scale = atol + rtol * np.abs(y)
-        # Starting guess: the previous step's polynomial extrapolated (Z_i = y(t + c_i h) - y).
-        if Q_prev is not None and h_old:
-            tau = 1.0 + _C * h / h_old
-            Z = np.array([tau_i * (Q_prev[0] + tau_i * (Q_prev[1] + tau_i * Q_prev[2])) for tau_i in tau])
-            Z -= Z_end_prev
-        else:
-            Z = np.zeros((3, n))
-        converged, n_iter, rate = False, 0, None
-        dz_old = None
-        newton_tol = max(10 * _EPS / rtol, min(0.03, rtol ** 0.5))
-        for n_iter in range(1, _NEWTON_MAXITER + 1):
+    def _newton(self, t: float, y: np.ndarray, h: float, J: np.ndarray, scale: np.ndarray):
+        """Solve the stage equations E(Y_i) (A^-1 Z / h)_i = G(t + c_i h, Y_i); returns
+        (converged, iterations, Z)."""
+        n = self.n
+        Z = self._starting_guess(h)
+        dz_old = rate = None
+        for n_iter in range(1, NEWTON_MAXITER + 1):
             Y = y + Z
-            W = _A_INV @ Z / h
-            EY = np.array([E(Y[i]) for i in range(3)])
-            dEY = np.array([dE(Y[i]) for i in range(3)])
-            R = np.concatenate([EY[i] * W[i] - fun(t + _C[i] * h, Y[i]) for i in range(3)])
+            W = A_INV @ Z / h
+            EY = np.array([self.mass(Y[i]) for i in range(3)])
+            dEY = np.array([self.mass_slope(Y[i]) for i in range(3)])
+            R = np.concatenate([EY[i] * W[i] - self.fun(t + C[i] * h, Y[i]) for i in range(3)])
             if not np.all(np.isfinite(R)):
-                break
+                return False, n_iter, Z
             N = np.zeros((3 * n, 3 * n))
             for i in range(3):
                 for k in range(3):
-                    N[i * n:(i + 1) * n, k * n:(k + 1) * n] = np.diag(EY[i] * _A_INV[i, k] / h)
+                    N[i * n:(i + 1) * n, k * n:(k + 1) * n] = np.diag(EY[i] * A_INV[i, k] / h)
                 N[i * n:(i + 1) * n, i * n:(i + 1) * n] += np.diag(dEY[i] * W[i]) - J
             try:
                 dZ = -np.linalg.solve(N, R).reshape(3, n)
             except np.linalg.LinAlgError:
-                break
-            counts["nlu"] += 1
+                return False, n_iter, Z
+            self.nlu += 1
             Z = Z + dZ
             dz = float(np.sqrt(np.mean((dZ / scale) ** 2)))
             if dz_old is not None:
                 rate = dz / dz_old if dz_old > 0 else 0.0
                 if rate >= 1.0:
-                    break
-            if dz == 0.0 or (rate is not None and rate / (1.0 - rate) * dz < newton_tol) \
-                    or (rate is None and dz < 0.1 * newton_tol):
-                converged = True
-                break
+                    return False, n_iter, Z
+            if dz == 0.0 or (rate is not None and rate / (1.0 - rate) * dz < self.newton_tol) \
+                    or (rate is None and dz < 0.1 * self.newton_tol):
+                return True, n_iter, Z
             dz_old = dz
-        if not converged:
-            h *= 0.5
-            rejected = True
-            Q_prev = None
-            continue
-        y_new = y + Z[-1]
-        # Embedded error estimate (Hairer's ESTRAD with a mass matrix).
-        ZE = (Z.T @ _E_COEF) / h
-        lu = lu_factor(_MU_REAL / h * np.diag(En) - J)
-        counts["nlu"] += 1
-        err = lu_solve(lu, Gn + En * ZE)
-        scale = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
-        err_norm = float(np.sqrt(np.mean((err / scale) ** 2)))
-        if rejected and err_norm > 1.0:
-            err = lu_solve(lu, fun(t, y + err) + En * ZE)
+        return False, NEWTON_MAXITER, Z
+
+    def _step_impl(self):
+        t, y, rtol, atol = self.t, self.y, self.rtol, self.atol
+        h = self.h_abs
+        rejected = False
+        while True:
+            h = min(h, abs(self.t_bound - t))
+            if h < 10 * _EPS * max(abs(t), 1.0):
+                return False, f"step size {h:.3g} s fell below the spacing of numbers at t = {t:.9g} s"
+            h_signed = h * self.direction
+            Gn = self.fun(t, y)
+            J = self.jac(t, y)
+            En = np.asarray(self.mass(y), dtype=float)
+            converged, n_iter, Z = self._newton(t, y, h_signed, J, atol + rtol * np.abs(y))
+            if not converged:
+                h *= 0.5
+                rejected = True
+                self.previous = None
+                continue
+            y_new = y + Z[-1]
+            # Embedded error estimate (Hairer's ESTRAD with a mass matrix).
+            ZE = (Z.T @ E_COEF) / h_signed
+            lu = lu_factor(MU_REAL / h_signed * np.diag(En) - J)
+            self.nlu += 1
+            err = lu_solve(lu, Gn + En * ZE)
+            scale = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
             err_norm = float(np.sqrt(np.mean((err / scale) ** 2)))
-        safety = 0.9 * (2 * _NEWTON_MAXITER + 1) / (2 * _NEWTON_MAXITER + n_iter)
-        if not np.isfinite(err_norm):
-            h *= 0.5
-            rejected = True
-            Q_prev = None
-            continue
-        if err_norm > 1.0:
-            h *= max(_MIN_FACTOR, safety * err_norm ** -0.25)
-            rejected = True
-            continue
-        # Accepted.
-        Q = (_VANDER_INV @ Z)  # rows: tau, tau^2, tau^3 coefficients
-        dense.add(t, h, y.copy(), Q)
-        t_new = t + h
-        # Events on the new step.
-        stop_at = None
-        for j, ev in enumerate(events):
-            g_new = float(ev(t_new, y_new))
-            direction = getattr(ev, "direction", 0)
-            if g_prev[j] * g_new < 0 or (g_new == 0.0 and g_prev[j] != 0.0):
-                rising = g_new > g_prev[j]
-                if direction == 0 or (direction > 0) == rising:
-                    j_step = len(dense.t0) - 1
-                    te = brentq(lambda tt: ev(tt, dense.one(j_step, tt)), t, t_new,
-                                xtol=4 * _EPS * max(abs(t_new), 1.0), rtol=4 * _EPS) \
-                        if g_new != 0.0 else t_new
-                    t_events[j].append(te)
-                    if getattr(ev, "terminal", False) and (stop_at is None or te < stop_at):
-                        stop_at = te
-            g_prev[j] = g_new
-        if stop_at is not None:
-            y_stop = dense.one(len(dense.t0) - 1, stop_at)
-            t_events = [[te for te in tes if te <= stop_at] for tes in t_events]
-            ts.append(stop_at)
-            ys.append(y_stop)
-            status, message = 1, "a termination event occurred"
-            t = stop_at
+            if rejected and err_norm > 1.0:
+                err = lu_solve(lu, self.fun(t, y + err) + En * ZE)
+                err_norm = float(np.sqrt(np.mean((err / scale) ** 2)))
+            safety = SAFETY * (2 * NEWTON_MAXITER + 1) / (2 * NEWTON_MAXITER + n_iter)
+            if not np.isfinite(err_norm):
+                h *= 0.5
+                rejected = True
+                self.previous = None
+                continue
+            if err_norm > 1.0:
+                h *= max(MIN_FACTOR, safety * err_norm ** -0.25)
+                rejected = True
+                continue
             break
-        # Step-size control (Gustafsson's predictive controller, as in RADAU5).
-        if h_old is not None and err_old is not None and err_norm > 0:
-            multiplier = h / h_old * (err_old / err_norm) ** 0.25
+        # Accepted: Gustafsson's predictive controller, as in RADAU5.
+        if self.h_old is not None and self.err_old is not None and err_norm > 0:
+            multiplier = h / self.h_old * (self.err_old / err_norm) ** 0.25
         else:
             multiplier = 1.0
-        factor = min(_MAX_FACTOR, safety * min(1.0, multiplier) * (err_norm ** -0.25 if err_norm > 0 else 1e9))
+        factor = min(MAX_FACTOR, safety * min(1.0, multiplier) * (err_norm ** -0.25 if err_norm > 0 else 1e9))
         if rejected:
             factor = min(1.0, factor)
-        h_old, err_old = h, max(err_norm, 1e-10)
-        Q_prev, Z_end_prev = Q, Z[-1]
-        t, y = t_new, y_new
-        ts.append(t)
-        ys.append(y.copy())
-        h *= max(_MIN_FACTOR, factor)
-        rejected = False
-    if len(dense.t0) == 0:
-        dense.add(t0, 1.0, np.array(y0, dtype=float), np.zeros((3, n)))
-    return ImplicitResult(t=np.array(ts), y=np.array(ys).T, sol=dense,
-                          t_events=[np.array(te) for te in t_events], status=status, message=message,
-                          **counts)
+        self.h_old, self.err_old = h, max(err_norm, 1e-10)
+        self.t_old, self.y_old = t, y
+        # The last step lands on t_bound exactly (t + (t_bound - t) may miss it by an ulp).
+        self.t = self.t_bound if h == abs(self.t_bound - t) else t + h_signed
+        self.y = y_new
+        self.previous = CollocationDense(t, self.t, y.copy(), _VANDER_INV @ Z)
+        self.h_abs = h * max(MIN_FACTOR, factor)
+        return True, None
+
+    def _dense_output_impl(self):
+        return self.previous

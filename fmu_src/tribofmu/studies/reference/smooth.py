@@ -19,6 +19,8 @@ state as it is.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -26,10 +28,11 @@ from scipy.optimize import brentq
 
 from ...physics.block import BlockState, acceleration
 from ...physics.friction import BOUNDARY, FLUID
-from .radau import solve_radau_mass
 from .problem import EPS, MAX_EVENTS, MAX_STALLS, Problem, state_scale
+from .radau import RadauMass
+from .segments import Samples, Trajectory
 
-__all__ = ["SmoothSystem", "solve_smooth"]
+__all__ = ["SmoothSystem", "SmoothSegment", "solve_smooth"]
 
 
 # -- fluid and boundary friction: solve_ivp between events ---------------------------------------
@@ -264,7 +267,8 @@ class SmoothSystem:
         return abs(inertial) < r * abs(visc)
 
 
-def solve_smooth(p: Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol: np.ndarray) -> dict:
+def solve_smooth(p: Problem, t_eval: np.ndarray, t_end: float, rtol: float,
+                 atol: np.ndarray) -> Trajectory:
     sys_ = SmoothSystem(p, atol)
     b = p.scenario.block
     x, v, f = b.x0, b.v0, (p.scenario.friction.f0 if sys_.boundary else 0.0)
@@ -284,7 +288,7 @@ def solve_smooth(p: Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol
     rate0 = sys_.f_rate(0.0, f, dv, T)
     sides = [(1 if f > k else -1) if f != k else (1 if rate0 > 0 else -1) for *_, k in sys_.kinks]
 
-    segments = []  # (t_start, t_end, dense solution, form)
+    segments: list[SmoothSegment] = []
     events: list[tuple[float, str]] = []
     counters = {"n_rhs": 0, "n_jac": 0, "n_lu": 0, "n_steps": 0}
     time_in_form = {"v": 0.0, "u": 0.0}
@@ -324,22 +328,22 @@ def solve_smooth(p: Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol
 
         # the load program's kinks and jumps end a segment, like events
         t_stop = next(iter(p.breakpoints(t, t_end)), t_end)
+        name = method
         if method == "Radau-mass":
-            sol = solve_radau_mass(sys_.rhs_u_mass, sys_.mass, sys_.mass_slope, sys_.jac_u_mass,
-                                   (t, t_stop), y, rtol, tol_abs, events=event_funcs)
-        else:
-            sol = solve_ivp(rhs, (t, t_stop), y, method=method, rtol=rtol, atol=tol_abs,
-                            events=event_funcs, dense_output=True, **options)
+            rhs, method, options = sys_.rhs_u_mass, RadauMass, {
+                "mass": sys_.mass, "mass_slope": sys_.mass_slope, "jac": sys_.jac_u_mass}
+        sol = solve_ivp(rhs, (t, t_stop), y, method=method, rtol=rtol, atol=tol_abs,
+                        events=event_funcs, dense_output=True, **options)
         counters["n_rhs"] += sol.nfev
         counters["n_jac"] += sol.njev
         counters["n_lu"] += sol.nlu
         counters["n_steps"] += max(len(sol.t) - 1, 0)
         t_new = float(sol.t[-1])
         if t_new > t:
-            segments.append((t, t_new, sol.sol, form))
+            segments.append(SmoothSegment(sys_, t, t_new, sol.sol, form))
             time_in_form[form] += t_new - t
         if sol.status == -1:
-            ok, message = False, f"{method} failed at t = {t_new:.6g} s: {sol.message}"
+            ok, message = False, f"{name} failed at t = {t_new:.6g} s: {sol.message}"
             break
         stalls = stalls + 1 if t_new - t <= 4 * EPS * max(t_end, p.period) else 0
         if form == "u":
@@ -377,21 +381,6 @@ def solve_smooth(p: Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol
         if u_start is not None and form == "u":
             y[1] = u_start
 
-    x_out = np.full_like(t_eval, np.nan)
-    v_out, F_out, f_out, T_out = x_out.copy(), x_out.copy(), x_out.copy(), x_out.copy()
-    if segments:
-        starts = np.array([seg[0] for seg in segments])
-        index = np.searchsorted(starts, t_eval, side="right") - 1
-        covered_until = segments[-1][1]
-        for j, (_, _, dense, seg_form) in enumerate(segments):
-            mask = (index == j) & (t_eval <= covered_until)
-            if not np.any(mask):
-                continue
-            for i, yy in zip(np.flatnonzero(mask), dense(t_eval[mask]).T):
-                xi, vi, dvi, fi = sys_.unpack(float(t_eval[i]), yy, seg_form)
-                x_out[i], v_out[i], f_out[i] = xi, vi, fi
-                T_out[i] = sys_.temperature(yy)
-                F_out[i] = sys_.friction(float(t_eval[i]), dvi, fi)
     events.sort()
     stats = {"solver": (f"{sys_.v_method}" + (f" / {sys_.u_method} (u-form)"
                                                          if sys_.u_form_available else "")
@@ -401,5 +390,29 @@ def solve_smooth(p: Problem, t_eval: np.ndarray, t_end: float, rtol: float, atol
              "n_dv_zero": sum(1 for _, k in events if k == "dv_zero"),
              "n_melt": sum(1 for _, k in events if k == "melt"),
              "n_solidify": sum(1 for _, k in events if k == "solidify")}
-    return {"x": x_out, "v": v_out, "F": F_out, "f": f_out, "ok": ok, "message": message,
-            "stats": stats, "T": T_out if sys_.heated else None}
+    until = segments[-1].t_end if segments else -math.inf
+    return Trajectory.from_segments(segments, t_eval, until, ok, message, stats, sys_.heated)
+
+
+@dataclass(frozen=True)
+class SmoothSegment:
+    """Fluid or boundary motion between two events: solve_ivp's dense output of the state in
+    one form ("v" or "u", see :class:`SmoothSystem`)."""
+
+    system: SmoothSystem = field(repr=False)
+    t_start: float
+    t_end: float
+    dense: Callable = field(repr=False)
+    form: str
+    kind: str = "smooth"
+
+    def sample(self, t: np.ndarray) -> Samples:
+        sys_ = self.system
+        out = {name: np.empty_like(t) for name in ("x", "v", "F", "f", "T")}
+        for i, yy in enumerate(np.asarray(self.dense(t)).reshape(-1, len(t)).T):
+            ti = float(t[i])
+            x, v, dv, f = sys_.unpack(ti, yy, self.form)
+            out["x"][i], out["v"][i], out["f"][i] = x, v, f
+            out["T"][i] = sys_.temperature(yy)
+            out["F"][i] = sys_.friction(ti, dv, f)
+        return out
