@@ -332,12 +332,19 @@ class FMUInstance:
 
     def close(self) -> None:
         """Terminate and free the instance (errors here lose nothing: ignore them). The
-        unzipped copy stays for other instances of the same file until the process exits."""
+        unzipped copy stays for other instances of the same file until the process exits.
+
+        The FMU's shared library stays loaded until the process exits (fmpy's
+        ``freeInstance`` would also unload it): pythonfmu's binary starts a thread per load,
+        and unloading it while other threads run (OpenBLAS's) left glibc's thread-local
+        storage bookkeeping corrupt, so that about one run in ten aborted at exit with
+        "corrupted double-linked list" (exit 134) in OpenBLAS's thread shutdown.
+        """
         try:
             self._fmu.terminate()
         except Exception:
             pass
-        try:
-            self._fmu.freeInstance()
+        try:  # fmi2FreeInstance / fmi3FreeInstance without fmpy's freeLibrary
+            getattr(self._fmu, f"{self._prefix}FreeInstance")(self._fmu.component)
         except Exception:
             pass
