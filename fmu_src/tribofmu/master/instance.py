@@ -63,7 +63,7 @@ def _pid_alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    except PermissionError:  # someone else's process
+    except (PermissionError, OverflowError):  # someone else's process / not a pid
         return True
     return True
 
@@ -74,7 +74,14 @@ def remove_orphan_extractions(tmp: Path | None = None) -> None:
     tmp = Path(tmp) if tmp is not None else Path(tempfile.gettempdir())
     for folder in tmp.glob(EXTRACT_PREFIX + "*"):
         pid = folder.name[len(EXTRACT_PREFIX):].split("-", 1)[0]
-        if pid.isdigit() and int(pid) != os.getpid() and not _pid_alive(int(pid)):
+        if not (pid.isdigit() and len(pid) <= 9):  # not a folder of ours (e.g. an all-digit hash)
+            continue
+        try:
+            info = os.lstat(folder)
+        except OSError:
+            continue
+        mine = not hasattr(os, "getuid") or info.st_uid == os.getuid()
+        if mine and not folder.is_symlink() and int(pid) != os.getpid() and not _pid_alive(int(pid)):
             shutil.rmtree(folder, ignore_errors=True)
 
 
