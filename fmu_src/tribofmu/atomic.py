@@ -31,8 +31,12 @@ _published: list[Path] = []  # result sets this process has swapped in (for the 
 
 
 def published() -> list[Path]:
-    """The result sets this process has swapped in so far."""
+    """The result sets this process has swapped in since :func:`forget_published`."""
     return list(_published)
+
+
+def forget_published() -> None:
+    _published.clear()
 
 
 def _umask() -> int:

@@ -47,6 +47,8 @@ def main(argv: list[str] | None = None) -> int:
     from .progress import install_signal_handlers
     install_signal_handlers()  # Ctrl-C and SIGTERM: stop between steps, write nothing half
     atexit.register(remove_orphan_extractions)  # unzipped FMUs of finished (Dask) workers
+    from .atomic import forget_published
+    forget_published()  # what this command writes, for the Ctrl-C message
     try:
         return args.run(args)
     except KeyboardInterrupt:
@@ -234,7 +236,7 @@ def preflight_folder(out: Path, needed_bytes: int, option: str = "--out") -> Non
 
 def check_number(name: str, value: float | None) -> None:
     if value is not None and not (math.isfinite(value) and value > 0):
-        raise UsageError(f"{name} must be a finite number > 0, got {value}")
+        raise UsageError(f"{name} must be > 0 and finite, got {value}")
 
 
 def check_algorithm_options(scenario, algorithm: str | None, step: float | None, tol: float | None,
@@ -284,10 +286,15 @@ def label_overrides(overrides, algorithm, step, tol) -> dict[str, str]:
 
 # -- commands -------------------------------------------------------------------------------
 def cmd_build(args) -> int:
-    from .build import build_fmus
-    if args.out is not None:
-        check_out_dir(Path(args.out))
-    for path in build_fmus(args.out, fmi=args.fmi):
+    from .build import FMU_NAMES, build_fmus
+    from .fmu_cache import BUILD_BYTES, find_fmus
+    if args.out is None:  # the cache: rebuilt, with the hashes it checks recorded
+        folder = find_fmus(FMU_NAMES, None, fmi=args.fmi, build=True)
+        paths = [folder / f"{name}.fmu" for name in FMU_NAMES]
+    else:
+        preflight_folder(Path(args.out), BUILD_BYTES)
+        paths = build_fmus(args.out, fmi=args.fmi)
+    for path in paths:
         print(path)
     return 0
 

@@ -171,8 +171,8 @@ def _private_folder(folder: Path) -> None:
         try:
             path.mkdir(mode=0o700, exist_ok=True)
             info = os.lstat(path)
-        except OSError as exc:
-            raise FMUCacheError(f"FMU cache {path}: {exc.strerror or exc}") from None
+        except OSError as exc:  # a failed write: exit 1 in the CLI
+            raise OSError(exc.errno, f"cannot write the FMU cache {path}: {exc.strerror}") from None
         if stat.S_ISLNK(info.st_mode) or not stat.S_ISDIR(info.st_mode):
             raise FMUCacheError(f"FMU cache {path} is not a folder (a link or a file); remove it or "
                                 f"set TRIBOFMU_CACHE")

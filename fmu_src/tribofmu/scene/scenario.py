@@ -269,6 +269,10 @@ def read_scenario_text(path: Path) -> str:
         raise ScenarioError(f"{path}: a scenario file may have at most {MAX_SCENARIO_BYTES} bytes")
     if data.startswith((b"\xff\xfe", b"\xfe\xff")):
         raise ScenarioError(f"{path}: is UTF-16; a scenario must be UTF-8 (save it as UTF-8)")
+    if b"\0" in data:
+        line = data[:data.index(b"\0")].count(b"\n") + 1
+        raise ScenarioError(f"{path}: a NUL byte on line {line} (UTF-16 without a byte-order mark?); "
+                            f"a scenario must be UTF-8 text")
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
