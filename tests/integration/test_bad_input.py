@@ -217,3 +217,30 @@ def test_an_unreachable_scheduler_is_one_line_exit_2_within_15_s(tmp_path, capsy
                               "--set", "time.periods=1", "--set", "time.window=[0,1]"], capsys)
     assert code == 2 and len(err.splitlines()) == 1 and "--scheduler" in err, err
     assert elapsed < 15.0
+
+
+KILL_AT_SWAP = r"""
+import os, signal, sys
+import tribofmu.atomic as A
+from tribofmu.cli import main
+A._exchange = lambda a, b: os.kill(os.getpid(), signal.SIGKILL)
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_simulate_killed_at_the_swap_leaves_the_previous_set_and_the_next_run_cleans_up(tmp_path, fmu_dir):
+    import subprocess
+    import sys
+    out = tmp_path / "run"
+    argv = ["simulate", str(FIG2), "--out", str(out), "--fmu-dir", str(fmu_dir), "-q", "--no-plots",
+            "--set", "time.periods=1", "--set", "time.window=[0,1]"]
+    assert cli.main(argv) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    proc = subprocess.run([sys.executable, "-c", KILL_AT_SWAP, *argv[:-4], "--set", "drive.omega=50",
+                           "--set", "time.periods=1", "--set", "time.window=[0,1]"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == -9, proc.stderr
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".run.partial-")]  # the killed run's
+    assert cli.main(argv) == 0
+    assert [p.name for p in tmp_path.iterdir()] == ["run"]
