@@ -422,6 +422,7 @@ def cmd_figures(args) -> int:
             raise UsageError(f"--only {args.only}: unknown figure {unknown[0] if unknown else '(none)'!r} "
                              f"(known: {', '.join(FIGURES)})")
     out = check_out_dir(Path(args.out))
+    preflight_folder(out, 5 * PLOT_BYTES)
     if args.data:
         check_out_dir(Path(args.data), "--data")
     paths = make_figures(out, only=only, scenarios_dir=args.scenarios, fmu_dir=args.fmu_dir,
