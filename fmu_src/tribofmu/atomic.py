@@ -88,6 +88,10 @@ def clean_leftovers(out: Path) -> None:
     out = Path(out)
     if not out.parent.is_dir():
         return
+    if out.is_dir() and not out.is_symlink():  # earlier versions staged inside the folder
+        for path in out.glob(".partial-*"):
+            if path.is_dir() and not path.is_symlink():
+                shutil.rmtree(path, ignore_errors=True)
     for kind in (OLD, PARTIAL):
         prefix = f".{out.name}.{kind}-"
         for path in sorted(out.parent.glob(prefix + "*")):

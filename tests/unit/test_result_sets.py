@@ -85,10 +85,11 @@ def test_leftovers_of_dead_processes_are_removed_and_live_ones_kept(tmp_path):
     dead = tmp_path / ".run.partial-999999999-x"
     alive = tmp_path / f".run.partial-{os.getppid()}-x"
     digits = tmp_path / ".run.partial-12345678901234567890-x"  # not a pid: no OverflowError, kept
-    for path in (dead, alive, digits):
+    inside = out / ".partial-abc123"  # where earlier versions staged a run
+    for path in (dead, alive, digits, inside):
         path.mkdir()
     atomic.clean_leftovers(out)
-    assert not dead.exists() and alive.exists() and digits.exists()
+    assert not dead.exists() and alive.exists() and digits.exists() and not inside.exists()
 
 
 def test_results_are_as_readable_as_any_new_file(tmp_path):
