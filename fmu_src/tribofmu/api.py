@@ -95,8 +95,10 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     except ValueError as exc:
         raise ScenarioError(f"{scenario.source}: {exc}") from None
     n = output_samples(scenario)  # before any FMU is found or built
-    from .fmu_cache import find_fmus
-    fmu_dir = find_fmus(scenario.fmus, fmu_dir, build=build)
+    if fmu_dir is None or build is not False:  # a given folder as is: every missing FMU in one message
+        from .fmu_cache import find_fmus
+        fmu_dir = find_fmus(scenario.fmus, fmu_dir, build=build)
+    fmu_dir = Path(fmu_dir)
     grid = np.linspace(0.0, scenario.stop_time, n + 1)
     keep = None
     if keep_window:

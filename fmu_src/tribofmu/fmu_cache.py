@@ -111,10 +111,8 @@ def _given_folder(path: Path, names: tuple[str, ...], fmi: int | None, build: bo
         missing = []
     if missing:
         option = f" --fmi {fmi}" if fmi == 3 else ""
-        error = FMUFileError(f"FMU file not found: {path / (missing[0] + '.fmu')} "
-                             f"(build it with 'tribofmu build --out {path}{option}', or drop --fmu-dir)")
-        error.filename = str(path / f"{missing[0]}.fmu")
-        raise error
+        raise FMUFileError(f"FMU file not found: {path / (missing[0] + '.fmu')} "
+                           f"(build it with 'tribofmu build --out {path}{option}', or drop --fmu-dir)")
     if fmi is not None:
         import fmpy
         for name in names:
