@@ -165,6 +165,9 @@ def test_a_full_disk_is_one_line_exit_1_before_any_work(capsys, fmu_dir, small_d
         code, err, elapsed = run([*command, "--out", str(disk / "run"), "--fmu-dir", str(fmu_dir), "-q"], capsys)
         assert code == 1 and len(err.splitlines()) == 1 and "MB free" in err, err
         assert elapsed < 1.0
+    code, err, _ = run(["export-ssp", str(FIG2), "--out", str(disk / "scene.ssp"), "--fmu-dir", str(fmu_dir)], capsys)
+    assert code == 1 and len(err.splitlines()) == 1 and "MB free" in err, err
+    assert not (disk / "scene.ssp").exists()
     assert list(disk.iterdir()) == [] or [p.name for p in disk.iterdir()] == ["run"]
 
 
