@@ -129,7 +129,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="local worker processes (default: one per core; 0: no Dask, a plain loop)")
     _add_set(p)
     _add_algorithm(p)
-    p.add_argument("--fmu-dir", default=None, help="use these FMUs (default: build into OUT/fmus)")
+    p.add_argument("--fmu-dir", default=None, help="use these FMUs (default: the per-user cache, built from this source)")
     p.add_argument("--retry-failed", action="store_true", help="rerun the points sweep.csv has as failed")
     p.add_argument("--recompute", action="store_true",
                    help="rerun every point (needed when OUT's sweep was computed with other FMUs)")
