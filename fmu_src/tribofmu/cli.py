@@ -191,7 +191,7 @@ def check_out_file(path: Path, option: str = "--out") -> Path:
     return path
 
 
-def output_folder(name: str, overrides: dict[str, str], suffix: str = "") -> Path:
+def output_folder(name: str, overrides: dict[str, str], suffix: str = "", what: str = "scenario.name") -> Path:
     """``out/<name>[--<overrides>][<suffix>]`` for a scene name that can name a folder (a
     name from a scenario file must not choose where files go: no separators, no "..", no
     absolute path, printable, at most 100 characters)."""
@@ -199,7 +199,7 @@ def output_folder(name: str, overrides: dict[str, str], suffix: str = "") -> Pat
     if not FOLDER_NAME.match(name) or ".." in name:
         shown = name.encode("unicode_escape").decode("ascii")
         shown = shown if len(shown) <= 60 else f"{shown[:60]}... ({len(name)} characters)"
-        raise UsageError(f"scenario.name {shown!r} cannot name an output folder (letters, digits and "
+        raise UsageError(f"{what} {shown!r} cannot name an output folder (letters, digits and "
                          f"._+=,- only, at most 100 characters); rename it or give --out")
     return OUTPUT_ROOT / f"{run_label(name, overrides)}{suffix}"
 
@@ -365,7 +365,8 @@ def cmd_sweep(args) -> int:
     scenario = api.load(args.scenario, args.overrides)
     check_algorithm_options(scenario, args.algorithm, args.step, args.tol)
     check_number("--timeout", args.timeout)
-    out = Path(args.out) if args.out else output_folder(Path(args.scenario).stem, {}, "-sweep")
+    out = Path(args.out) if args.out else output_folder(Path(args.scenario).stem, {}, "-sweep",
+                                                                "the scenario file's name")
     grid = parse_grid(args.grid)
     points = math.prod(len(values) for values in grid.values())
     preflight_folder(out, points * SWEEP_POINT_BYTES + (0 if args.no_plots else PLOT_BYTES))
