@@ -70,7 +70,7 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
              algorithm: str | None = None, step: float | None = None, tol: float | None = None,
              fmu_dir: str | Path | None = None, build: bool | None = None,
              progress=None, keep_points: bool = False, max_wall: float | None = -1.0,
-             notice=None) -> SimulationResult:
+             notice=None, sink=None, keep_window: bool = False) -> SimulationResult:
     """Co-simulate a scenario with the FMUs in fmu_dir.
 
     algorithm/step/tol default to the scenario's [simulation] table, then to the
@@ -81,6 +81,9 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     (memory grows with the run); otherwise only the output grid is kept. max_wall [s]: stop
     a run whose projected wall time exceeds it (None: never; default: the scene's
     ``simulation.max_wall``). notice(text): told once when a run will take long.
+    sink(start, signals): told each stretch of output samples as it is done (see
+    :class:`~tribofmu.master.run.GridRecorder`), to stream them to disk; keep_window: keep
+    only the shown window in the result (with a sink, memory then does not grow with the run).
     """
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario, overrides)
@@ -93,22 +96,21 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
                                   tol=tol if tol is not None else sim.tol)
     except ValueError as exc:
         raise ScenarioError(f"{scenario.source}: {exc}") from None
-    if fmu_dir is None:
-        from .build import default_fmu_dir
-        fmu_dir = default_fmu_dir()
+    n = output_samples(scenario)  # before any FMU is found or built
+    if fmu_dir is None or build is not False:  # a given folder as is: every missing FMU in one message
+        from .fmu_cache import find_fmus
+        fmu_dir = find_fmus(scenario.fmus, fmu_dir, build=build)
     fmu_dir = Path(fmu_dir)
-    ensure_fmus(fmu_dir, scenario.fmus, build)
-    n = max(1, math.ceil(round(scenario.time.periods * SAMPLES_PER_PERIOD, 6)))
-    if n > MAX_OUTPUT_SAMPLES:
-        raise ScenarioError(
-            f"{scenario.source}: time.periods = {scenario.time.periods:g} asks for {n:.3g} output samples "
-            f"({n * 8 * (len(COLUMNS) + 1) / 1e9:.3g} GB of results); at most {MAX_OUTPUT_SAMPLES:.0e} "
-            f"({MAX_OUTPUT_SAMPLES // SAMPLES_PER_PERIOD} periods): simulate fewer periods")
     grid = np.linspace(0.0, scenario.stop_time, n + 1)
+    keep = None
+    if keep_window:
+        start, end = scenario.window
+        keep = (int(np.searchsorted(grid, start - 1e-12)), int(np.searchsorted(grid, end + 1e-12, side="right")))
     audit = EnergyAudit(scenario)
     error_audit = WindowError(scenario.window)
     inputs = bool({"Thermal", "Load"} & set(scenario.fmus))
-    recorder = GridRecorder(grid, [audit, error_audit], inputs=inputs, keep_points=keep_points)
+    recorder = GridRecorder(grid, [audit, error_audit], inputs=inputs, keep_points=keep_points, sink=sink,
+                            keep=keep)
     limits = RunLimits(max_wall=(sim.max_wall if max_wall == -1.0 else max_wall) or None)
     slaves: dict[str, FMUInstance] = {}
     try:
@@ -128,7 +130,9 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
         for slave in slaves.values():
             slave.close()
     signals = recorder.sampled()
-    grid = grid[:len(signals["v"])]  # the part of the grid the run reached
+    reached = recorder.filled  # samples of the grid the run reached (all streamed to the sink)
+    first = recorder.keep[0]
+    grid = grid[first:first + len(signals["v"])]  # the kept part of the grid the run reached
     stats = {"algorithm": coupling.name, "step": coupling.step_ns / 1e9 if name != "adaptive" else None,
              "tol": coupling.tol if name == "adaptive" else None,
              "ok": outcome.ok, "message": outcome.message, "wall_time": outcome.wall_time,
@@ -137,7 +141,7 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
              "coupling_iterations": outcome.counters["iterations"],
              "stick_steps": outcome.counters["stick_steps"], "forced_steps": outcome.counters["forced"],
              "fmu_calls": outcome.calls, "fmu_calls_total": sum(outcome.calls.values()),
-             "output_points": int(len(grid)),
+             "output_points": int(reached),
              "fmus": {name: {"file": str((fmu_dir / f"{name}.fmu").resolve()), "guid": getattr(slave, "guid", None)}
                       for name, slave in slaves.items()}}
     stats["estimated_error"] = estimated_error(coupling, error_audit)
@@ -185,8 +189,18 @@ def build_system(scenario: Scenario, slaves: dict) -> CoupledSystem:
                          load=slaves.get("Load"), thermal=slaves.get("Thermal"))
 
 
+def output_samples(scenario: Scenario) -> int:
+    """The number of output intervals of the run; ScenarioError when past MAX_OUTPUT_SAMPLES."""
+    n = max(1, math.ceil(round(scenario.time.periods * SAMPLES_PER_PERIOD, 6)))
+    if n > MAX_OUTPUT_SAMPLES:
+        raise ScenarioError(
+            f"{scenario.source}: time.periods = {scenario.time.periods:g} asks for {n:.3g} output samples "
+            f"({n * 8 * (len(COLUMNS) + 1) / 1e9:.3g} GB of results); at most {MAX_OUTPUT_SAMPLES:.0e} "
+            f"({MAX_OUTPUT_SAMPLES // SAMPLES_PER_PERIOD} periods): simulate fewer periods")
+    return n
+
+
 def ensure_fmus(fmu_dir: Path, names, build: bool | None) -> None:
-    missing = [n for n in names if not (fmu_dir / f"{n}.fmu").is_file()]
-    if build or (build is None and missing):
-        from .build import build_fmus
-        build_fmus(fmu_dir, tuple(names) if not build else tuple(names))
+    """The FMUs ``names`` in ``fmu_dir`` (see :func:`tribofmu.fmu_cache.find_fmus`)."""
+    from .fmu_cache import find_fmus
+    find_fmus(names, fmu_dir, build=build)

@@ -79,14 +79,19 @@ def private_package_name(fmi: int = 2) -> str:
     return f"{PRIVATE_PREFIX}{version}{__version__.replace('.', '_')}_{source_hash(fmi)}"
 
 
-def default_fmu_dir(fmi: int = 2) -> Path:
-    """Per-user cache of the FMUs built from this exact source: ``<cache>/fmus/<version>-<hash>``
-    (FMI 3.0: ``<version>-<hash>-fmi3``)."""
+def cache_root() -> Path:
+    """The per-user cache folder: ``$TRIBOFMU_CACHE``, else ``$XDG_CACHE_HOME/tribofmu``."""
     root = os.environ.get(CACHE_ENV)
     if not root:
         root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "tribofmu"
+    return Path(root).absolute()
+
+
+def default_fmu_dir(fmi: int = 2) -> Path:
+    """Per-user cache of the FMUs built from this exact source: ``<cache>/fmus/<version>-<hash>``
+    (FMI 3.0: ``<version>-<hash>-fmi3``); see :mod:`tribofmu.fmu_cache` for how it is checked."""
     suffix = "-fmi3" if fmi == 3 else ""
-    return Path(root) / "fmus" / f"{__version__}-{source_hash(fmi)}{suffix}"
+    return cache_root() / "fmus" / f"{__version__}-{source_hash(fmi)}{suffix}"
 
 
 def rewrite_imports(text: str, private: str) -> str:
@@ -163,7 +168,8 @@ def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] = FMU_N
     built = []
     path_before = list(sys.path)
     try:
-        with tempfile.TemporaryDirectory(prefix="tribofmu_build_") as tmp:
+        # named by pid: the next run removes the folder of a build that was killed
+        with tempfile.TemporaryDirectory(prefix=f"tribofmu_build_{os.getpid()}_") as tmp:
             package = _stage_package(Path(tmp), private, fmi)
             for name in names:
                 _forget_private_modules()  # imported by the previous build from a folder now gone

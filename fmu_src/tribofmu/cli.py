@@ -19,6 +19,8 @@ import argparse
 import atexit
 import importlib.util
 import json
+import math
+import re
 import sys
 from pathlib import Path
 
@@ -26,10 +28,12 @@ from . import __version__
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
-CSV_COLUMNS = ("X", "V", "x", "v", "F", "f")
-# Files a simulate run writes; a new run removes the ones it does not write (a failed run
-# writes only stats.json), so an older run's results never sit beside a newer stats.json.
-RUN_OUTPUTS = ("stats.json", "result.csv", "time.png", "phase.png", "kinetics.png")
+OUTPUT_ROOT = Path("out")  # default output folders: OUTPUT_ROOT/<scene name>[--<overrides>]
+# A scene name that may name a folder: printable, no separators, no "..", not too long.
+FOLDER_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+=,-]{0,99}$")
+PLOT_BYTES = 1_000_000  # the PNGs of a run, generously
+SSP_BYTES = 10_000_000  # an .ssp archive holds up to six FMUs of < 1 MB
+SWEEP_POINT_BYTES = 20_000  # a sweep point: its row, its portrait (.npz)
 
 
 class UsageError(Exception):
@@ -43,17 +47,38 @@ def main(argv: list[str] | None = None) -> int:
     from .progress import install_signal_handlers
     install_signal_handlers()  # Ctrl-C and SIGTERM: stop between steps, write nothing half
     atexit.register(remove_orphan_extractions)  # unzipped FMUs of finished (Dask) workers
+    from .atomic import forget_published
+    forget_published()  # what this command writes, for the Ctrl-C message
     try:
         return args.run(args)
     except KeyboardInterrupt:
-        print("tribofmu: interrupted; nothing was written", file=sys.stderr)
+        from .atomic import published
+        done = published()
+        if done:
+            print(f"tribofmu: interrupted after writing {done[-1]}/ (complete); nothing else was written",
+                  file=sys.stderr)
+        else:
+            print("tribofmu: interrupted; no result was written (earlier results are as they were)",
+                  file=sys.stderr)
         return 130
     except Exception as exc:  # every expected failure becomes one line, never a traceback
         from .errors import NumericalError, TriboFMUError
-        if isinstance(exc, (UsageError, TriboFMUError, FileNotFoundError)):
-            print(f"tribofmu: {exc}", file=sys.stderr)
+        if isinstance(exc, (UsageError, TriboFMUError, FileNotFoundError, FileExistsError)):
+            print(f"tribofmu: {one_line(exc)}", file=sys.stderr)
             return EXIT_FAILED if isinstance(exc, NumericalError) else EXIT_BAD_INPUT
+        if isinstance(exc, OSError):  # a write that failed after the preflight: disk full, gone, ...
+            print(f"tribofmu: {one_line(exc)}; earlier results are as they were", file=sys.stderr)
+            return EXIT_FAILED
         raise
+
+
+def one_line(exc: BaseException) -> str:
+    """An exception as one line (an OSError from the system with its file name)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        text = f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
+    else:
+        text = str(exc)
+    return " ".join(text.split())
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -104,8 +129,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="local worker processes (default: one per core; 0: no Dask, a plain loop)")
     _add_set(p)
     _add_algorithm(p)
-    p.add_argument("--fmu-dir", default=None, help="use these FMUs (default: build into OUT/fmus)")
+    p.add_argument("--fmu-dir", default=None, help="use these FMUs (default: the per-user cache, built from this source)")
     p.add_argument("--retry-failed", action="store_true", help="rerun the points sweep.csv has as failed")
+    p.add_argument("--recompute", action="store_true",
+                   help="rerun every point (needed when OUT's sweep was computed with other FMUs)")
     p.add_argument("--timeout", type=float, default=None, help="per-point time limit [s]: then failed")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -164,14 +191,61 @@ def check_out_file(path: Path, option: str = "--out") -> Path:
     return path
 
 
+def output_folder(name: str, overrides: dict[str, str], suffix: str = "", what: str = "scenario.name") -> Path:
+    """``out/<name>[--<overrides>][<suffix>]`` for a scene name that can name a folder (a
+    name from a scenario file must not choose where files go: no separators, no "..", no
+    absolute path, printable, at most 100 characters)."""
+    from .provenance import run_label
+    if not FOLDER_NAME.match(name) or ".." in name:
+        shown = name.encode("unicode_escape").decode("ascii")
+        shown = shown if len(shown) <= 60 else f"{shown[:60]}... ({len(name)} characters)"
+        raise UsageError(f"{what} {shown!r} cannot name an output folder (letters, digits and "
+                         f"._+=,- only, at most 100 characters); rename it or give --out")
+    return OUTPUT_ROOT / f"{run_label(name, overrides)}{suffix}"
+
+
+def preflight(out: Path, needed_bytes: int, option: str = "--out") -> None:
+    """Before any work: ``out``'s parent can take a new folder and has the space the results
+    need (OSError, one line, exit 1, otherwise); ``out`` holds nothing but results (exit 2)."""
+    from .atomic import check_replaceable
+    from .fmu_cache import check_writable
+    check_out_dir(out, option)
+    try:
+        check_replaceable(out)
+    except FileExistsError as exc:
+        raise UsageError(f"{option} {exc}") from None
+    parent = out.absolute().parent
+    existing = next(p for p in (parent, *parent.parents) if p.exists())
+    if existing != parent:
+        check_writable(existing, needed_bytes, f"{option}'s parent")
+        parent.mkdir(parents=True, exist_ok=True)
+    check_writable(parent, needed_bytes, f"{option}'s parent")
+
+
+def preflight_folder(out: Path, needed_bytes: int, option: str = "--out") -> None:
+    """For outputs kept across runs (a sweep's folder, an .ssp file's folder): ``out`` can be
+    written and has the space (OSError, exit 1, otherwise)."""
+    from .fmu_cache import check_writable
+    check_out_dir(out, option)
+    out = out.absolute()
+    existing = next(p for p in (out, *out.parents) if p.exists())
+    check_writable(existing, needed_bytes, option)
+    out.mkdir(parents=True, exist_ok=True)
+    check_writable(out, needed_bytes, option)
+
+
+def check_number(name: str, value: float | None) -> None:
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise UsageError(f"{name} must be > 0 and finite, got {value}")
+
+
 def check_algorithm_options(scenario, algorithm: str | None, step: float | None, tol: float | None,
                             max_wall: float | None = None) -> str:
     """The algorithm that will run; a --step/--tol it does not use is an error."""
     from .coupling.algorithms import ALGORITHMS
     for name, value in (("--step", step), ("--tol", tol)):
-        if value is not None and not value > 0:
-            raise UsageError(f"{name} must be > 0, got {value}")
-    if max_wall is not None and not max_wall >= 0:
+        check_number(name, value)
+    if max_wall is not None and not (math.isfinite(max_wall) and max_wall >= 0):
         raise UsageError(f"--max-wall must be >= 0 s (0: no limit), got {max_wall}")
     name = algorithm or scenario.simulation.algorithm
     if name not in ALGORITHMS:
@@ -192,35 +266,12 @@ def require(module: str, install: str, purpose: str) -> None:
 
 
 def resolve_fmu_dir(fmu_dir: str | None, names, quiet: bool = False, fmi: int | None = None) -> Path:
-    """An explicit folder must hold the FMUs (of FMI version fmi, if given); the default
-    cache of that version (default 2) is filled when needed."""
-    from . import api
-    from .build import build_fmus, default_fmu_dir
-    if fmu_dir is not None:
-        path = Path(fmu_dir)
-        missing = [n for n in names if not (path / f"{n}.fmu").is_file()]
-        if missing:
-            option = f" --fmi {fmi}" if fmi == 3 else ""
-            raise UsageError(f"FMU file not found: {path / (missing[0] + '.fmu')} "
-                             f"(build it with 'tribofmu build --out {path}{option}', or drop --fmu-dir)")
-        if fmi is not None:
-            import fmpy
-            for name in names:
-                found = fmpy.read_model_description(str(path / f"{name}.fmu"), validate=False).fmiVersion
-                if not found.startswith(str(fmi)):
-                    raise UsageError(f"--fmi {fmi}: {path / (name + '.fmu')} is an FMI {found} FMU")
-        return path
-    fmi = fmi or 2
-    path = default_fmu_dir(fmi)
-    if any(not (path / f"{n}.fmu").is_file() for n in names):
-        if not quiet:
-            print(f"tribofmu: building the FMI {fmi}.0 FMUs into {path}/ (once per installed version)",
-                  file=sys.stderr)
-        if fmi == 3:
-            build_fmus(path, tuple(names), fmi=3)
-        else:
-            api.ensure_fmus(path, names, build=None)
-    return path
+    """The FMUs a command uses (:func:`tribofmu.fmu_cache.find_fmus`): an explicit folder
+    must hold them; the per-user cache is checked and filled when needed."""
+    from .fmu_cache import find_fmus
+    notice = None if quiet else (lambda text: print(f"tribofmu: {text} (once per installed version)",
+                                                    file=sys.stderr))
+    return find_fmus(names, fmu_dir, fmi=fmi, build=None if fmu_dir is None else False, notice=notice)
 
 
 def label_overrides(overrides, algorithm, step, tol) -> dict[str, str]:
@@ -235,45 +286,53 @@ def label_overrides(overrides, algorithm, step, tol) -> dict[str, str]:
 
 # -- commands -------------------------------------------------------------------------------
 def cmd_build(args) -> int:
-    from .build import build_fmus
-    if args.out is not None:
-        check_out_dir(Path(args.out))
-    for path in build_fmus(args.out, fmi=args.fmi):
+    from .build import FMU_NAMES, build_fmus
+    from .fmu_cache import BUILD_BYTES, find_fmus
+    if args.out is None:  # the cache: rebuilt, with the hashes it checks recorded
+        folder = find_fmus(FMU_NAMES, None, fmi=args.fmi, build=True)
+        paths = [folder / f"{name}.fmu" for name in FMU_NAMES]
+    else:
+        preflight_folder(Path(args.out), BUILD_BYTES)
+        paths = build_fmus(args.out, fmi=args.fmi)
+    for path in paths:
         print(path)
     return 0
 
 
 def cmd_simulate(args) -> int:
     from . import api
-    from .atomic import atomic_directory
+    from .atomic import result_set
     from .progress import RunBar
-    from .provenance import default_out_dir, overrides_dict, record
+    from .provenance import overrides_dict, record
+    from .result_csv import ResultCsvWriter, expected_bytes
 
     scenario = api.load(args.scenario, args.overrides)
     algorithm = check_algorithm_options(scenario, args.algorithm, args.step, args.tol, args.max_wall)
-    out = Path(args.out) if args.out else default_out_dir(
+    out = Path(args.out) if args.out else output_folder(
         scenario.name, label_overrides(args.overrides, args.algorithm, args.step, args.tol))
-    check_out_dir(out)
+    samples = api.output_samples(scenario) + 1
+    preflight(out, expected_bytes(scenario, samples) + (0 if args.no_plots else PLOT_BYTES))
     fmu_dir = resolve_fmu_dir(args.fmu_dir, scenario.fmus, args.quiet, args.fmi)
     quiet = True if args.quiet else None
-    with RunBar(scenario.name, scenario.stop_time, enabled=False if quiet else None) as bar:
-        result = api.simulate(scenario, algorithm=args.algorithm, step=args.step, tol=args.tol,
-                              fmu_dir=fmu_dir, build=False, progress=bar, notice=bar.notice,
-                              max_wall=-1.0 if args.max_wall is None else args.max_wall)
-    stats = dict(result.stats)
-    settings = {"algorithm": algorithm, "step": stats.get("step"), "tol": stats.get("tol"),
-                "requested": {"algorithm": args.algorithm, "step": args.step, "tol": args.tol}}
-    stats["provenance"] = record(args.scenario, overrides_dict(args.overrides), settings, stats.get("fmus"))
-    with atomic_directory(out) as tmp:
+    with result_set(out) as tmp:  # swapped in whole when done; untouched on failure or Ctrl-C
+        # rows go to disk as they come: memory does not grow with the run, only the shown
+        # window is kept (for the plots)
+        with ResultCsvWriter(tmp / "result.csv", scenario) as csv_rows, \
+                RunBar(scenario.name, scenario.stop_time, enabled=False if quiet else None) as bar:
+            result = api.simulate(scenario, algorithm=args.algorithm, step=args.step, tol=args.tol,
+                                  fmu_dir=fmu_dir, build=False, progress=bar, notice=bar.notice,
+                                  max_wall=-1.0 if args.max_wall is None else args.max_wall,
+                                  sink=csv_rows, keep_window=True)
+        stats = dict(result.stats)
+        settings = {"algorithm": algorithm, "step": stats.get("step"), "tol": stats.get("tol"),
+                    "requested": {"algorithm": args.algorithm, "step": args.step, "tol": args.tol}}
+        stats["provenance"] = record(args.scenario, overrides_dict(args.overrides), settings, stats.get("fmus"))
         (tmp / "stats.json").write_text(json.dumps(stats, indent=2) + "\n")
-        if result.ok:  # a failed run leaves its stats (with the message), never a partial result
-            write_result_csv(result, tmp / "result.csv")
-            if not args.no_plots:
-                from .plots import plot_result
-                plot_result(result, tmp)
-        for name in RUN_OUTPUTS:  # an older run's results must not look like this run's
-            if not (tmp / name).exists() and (out / name).is_file():
-                (out / name).unlink()
+        if not result.ok:  # a failed run leaves its stats (with the message), never a partial result
+            (tmp / "result.csv").unlink()
+        elif not args.no_plots:
+            from .plots import plot_result
+            plot_result(result, tmp)
     estimate = result.stats["estimated_error"]["nrms_v"]
     accuracy = f", estimated nRMS(v) {estimate:.2g}" if estimate is not None else ""
     print(f"{scenario.name}: {result.message}; {result.stats['communication_steps']} steps, "
@@ -293,6 +352,7 @@ def cmd_export_ssp(args) -> int:
     scenario = api.load(args.scenario, args.overrides)
     out = check_out_file(Path(args.out))
     names = [inst.fmu.name for inst in instances(scenario, args.pair)]  # a scene the pair cannot take: exit 2
+    preflight_folder(out.parent, SSP_BYTES)
     fmu_dir = resolve_fmu_dir(args.fmu_dir, names)
     path = export_ssp(scenario, out, fmu_dir, pair=args.pair)
     print(path)
@@ -308,13 +368,18 @@ def cmd_sweep(args) -> int:
         require("distributed", "dask[distributed]", "tribofmu sweep on Dask (--workers 0 runs without)")
     scenario = api.load(args.scenario, args.overrides)
     check_algorithm_options(scenario, args.algorithm, args.step, args.tol)
-    out = Path(args.out) if args.out else Path("out") / f"{Path(args.scenario).stem}-sweep"
-    check_out_dir(out)
+    check_number("--timeout", args.timeout)
+    out = Path(args.out) if args.out else output_folder(Path(args.scenario).stem, {}, "-sweep",
+                                                                "the scenario file's name")
+    grid = parse_grid(args.grid)
+    points = math.prod(len(values) for values in grid.values())
+    preflight_folder(out, points * SWEEP_POINT_BYTES + (0 if args.no_plots else PLOT_BYTES))
     try:
-        rows = sweep(args.scenario, parse_grid(args.grid), out, scheduler=args.scheduler,
+        rows = sweep(args.scenario, grid, out, scheduler=args.scheduler,
                      workers=args.workers, overrides=args.overrides, algorithm=args.algorithm,
                      step=args.step, tol=args.tol, fmu_dir=args.fmu_dir,
-                     retry_failed=args.retry_failed, timeout=args.timeout, plots=not args.no_plots,
+                     retry_failed=args.retry_failed, recompute=args.recompute, timeout=args.timeout,
+                     plots=not args.no_plots,
                      progress=not args.quiet and sys.stderr.isatty())
     except KeyboardInterrupt:
         print(f"tribofmu: sweep interrupted; finished points are in {out}/sweep.csv, "
@@ -329,11 +394,16 @@ def cmd_accuracy(args) -> int:
     from . import api
     from .studies.accuracy import accuracy_study, write_study
     from .progress import check_interrupt, deferred_interrupts
-    from .provenance import default_out_dir, overrides_dict
+    from .atomic import ACCURACY_NAMES, check_replaceable
+    from .provenance import overrides_dict
     scenario = api.load(args.scenario, args.overrides)
-    out = Path(args.out) if args.out else default_out_dir(scenario.name, overrides_dict(args.overrides),
-                                                          "-accuracy")
-    check_out_dir(out)
+    out = Path(args.out) if args.out else output_folder(scenario.name, overrides_dict(args.overrides),
+                                                        "-accuracy")
+    preflight_folder(out.absolute().parent, PLOT_BYTES)
+    try:
+        check_replaceable(out, ACCURACY_NAMES)
+    except FileExistsError as exc:
+        raise UsageError(f"--out {exc}") from None
     fmu_dir = resolve_fmu_dir(args.fmu_dir, scenario.fmus, args.quiet)
     def log(message: str) -> None:  # called between runs: where a Ctrl-C may stop the study
         if not args.quiet:
@@ -357,6 +427,7 @@ def cmd_figures(args) -> int:
             raise UsageError(f"--only {args.only}: unknown figure {unknown[0] if unknown else '(none)'!r} "
                              f"(known: {', '.join(FIGURES)})")
     out = check_out_dir(Path(args.out))
+    preflight_folder(out, 5 * PLOT_BYTES)
     if args.data:
         check_out_dir(Path(args.data), "--data")
     paths = make_figures(out, only=only, scenarios_dir=args.scenarios, fmu_dir=args.fmu_dir,
@@ -364,13 +435,6 @@ def cmd_figures(args) -> int:
     for path in paths:
         print(path)
     return 0
-
-
-def write_result_csv(result, path: Path) -> None:
-    """``time,X,V,x,v,F,f`` in SI units, one row per output point."""
-    import numpy as np
-    table = np.column_stack([result.time] + [getattr(result, k) for k in CSV_COLUMNS])
-    np.savetxt(path, table, delimiter=",", header="time," + ",".join(CSV_COLUMNS), comments="", fmt="%.17g")
 
 
 if __name__ == "__main__":

@@ -132,7 +132,7 @@ def make_figures(out_dir: str | Path = "out/figures", only: list[str] | None = N
     """Write ``OUT/fig2.png`` .. ``fig6.png`` (or the ``only`` ones); returns their paths.
 
     data_dir: where the runs' signals are saved and reused (default ``OUT/data``)."""
-    from .cli import resolve_fmu_dir
+    from .fmu_cache import find_fmus
 
     out_dir = Path(out_dir)
     scenarios_dir = Path(scenarios_dir) if scenarios_dir else SCENARIOS_DIR
@@ -140,7 +140,8 @@ def make_figures(out_dir: str | Path = "out/figures", only: list[str] | None = N
         raise FileNotFoundError(f"scenes folder not found: {scenarios_dir} (pass --scenarios DIR, "
                                 "the repository's scenarios/)")
     names = list(only) if only else list(FIGURES)
-    fmu_dir = resolve_fmu_dir(str(fmu_dir) if fmu_dir else None, ("Drive", "BlockSpring", "Friction"), quiet)
+    fmu_dir = find_fmus(("Drive", "BlockSpring", "Friction"), fmu_dir, build=None if fmu_dir is None else False,
+                        notice=None if quiet else (lambda text: print(f"tribofmu: {text}", file=sys.stderr)))
     data_dir = Path(data_dir) if data_dir else out_dir / "data"
     code = code_hash()
     results: dict[str, Signals] = {}

@@ -65,7 +65,7 @@ def test_simulate_and_export_ssp_from_another_folder_build_missing_fmus(tmp_path
     assert proc.returncode == 0, proc.stderr
     cache = Path(env["TRIBOFMU_CACHE"]) / "fmus"
     (built,) = list(cache.iterdir())
-    assert sorted(p.name for p in built.iterdir()) == ["BlockSpring.fmu", "Drive.fmu", "Friction.fmu"]
+    assert sorted(p.name for p in built.glob("*.fmu")) == ["BlockSpring.fmu", "Drive.fmu", "Friction.fmu"]
     (run_dir,) = list((elsewhere / "out").iterdir())
     assert (run_dir / "result.csv").is_file()
     proc = tribofmu("export-ssp", SCENES / "fig5_newtonian.toml", "--out", "n.ssp", cwd=elsewhere, env=env)
@@ -171,7 +171,7 @@ def test_ctrl_c_leaves_the_previous_results_untouched(tmp_path, fmu_dir, monkeyp
         raise KeyboardInterrupt
     monkeypatch.setattr(api, "simulate", interrupted)
     assert cli.main(argv) == 130
-    assert "interrupted; nothing was written" in capsys.readouterr().err
+    assert "interrupted; no result was written" in capsys.readouterr().err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
 
@@ -205,7 +205,7 @@ def test_killed_run_writes_nothing_and_removes_its_extracted_fmus(tmp_path, env,
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
-    assert err.strip().splitlines()[-1] == "tribofmu: interrupted; nothing was written"
+    assert err.strip().splitlines()[-1] == "tribofmu: interrupted; no result was written (earlier results are as they were)"
     assert not out.exists() or not any(out.iterdir())
     assert list(tmp.iterdir()) == []
 

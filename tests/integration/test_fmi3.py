@@ -149,4 +149,6 @@ def test_fmi3_serialized_state_continues_bit_identically(fmu3_dir):
         assert steps(5, 5) == first
     finally:
         fmu.terminate()
-        fmu.freeInstance()
+        # fmpy's freeInstance also unloads the library: with FMUs built in this process that
+        # made the test process abort at exit now and then (see FMUInstance.close)
+        fmu.fmi3FreeInstance(fmu.component)

@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import csv
 import os
 import tempfile
@@ -259,15 +260,17 @@ def test_one_sweep_at_a_time_in_a_directory(tmp_path):
 
 @pytest.mark.integration
 def test_cli_sweep_on_an_embedded_cluster_two_dimensional_map(tmp_path):
-    """The command as a user runs it, in its own process: its own LocalCluster, FMUs built
-    into OUT/fmus."""
+    """The command as a user runs it, in its own process: its own LocalCluster, the FMUs of
+    the per-user cache, whose source sweep.json records."""
     out = tmp_path / "map"
     proc = subprocess.run([sys.executable, "-m", "tribofmu.cli", "sweep", str(FIG2),
                            "--grid", "drive.omega=30,130", "--grid", "conditions.n=-20,-10",
                            "--set", "time.periods=2", "--set", "time.window=[1,2]", "--out", str(out),
                            "--workers", "2"], capture_output=True, text=True, timeout=600, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
-    assert sorted(p.name for p in (out / "fmus").iterdir()) == ["BlockSpring.fmu", "Drive.fmu", "Friction.fmu"]
+    from tribofmu.build import private_package_name
+    meta = json.loads((out / "sweep.json").read_text())
+    assert meta["fmu_source"] == private_package_name() and meta["tribofmu"]
     header, rows = read_csv(out / "sweep.csv")
     assert header[:2] == ["drive.omega", "conditions.n"]
     assert [(r["drive.omega"], r["conditions.n"]) for r in rows] == [
@@ -324,8 +327,8 @@ def test_a_sweep_runs_on_workers_that_cannot_see_the_clients_disk(tmp_path, fmu_
     local = sweep(FIG2, grid, tmp_path / "local", workers=0, **kw)
     for a, b in zip(remote, local):
         assert all(a[m] == b[m] or (math.isnan(a[m]) and math.isnan(b[m])) for m in M.METRICS)
-    copies = list(cluster_without_client_disk.tmp.glob("tribofmu-fmus-*/Friction.fmu"))
-    assert len(copies) == 1 and copies[0].read_bytes() == (fmu_dir / "Friction.fmu").read_bytes()
+    copies = list(cluster_without_client_disk.tmp.glob("tribofmu-fmus-*/bundle-*/Friction.fmu"))
+    assert copies and all(c.read_bytes() == (fmu_dir / "Friction.fmu").read_bytes() for c in copies)
 
 
 @pytest.mark.integration

@@ -63,7 +63,7 @@ def _pid_alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    except PermissionError:  # someone else's process
+    except (PermissionError, OverflowError):  # someone else's process / not a pid
         return True
     return True
 
@@ -74,7 +74,14 @@ def remove_orphan_extractions(tmp: Path | None = None) -> None:
     tmp = Path(tmp) if tmp is not None else Path(tempfile.gettempdir())
     for folder in tmp.glob(EXTRACT_PREFIX + "*"):
         pid = folder.name[len(EXTRACT_PREFIX):].split("-", 1)[0]
-        if pid.isdigit() and int(pid) != os.getpid() and not _pid_alive(int(pid)):
+        if not (pid.isdigit() and len(pid) <= 9):  # not a folder of ours (e.g. an all-digit hash)
+            continue
+        try:
+            info = os.lstat(folder)
+        except OSError:
+            continue
+        mine = not hasattr(os, "getuid") or info.st_uid == os.getuid()
+        if mine and not folder.is_symlink() and int(pid) != os.getpid() and not _pid_alive(int(pid)):
             shutil.rmtree(folder, ignore_errors=True)
 
 
@@ -335,12 +342,19 @@ class FMUInstance:
 
     def close(self) -> None:
         """Terminate and free the instance (errors here lose nothing: ignore them). The
-        unzipped copy stays for other instances of the same file until the process exits."""
+        unzipped copy stays for other instances of the same file until the process exits.
+
+        The FMU's shared library stays loaded until the process exits (fmpy's
+        ``freeInstance`` would also unload it): pythonfmu's binary starts a thread per load,
+        and unloading it while other threads run (OpenBLAS's) left glibc's thread-local
+        storage bookkeeping corrupt, so that about one run in ten aborted at exit with
+        "corrupted double-linked list" (exit 134) in OpenBLAS's thread shutdown.
+        """
         try:
             self._fmu.terminate()
         except Exception:
             pass
-        try:
-            self._fmu.freeInstance()
+        try:  # fmi2FreeInstance / fmi3FreeInstance without fmpy's freeLibrary
+            getattr(self._fmu, f"{self._prefix}FreeInstance")(self._fmu.component)
         except Exception:
             pass

@@ -86,16 +86,23 @@ class GridRecorder:
     by the grid, whatever the number of communication points.
 
     inputs: also sample T, n, Q (the friction's inputs from other FMUs). keep_points: also
-    keep every point (memory then grows with the run)."""
+    keep every point (memory then grows with the run). sink(start, signals): told every
+    sampled stretch as it is done (``signals[k]`` holds grid samples ``start, start + 1, ...``,
+    ``signals["time"]`` their times),
+    e.g. to stream rows to a file. keep: the range ``(first, stop)`` of grid indices kept in
+    memory (default: all); with a sink and a short range, memory does not grow with the run."""
 
     CHUNK = 4096  # points held before they are sampled and dropped
 
-    def __init__(self, grid: np.ndarray, audits=(), inputs: bool = False, keep_points: bool = False):
+    def __init__(self, grid: np.ndarray, audits=(), inputs: bool = False, keep_points: bool = False,
+                 sink: Callable[[int, dict], None] | None = None, keep: tuple[int, int] | None = None):
         self.grid = np.asarray(grid, dtype=float)
         self.points: list[Point] | None = [] if keep_points else None
-        self.audits, self.inputs = list(audits), inputs
+        self.audits, self.inputs, self.sink = list(audits), inputs, sink
+        self.keep = (0, len(self.grid)) if keep is None else (max(0, keep[0]), min(len(self.grid), keep[1]))
         names = SIGNALS + (INPUT_SIGNALS if inputs else ())
-        self.signals = {k: np.full(len(self.grid), np.nan) for k in names}
+        size = max(self.keep[1] - self.keep[0], 0)
+        self.signals = {k: np.full(size, np.nan) for k in names}
         self.filled = 0  # grid samples done
         self.buffer: list[Point] = []
         self.first: Point | None = None
@@ -109,6 +116,17 @@ class GridRecorder:
         if len(self.buffer) >= self.CHUNK:
             self._flush()
 
+    def _store(self, start: int, part: dict[str, np.ndarray]) -> None:
+        """Samples ``start, start + 1, ...``: to the sink, and the kept range into memory."""
+        stop = start + len(next(iter(part.values())))
+        if self.sink is not None:
+            self.sink(start, {"time": self.grid[start:stop], **part})
+        lo, hi = max(start, self.keep[0]), min(stop, self.keep[1])
+        if lo < hi:
+            for k, values in part.items():
+                self.signals[k][lo - self.keep[0]:hi - self.keep[0]] = values[lo - start:hi - start]
+        self.filled = stop
+
     def _flush(self) -> None:
         chunk = self.buffer
         if len(chunk) >= 2:
@@ -117,10 +135,7 @@ class GridRecorder:
             t_end = chunk[-1].t_ns / NS
             stop = int(np.searchsorted(self.grid, t_end + 1e-9, side="right"))
             if stop > self.filled:
-                part = sample(chunk, self.grid[self.filled:stop], self.inputs)
-                for k, values in part.items():
-                    self.signals[k][self.filled:stop] = values
-                self.filled = stop
+                self._store(self.filled, sample(chunk, self.grid[self.filled:stop], self.inputs))
             for audit in self.audits:
                 audit.add(chunk)
         self.buffer = chunk[-1:]  # the next chunk starts where this one ended
@@ -129,15 +144,16 @@ class GridRecorder:
         if len(self.buffer) >= 2:
             self._flush()
         elif self.first is not None and self.filled == 0 and len(self.grid):  # never stepped
-            for k in self.signals:
-                self.signals[k][0] = float(self.first.mode == 0) if k == "stuck" else getattr(self.first, k)
-            self.filled = 1
+            self._store(0, {k: np.array([float(self.first.mode == 0) if k == "stuck" else getattr(self.first, k)])
+                            for k in self.signals})
             for audit in self.audits:
                 audit.add([self.first])
 
     def sampled(self) -> dict[str, np.ndarray]:
-        """The signals on the part of the grid the run reached."""
-        return {k: v[:self.filled] for k, v in self.signals.items()}
+        """The kept signals on the part of the grid the run reached (grid indices
+        ``keep[0]`` up to the last sample done)."""
+        n = max(0, min(self.filled, self.keep[1]) - self.keep[0])
+        return {k: v[:n] for k, v in self.signals.items()}
 
     def kept(self) -> list[Point]:
         """Every point (keep_points), or the first and the last."""

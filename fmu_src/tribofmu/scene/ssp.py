@@ -88,9 +88,9 @@ def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None, pair:
     :class:`FileNotFoundError` naming the file, before anything is written. The archive is
     written aside and renamed into place, so ``out`` appears whole or not at all.
     """
-    if fmu_dir is None:
-        from ..build import default_fmu_dir
-        fmu_dir = default_fmu_dir()
+    from ..fmu_cache import find_fmus  # the cache's FMUs, checked (or built); a given folder's, required
+    fmu_dir = find_fmus([inst.fmu.name for inst in instances(scenario, pair)], fmu_dir,
+                        build=None if fmu_dir is None else False)
     out, fmu_dir = Path(out), Path(fmu_dir)
     sources = {}  # archive member -> built FMU
     for inst in instances(scenario, pair):

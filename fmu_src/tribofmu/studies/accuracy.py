@@ -364,9 +364,9 @@ def _legend(name: str, summary: dict) -> str:
 def write_study(rows: list[dict], summary: dict, scenario: Scenario, out: Path) -> None:
     import json
 
-    from ..atomic import atomic_directory
+    from ..atomic import ACCURACY_NAMES, result_set
     from ..plots import scene_label
-    with atomic_directory(Path(out)) as tmp:
+    with result_set(Path(out), ACCURACY_NAMES) as tmp:
         plot_accuracy(rows, summary, f"{scene_label(scenario)}: error vs cost", tmp / "accuracy.png")
         (tmp / "accuracy.csv").write_text(rows_csv(rows))
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")

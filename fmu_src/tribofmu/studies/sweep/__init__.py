@@ -56,14 +56,17 @@ def sweep(scenario_path: str | Path, grid: dict[str, list], out_dir: str | Path,
           scheduler: str | None = None, workers: int | None = None,
           overrides: dict[str, Any] | list[str] | None = None, algorithm: str | None = None,
           step: float | None = None, tol: float | None = None, fmu_dir: str | Path | None = None,
-          retry_failed: bool = False, timeout: float | None = None, plots: bool = True,
+          retry_failed: bool = False, recompute: bool = False, timeout: float | None = None, plots: bool = True,
           progress: bool = True, portrait_points: int = PORTRAIT_POINTS,
           log: Callable[[str], None] | None = None) -> SweepRows:
     """Run the cartesian ``grid`` of overrides of a scenario; returns the rows in grid order.
 
     scheduler: address of an existing Dask scheduler; workers: None = a LocalCluster with one
     process per core, N = N processes, 0 = no Dask (a plain loop in this process).
-    fmu_dir: use these FMUs (they must exist); default ``out_dir/fmus``, built when missing.
+    fmu_dir: use these FMUs (they must exist); default: the per-user cache of FMUs built from
+    the installed source (checked, built when missing). sweep.json records the tribofmu
+    version and the FMUs' source; a sweep in out_dir computed with other FMUs is refused
+    (SweepError) unless recompute (every point is then run again).
     retry_failed: also rerun the points sweep.csv has as failed. timeout [s]: a point still
     running after it is stopped (at its next communication point) and reported failed.
     Raises SweepError (a ScenarioError) on a bad grid, setting or out_dir before any
@@ -79,9 +82,10 @@ def sweep(scenario_path: str | Path, grid: dict[str, list], out_dir: str | Path,
         raise SweepError(f"--timeout must be > 0 seconds, got {timeout!r}")
     plan = _grid.plan(scenario_path, grid, overrides, algorithm, step, tol)
     out_dir = Path(out_dir)
+    plan.meta.update(fmu_record(plan, fmu_dir))
     with SweepStore(out_dir, plan).locked() as store:
-        todo = store.resume(retry_failed)
-        fmu_dir = _fmus_on_the_client(plan, out_dir, fmu_dir, bool(todo))
+        todo = store.resume(retry_failed, recompute)
+        fmu_dir = _fmus_on_the_client(plan, fmu_dir, bool(todo))
         store.start()
         if len(todo) < len(plan.points):
             log(f"{store.csv_path}: {len(plan.points) - len(todo)} of {len(plan.points)} points already done; "
@@ -105,14 +109,28 @@ def sweep(scenario_path: str | Path, grid: dict[str, list], out_dir: str | Path,
     return rows
 
 
-def _fmus_on_the_client(plan: _grid.Plan, out_dir: Path, fmu_dir, needed_now: bool) -> Path:
-    """The FMUs the points need: ``fmu_dir`` (must hold them) or built into ``out_dir/fmus``."""
-    from ... import api
-    needed = sorted({name for sc in plan.scenarios for name in sc.fmus})
+def _needed(plan: _grid.Plan) -> list[str]:
+    return sorted({name for sc in plan.scenarios for name in sc.fmus})
+
+
+def fmu_record(plan: _grid.Plan, fmu_dir) -> dict:
+    """What sweep.json says about the software: the tribofmu version and the source the
+    FMUs were built from (the private package name inside them, which carries the version
+    and the hash of the shipped sources), known before any FMU is built."""
+    from ... import __version__
+    from ...build import private_package_name
+    from ...fmu_cache import fmu_source
     if fmu_dir is None:
-        fmu_dir = out_dir / "fmus"
-        if needed_now:
-            api.ensure_fmus(fmu_dir, needed, build=None)
-    elif needed_now:
-        api.ensure_fmus(Path(fmu_dir), needed, build=False)
-    return Path(fmu_dir).resolve()
+        source = private_package_name(2)
+    else:
+        found = {fmu_source(Path(fmu_dir) / f"{name}.fmu") for name in _needed(plan)}
+        source = " ".join(sorted(str(f) for f in found))
+    return {"tribofmu": __version__, "fmu_source": source}
+
+
+def _fmus_on_the_client(plan: _grid.Plan, fmu_dir, needed_now: bool) -> Path | None:
+    """The FMUs the points need: ``fmu_dir`` (must hold them) or the checked per-user cache."""
+    from ...fmu_cache import find_fmus
+    if not needed_now:
+        return None
+    return find_fmus(_needed(plan), fmu_dir, build=None if fmu_dir is None else False).resolve()

@@ -26,6 +26,7 @@ from ...scene.scenario import Scenario
 from .worker import STATUS_FAILED, STATUS_OK, pack_fmus, run_point, run_shipped_point
 
 WORKER_START_TIMEOUT = 120.0  # s
+SCHEDULER_TIMEOUT = 10.0  # s: an unreachable --scheduler is reported after this
 Record = Callable[[int, dict], None]  # (point index, run_point's outcome)
 
 
@@ -98,13 +99,18 @@ def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings
     clean = NoUnzippedFMUsOnSysPath().__enter__()
     try:
         if scheduler:
-            client = Client(scheduler)
+            try:
+                client = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT:g}s")
+            except (OSError, TimeoutError, ValueError, TypeError) as exc:
+                raise SweepError(f"--scheduler {scheduler}: cannot connect within {SCHEDULER_TIMEOUT:g} s "
+                                 f"({' '.join(str(exc).split())[:120]})") from None
         else:
             n = workers or cores()
             n = max(1, min(n, len(todo)))
             log(f"starting a local Dask cluster: {n} worker process{'es' if n > 1 else ''}, 1 thread each")
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                                   scheduler_kwargs={"dashboard_address": ":0"},  # no clash on :8787
+            # everything on the loopback interface: no port (scheduler, dashboard) open to the network
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                   dashboard_address="127.0.0.1:0",  # no clash on :8787
                                    silence_logs=logging.ERROR)
             client = Client(cluster)
             try:  # a worker that cannot start (import error) would otherwise leave us waiting forever

@@ -6,7 +6,8 @@
   A row is appended (and fsynced) as each point finishes, so an interrupted sweep resumes:
   the rows already there are skipped. At the start and the end the file is rewritten whole,
   in grid order.
-- ``sweep.json``: what was swept and with which settings (a resumed sweep must match it).
+- ``sweep.json``: what was swept and with which settings, the tribofmu version and the
+  source the FMUs were built from (a resumed sweep must match it all).
 - ``points/<id>.npz`` and ``portraits.npz``: the window's phase portraits, per point and all
   together (``labels``, ``status``, ``x``, ``v``: points x portrait points, NaN when failed;
   ``grid:<key>``: the swept values).
@@ -65,13 +66,18 @@ class SweepStore:
             finally:
                 fcntl.flock(fh, fcntl.LOCK_UN)
 
-    def resume(self, retry_failed: bool) -> list[int]:
+    def resume(self, retry_failed: bool, recompute: bool = False) -> list[int]:
         """Read what earlier runs finished; returns the indices of the points still to run.
 
-        Raises SweepError when the directory holds another sweep."""
+        Raises SweepError when the directory holds another sweep, or one computed with other
+        FMUs (unless recompute: then every point runs again and the old rows are dropped)."""
         previous = read_sweep_csv(self.csv_path, self.keys) if self.csv_path.is_file() else []
-        if previous and self.meta_path.is_file():
+        if previous:
             _check_meta(self.meta_path, self.plan.meta)
+            if not recompute:
+                _check_fmus(self.meta_path, self.plan.meta)
+            else:
+                previous = []
         for row in previous:
             if retry_failed and row["status"] != STATUS_OK:
                 continue
@@ -208,10 +214,29 @@ def read_sweep_csv(path: Path, keys: list[str]) -> list[dict[str, Any]]:
     return rows
 
 
-def _check_meta(path: Path, meta: dict[str, Any]) -> None:
+def _read_meta(path: Path) -> dict[str, Any]:
     try:
         old = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
+        return {}
+    return old if isinstance(old, dict) else {}
+
+
+def _check_fmus(path: Path, meta: dict[str, Any]) -> None:
+    """Results of two physics are never merged: the finished rows must come from FMUs of the
+    same source as the points still to run."""
+    old = _read_meta(path)
+    if old.get("fmu_source") != meta.get("fmu_source"):
+        was = (f"tribofmu {old.get('tribofmu')}, FMUs {old.get('fmu_source')}" if old.get("fmu_source")
+               else "FMUs not recorded (an earlier tribofmu)")
+        raise SweepError(f"{path.parent}/ holds a sweep computed with other FMUs ({was}; now tribofmu "
+                         f"{meta.get('tribofmu')}, FMUs {meta.get('fmu_source')}); rerun every point "
+                         f"with --recompute, or use another --out")
+
+
+def _check_meta(path: Path, meta: dict[str, Any]) -> None:
+    old = _read_meta(path)
+    if not old:
         return
     for field, what in (("keys", "swept keys"), ("base", "scenario (file and --set values)"),
                         ("algorithm", "--algorithm"), ("step", "--step"), ("tol", "--tol")):

@@ -2,15 +2,14 @@
 
 The FMUs reach a worker through Dask, not through a shared path: the client packs the
 built FMUs' bytes (:func:`pack_fmus`), Dask moves that bundle to each worker once, and
-:func:`unpack_fmus` writes it into the worker's own temp dir (once per worker and bundle,
-named by its content hash). A worker therefore needs tribofmu installed, not the client's disk.
+:func:`unpack_fmus` writes it into the worker's own private folder (once per worker and bundle,
+checked by its content hash). A worker therefore needs tribofmu installed, not the client's disk.
 """
 from __future__ import annotations
 
 import hashlib
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -84,22 +83,28 @@ def pack_fmus(fmu_dir: Path, names) -> dict[str, bytes]:
 
 
 def unpack_fmus(fmus: dict[str, bytes]) -> str:
-    """Write a bundle from :func:`pack_fmus` into this machine's temp dir (once: the folder is
-    named by the bundle's hash and renamed into place whole); returns the folder."""
-    digest = hashlib.sha1()
-    for name in sorted(fmus):
-        digest.update(name.encode() + b"\0" + hashlib.sha1(fmus[name]).digest())
-    target = Path(tempfile.gettempdir()) / f"tribofmu-fmus-{digest.hexdigest()[:16]}"
-    if not target.is_dir():
-        partial = Path(tempfile.mkdtemp(prefix=f".{target.name}-", dir=target.parent))
-        for name, data in fmus.items():
-            (partial / name).write_bytes(data)
+    """Write a bundle from :func:`pack_fmus` into this process's private folder of unzipped
+    FMUs (mode 0700, removed at exit; :func:`~tribofmu.master.instance.extraction_root`),
+    once per bundle; returns the folder. Files already there are used only when their
+    content hash is the bundle's (nothing is trusted for its name, no link followed)."""
+    from ...fmu_cache import sha256_file
+    from ...master.instance import extraction_root
+    hashes = {name: hashlib.sha256(data).hexdigest() for name, data in fmus.items()}
+    digest = hashlib.sha256("".join(f"{n}\0{hashes[n]}\0" for n in sorted(hashes)).encode())
+    target = extraction_root() / f"bundle-{digest.hexdigest()[:16]}"
+    target.mkdir(mode=0o700, exist_ok=True)
+    for name, data in fmus.items():
+        path = target / name
         try:
-            os.rename(partial, target)
-        except OSError:  # another worker on this machine got there first: same bytes
-            for name in fmus:
-                (partial / name).unlink()
-            partial.rmdir()
+            if sha256_file(path) == hashes[name]:
+                continue
+        except OSError:  # not there (or not a regular file): write it
+            pass
+        if path.is_symlink() or path.exists():
+            path.unlink()
+        partial = target / f".{name}.partial"
+        partial.write_bytes(data)
+        os.replace(partial, path)
     return str(target)
 
 

@@ -1,0 +1,232 @@
+"""Find or build the FMUs a run needs: the one function every command and the API use.
+
+Without a folder, the FMUs come from the per-user cache of FMUs built from the installed
+source (:func:`tribofmu.build.default_fmu_dir`). Nothing there is run because of its name:
+
+- the cache folders are the user's own and private (mode 0700), never symbolic links;
+- ``manifest.json`` beside the FMUs records each file's sha256 when this code built it;
+  an FMU is used only when it is a regular file (not a link) whose content has that hash.
+  A missing, planted or damaged FMU is rebuilt, that one alone;
+- leftovers of killed builds (``.<Name>.fmu.partial-<pid>`` in the cache, staging folders
+  ``tribofmu_build_<pid>_*`` in the temp dir) are removed once their process is gone.
+
+With a folder (``--fmu-dir``), the FMUs there are the user's choice: they must exist (and be
+of the FMI version asked for); they are built there only on request (``build``).
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import shutil
+import stat
+import tempfile
+from pathlib import Path
+from typing import Callable, Iterable
+
+from .errors import FMUError
+
+MANIFEST = "manifest.json"
+LOCK = ".build.lock"
+BUILD_PREFIX = "tribofmu_build_"
+# A cold build writes six FMUs of < 1 MB each and stages them in the temp dir first.
+BUILD_BYTES = 20_000_000
+
+
+class FMUCacheError(FMUError):
+    """The FMU cache cannot be used (not ours, a link, not writable, disk full)."""
+
+
+def sha256_file(path: Path) -> str:
+    """sha256 of a regular file, opened without following a symbolic link."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    with os.fdopen(fd, "rb") as fh:
+        if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+            raise OSError(f"{path} is not a regular file")
+        digest = hashlib.sha256()
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def fmu_source(path: Path) -> str | None:
+    """The source an FMU built by tribofmu carries: the name of its private package
+    (``_tribofmu_fmu_<version>_<source hash>``), read from the archive; None if not ours."""
+    import zipfile
+    from .build import PRIVATE_PREFIX
+    try:
+        with zipfile.ZipFile(path) as archive:
+            for name in archive.namelist():
+                parts = name.split("/")
+                if len(parts) > 2 and parts[0] == "resources" and parts[1].startswith(PRIVATE_PREFIX):
+                    return parts[1]
+    except (OSError, zipfile.BadZipFile):
+        pass
+    return None
+
+
+def find_fmus(names: Iterable[str], fmu_dir: str | Path | None = None, *, fmi: int | None = None,
+              build: bool | None = None, notice: Callable[[str], None] | None = None) -> Path:
+    """The folder holding ``<name>.fmu`` for every name, verified or built.
+
+    fmu_dir None: the per-user cache of FMI ``fmi`` (default 2) FMUs, each checked against
+    its recorded hash; missing or mismatching ones are built (unless build is False: then
+    FMUError). fmu_dir given: build True rebuilds the names there, None builds the missing
+    ones, False (the default for a given folder) requires them. notice(text) is told
+    before a build. Raises :class:`~tribofmu.master.instance.FMUFileError` (a
+    FileNotFoundError) naming the first missing file, :class:`FMUCacheError` when the cache
+    cannot be used.
+    """
+    names = tuple(dict.fromkeys(names))
+    if fmu_dir is not None:
+        return _given_folder(Path(fmu_dir), names, fmi, build, notice)
+    from .build import default_fmu_dir
+    fmi = fmi or 2
+    folder = default_fmu_dir(fmi)
+    _private_folder(folder)
+    manifest = _read_manifest(folder)
+    stale = names if build else tuple(n for n in names if not _verified(folder, n, manifest))
+    if not stale:
+        return folder
+    if build is False:
+        from .master.instance import FMUFileError
+        raise FMUFileError(f"FMU file not found or not as built: {folder / (stale[0] + '.fmu')} "
+                           f"(run 'tribofmu build')")
+    with _build_lock(folder):
+        manifest = _read_manifest(folder)  # another process may have built them meanwhile
+        stale = names if build else tuple(n for n in names if not _verified(folder, n, manifest))
+        if stale:
+            _build_into(folder, stale, fmi, notice, manifest)
+    return folder
+
+
+def _given_folder(path: Path, names: tuple[str, ...], fmi: int | None, build: bool | None,
+                  notice) -> Path:
+    from .master.instance import FMUFileError
+    missing = [n for n in names if not (path / f"{n}.fmu").is_file()]
+    todo = names if build else tuple(missing) if build is None else ()
+    if todo:
+        _build_into(path, todo, fmi or 2, notice, None)
+        missing = []
+    if missing:
+        option = f" --fmi {fmi}" if fmi == 3 else ""
+        raise FMUFileError(f"FMU file not found: {path / (missing[0] + '.fmu')} "
+                           f"(build it with 'tribofmu build --out {path}{option}', or drop --fmu-dir)")
+    if fmi is not None:
+        import fmpy
+        for name in names:
+            found = fmpy.read_model_description(str(path / f"{name}.fmu"), validate=False).fmiVersion
+            if not found.startswith(str(fmi)):
+                raise FMUFileError(f"--fmi {fmi}: {path / (name + '.fmu')} is an FMI {found} FMU")
+    return path
+
+
+def _build_into(folder: Path, names: tuple[str, ...], fmi: int, notice, manifest: dict | None) -> None:
+    """Build ``names`` into ``folder`` after checking it can take them; record their hashes
+    in the manifest when there is one (the cache)."""
+    from .build import build_fmus
+    folder.mkdir(parents=True, exist_ok=True)
+    remove_build_leftovers(folder)
+    check_writable(folder, BUILD_BYTES, "the FMU folder")
+    check_writable(Path(tempfile.gettempdir()), BUILD_BYTES, "the temp dir (FMUs are staged there)")
+    if notice is not None:
+        notice(f"building the FMI {fmi}.0 FMUs {', '.join(names)} into {folder}/")
+    built = build_fmus(folder, names, fmi=fmi)
+    if manifest is not None:
+        manifest.update({path.stem: sha256_file(path) for path in built})
+        from .atomic import atomic_write_bytes
+        atomic_write_bytes(folder / MANIFEST, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
+
+
+def _verified(folder: Path, name: str, manifest: dict[str, str]) -> bool:
+    path = folder / f"{name}.fmu"
+    expected = manifest.get(name)
+    if expected is None:
+        return False
+    try:
+        return sha256_file(path) == expected
+    except OSError:  # missing, a link, not a file
+        return False
+
+
+def _read_manifest(folder: Path) -> dict[str, str]:
+    try:
+        data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(data, dict):
+        return {}
+    return {str(k): str(v) for k, v in data.items()}
+
+
+def _private_folder(folder: Path) -> None:
+    """Make the cache folder and its parents up to the cache root; each must be a real folder
+    of this user, and the root private (0700)."""
+    from .build import cache_root
+    root = cache_root()
+    for path in [p for p in (folder, *folder.parents) if p == root or root in p.parents][::-1]:
+        try:
+            path.mkdir(mode=0o700, exist_ok=True)
+            info = os.lstat(path)
+        except OSError as exc:  # a failed write: exit 1 in the CLI
+            raise OSError(exc.errno, f"cannot write the FMU cache {path}: {exc.strerror}") from None
+        if stat.S_ISLNK(info.st_mode) or not stat.S_ISDIR(info.st_mode):
+            raise FMUCacheError(f"FMU cache {path} is not a folder (a link or a file); remove it or "
+                                f"set TRIBOFMU_CACHE")
+        if hasattr(os, "getuid") and info.st_uid != os.getuid():
+            raise FMUCacheError(f"FMU cache {path} belongs to another user; set TRIBOFMU_CACHE")
+        if path == root and stat.S_IMODE(info.st_mode) & 0o077:
+            os.chmod(path, 0o700)
+
+
+@contextlib.contextmanager
+def _build_lock(folder: Path):
+    import fcntl
+    with open(folder / LOCK, "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def check_writable(folder: Path, needed_bytes: int, what: str) -> None:
+    """Raise OSError (one line) unless a file can be created in ``folder`` and the disk has
+    ``needed_bytes`` free."""
+    probe = None
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".tribofmu-probe-", dir=folder)
+        os.close(fd)
+    except OSError as exc:
+        raise OSError(exc.errno, f"cannot write into {what} {folder}: {exc.strerror}") from None
+    finally:
+        if probe:
+            with contextlib.suppress(OSError):
+                os.unlink(probe)
+    free = shutil.disk_usage(folder).free
+    if free < needed_bytes:
+        raise OSError(28, f"{what} {folder} has {free / 1e6:.1f} MB free, {needed_bytes / 1e6:.1f} MB needed")
+
+
+def remove_build_leftovers(folder: Path | None = None) -> None:
+    """Remove what killed builds left: ``.<Name>.fmu.partial-<pid>`` in ``folder`` and this
+    user's ``tribofmu_build_<pid>_*`` staging folders in the temp dir, of processes that are gone."""
+    from .atomic import pid_alive
+    if folder is not None and folder.is_dir():
+        for path in folder.glob(".*.fmu.partial-*"):
+            pid = path.name.rsplit("-", 1)[-1]
+            if pid.isdigit() and len(pid) <= 9 and not pid_alive(int(pid)):
+                with contextlib.suppress(OSError):
+                    path.unlink()
+    tmp = Path(tempfile.gettempdir())
+    for path in tmp.glob(BUILD_PREFIX + "*"):
+        pid = path.name[len(BUILD_PREFIX):].split("_", 1)[0]
+        try:
+            info = os.lstat(path)
+        except OSError:
+            continue
+        mine = not hasattr(os, "getuid") or info.st_uid == os.getuid()
+        if (mine and stat.S_ISDIR(info.st_mode) and pid.isdigit() and len(pid) <= 9
+                and not pid_alive(int(pid))):
+            shutil.rmtree(path, ignore_errors=True)
