@@ -354,7 +354,8 @@ class AdaptiveCoupling(ImplicitCoupling):
         for point, miss in zip((mid, end), impulse):
             estimate.observe(point.x, point.a, point.F, self.velocity_per_impulse, 1e-3 * self._x_scale)
             point.global_error = estimate.advance(h, damping if point.mode != 0 else 0.0, local_x,
-                                                  local_v + miss, point.mode == 0)
+                                                  local_v + miss, point.mode == 0, self._x_scale,
+                                                  self._v_scale)
 
     def _error(self, start: Point, full: Point, halves: Point) -> float:
         """The step's error relative to what tol allows: the difference between one step

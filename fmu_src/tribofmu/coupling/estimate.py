@@ -39,12 +39,17 @@ class GlobalErrorEstimate:
             if w2 > 0.0:
                 self.w2 = w2
 
-    def advance(self, h: float, damping: float, local_x: float, local_v: float, stuck: bool) -> float:
+    def advance(self, h: float, damping: float, local_x: float, local_v: float, stuck: bool,
+                x_scale: float = math.inf, v_scale: float = math.inf) -> float:
         """Carry the error over a step of h [s] with the friction's damping c [1/s], add the
-        step's local errors (x [m], v [m/s]); returns the error in v [m/s] at its end."""
+        step's local errors (x [m], v [m/s]); returns the error in v [m/s] at its end.
+
+        The carried error saturates at the motion's own size (x_scale [m], v_scale [m/s]):
+        a linearised carry is meaningless past it (a stiff spring whose 2K/M the block's
+        answers give only roughly would otherwise let it grow without bound)."""
         ex, ev = self._flow(h, damping)
-        self.ex = ex + local_x
-        self.ev = 0.0 if stuck else ev + local_v
+        self.ex = max(-x_scale, min(x_scale, ex + local_x))
+        self.ev = 0.0 if stuck else max(-v_scale, min(v_scale, ev + local_v))
         return self.ev
 
     def _flow(self, h: float, c: float) -> tuple[float, float]:
