@@ -170,3 +170,74 @@ def block_after(M: float, K: float, x0: float, v0: float, F: float, F_rate: floa
     y = y0 * _math.cos(w * t) + dy0 / w * _math.sin(w * t)
     dy = -y0 * w * _math.sin(w * t) + dy0 * _math.cos(w * t)
     return y + (F + F_rate * t) / (2 * K), dy + F_rate / (2 * K)
+
+
+# -- the exact dry-friction motion (fig. 2's rig), piecewise in closed form ----------------------
+
+def exact_dry(t_eval, M=0.6, K=7000.0, A=2e-3, omega=30.0, bound=MU_L):
+    """x [m], v [m/s] and stuck (bool) of the block under dry friction of bound mu L [N] and
+    the drive X = A cos(w t), from rest at x = 0, at the sorted times t_eval [s].
+
+    Slip: the oscillator under +-mu L in closed form (:func:`block_after`), until dv = 0;
+    then stuck (v = V, x - X constant) while the force that keeps it so, M V' + 2K x, stays
+    within mu L, else slipping on the other way. Events are found by a scan at 1/512 of the
+    shorter period and brentq to 1e-15 s."""
+    import numpy as np
+    from scipy.optimize import brentq
+
+    def X(t):
+        return A * _math.cos(omega * t)
+
+    def V(t):
+        return -A * omega * _math.sin(omega * t)
+
+    def first_root(g, t0, t1, dt):
+        a, ga = t0, g(t0)
+        while a < t1:
+            b = min(a + dt, t1)
+            gb = g(b)
+            if ga * gb <= 0.0 and gb != ga:
+                return brentq(g, a, b, xtol=1e-15, rtol=1e-15)
+            a, ga = b, gb
+        return None
+
+    t_end = float(t_eval[-1])
+    dt = min(2 * _math.pi / omega, 2 * _math.pi / _math.sqrt(2 * K / M)) / 512
+    segments = []  # (t0, kind, x0, v0, sign)
+    t, x, v, sign = 0.0, 0.0, 0.0, 0
+    kind = "stick"
+    while t < t_end and len(segments) < 10_000:
+        if kind == "stick":
+            x0, X0 = x, X(t)
+            need = lambda s: M * (-A * omega * omega * _math.cos(omega * s)) + 2 * K * (x0 + X(s) - X0)  # noqa: E731
+            segments.append((t, "stick", x0, X0, 0))
+            start = t + 1e-12 if abs(need(t)) >= bound else t  # leaving a stick at once
+            t_next = first_root(lambda s: bound - abs(need(s)), start, t_end, dt)
+            if t_next is None:
+                break
+            t, x, v, sign = t_next, x0 + X(t_next) - X0, V(t_next), (1 if need(t_next) > 0 else -1)
+            kind = "slip"
+        else:
+            t0, x0, v0, s0 = t, x, v, sign
+            segments.append((t0, "slip", x0, v0, s0))
+            dv = lambda s: s0 * (V(s) - block_after(M, K, x0, v0, s0 * bound, 0.0, s - t0)[1])  # noqa: E731
+            t_next = first_root(dv, t0 + 1e-12, t_end, dt)
+            if t_next is None:
+                break
+            x = block_after(M, K, x0, v0, s0 * bound, 0.0, t_next - t0)[0]
+            t, v = t_next, V(t_next)
+            need = M * (-A * omega * omega * _math.cos(omega * t)) + 2 * K * x
+            if abs(need) <= bound:
+                kind = "stick"
+            else:
+                sign = 1 if need > 0 else -1
+    starts = np.array([s[0] for s in segments])
+    index = np.clip(np.searchsorted(starts, t_eval, side="right") - 1, 0, len(segments) - 1)
+    x_out, v_out, stuck = np.empty(len(t_eval)), np.empty(len(t_eval)), np.zeros(len(t_eval), bool)
+    for i, (t, j) in enumerate(zip(t_eval, index)):
+        t0, kind, a, b, s0 = segments[j]
+        if kind == "stick":
+            x_out[i], v_out[i], stuck[i] = a + X(t) - b, V(t), True
+        else:
+            x_out[i], v_out[i] = block_after(M, K, a, b, s0 * bound, 0.0, t - t0)
+    return x_out, v_out, stuck

@@ -166,3 +166,41 @@ def test_carried_estimate_tracks_the_true_error_of_a_fluid_run(m, gamma, omega, 
     estimated = np.array([p.global_error for p in out.points])
     ratio = math.sqrt(np.mean(estimated ** 2) / np.mean(true ** 2))
     assert 1 / 1.5 < ratio < 1.5
+
+
+def dry_run_errors(omega, tol):
+    """(true, estimated) nRMS(v) of an adaptive run on fig. 2's rig at drive frequency omega
+    over its second and third periods: the true one on a uniform grid of the delivered
+    (interpolated) signal against the exact piecewise motion, the estimate from WindowError."""
+    from tribofmu.coupling.interpolation import sample
+    from tribofmu.master import run
+
+    from fakes import exact_dry
+
+    scales = Scales(2e-3, 2e-3 * omega, 2 * math.pi / omega)
+    system = CoupledSystem(FakeBlock(), FakeDrive(omega=omega),
+                           FakeFriction(FrictionLaw(regime=DRY, mu_friction=0.5, S=1.0)),
+                           {"n": -20.0, "T": 290.0})
+    out = run(system, AdaptiveCoupling(tol=tol), 3 * scales.period, scales)
+    window = (scales.period, 3 * scales.period)
+    grid = np.linspace(*window, 2001)
+    _, v, _ = exact_dry(grid, omega=omega)
+    true = math.sqrt(np.mean((sample(out.points, grid)["v"] - v) ** 2)) / np.abs(v).max()
+    audit = WindowError(window)
+    audit.add(out.points)
+    return true, audit.nrms()
+
+
+@pytest.mark.parametrize("omega, tol", [(30.0, 1e-3), (13.0, 1e-3), (30.0, 1e-4)])
+def test_carried_estimate_is_within_3x_of_the_true_error_of_a_dry_run(omega, tol):
+    true, estimated = dry_run_errors(omega, tol)
+    assert true / 3 < estimated < 3 * true
+
+
+@pytest.mark.xfail(strict=True, reason="at omega = 80 rad/s on fig. 2's rig (mostly stuck) the "
+                   "carried estimate overestimates the true nRMS(v) 5x at tol 1e-3 (2.9e-4 against "
+                   "5.9e-5) and 3.7x at tol 1e-4: conservative, but outside issue 20's factor 3")
+@pytest.mark.parametrize("tol", [1e-3, 1e-4])
+def test_carried_estimate_is_within_3x_of_the_true_error_of_a_mostly_stuck_dry_run(tol):
+    true, estimated = dry_run_errors(80.0, tol)
+    assert true / 3 < estimated < 3 * true
