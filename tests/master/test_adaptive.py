@@ -156,3 +156,40 @@ def test_a_breakaway_too_close_to_the_start_is_not_landed():
     algorithm = adaptive(system, tol=1e-3, step=1e-3)
     algorithm.advance(system, start, 10**9)
     assert algorithm.counters.landed == 0
+
+
+def test_counters_of_a_run_count_what_happened():
+    """Over fig. 2's rig (fakes): accepted steps are the points after the start; the
+    implicit coupling's stuck steps are the points that ended stuck; the adaptive's
+    rejections and landings are the advances that returned nothing."""
+    import math
+
+    from tribofmu.coupling.algorithms import ImplicitCoupling
+    from tribofmu.coupling.system import CoupledSystem
+    from tribofmu.master import run
+
+    from fakes import FakeBlock, FakeDrive, FakeFriction
+
+    omega = 30.0
+    scales = Scales(2e-3, 2e-3 * omega, 2 * math.pi / omega)
+
+    def fig2():
+        return CoupledSystem(FakeBlock(), FakeDrive(omega=omega), FakeFriction(DRY_LAW), {"n": -20.0, "T": 290.0})
+
+    implicit = run(fig2(), ImplicitCoupling(step=5e-4), scales.period, scales)
+    stuck = sum(p.mode == Contact.STUCK for p in implicit.points[1:])
+    assert implicit.counters["steps"] == len(implicit.points) - 1
+    assert implicit.counters["stick_steps"] == stuck > 0
+
+    system, algorithm = fig2(), AdaptiveCoupling(tol=1e-4)
+    algorithm.prepare(system, scales)
+    point, empty, accepted = system.start_point(), 0, 0
+    stop = round(scales.period * 1e9)
+    while point.t_ns < stop:
+        new = algorithm.advance(system, point, stop)
+        empty += not new
+        accepted += len(new)
+        point = new[-1] if new else point
+    c = algorithm.counters
+    assert c.steps == accepted and c.rejected + c.landed == empty
+    assert c.landed > 0 and c.rejected > 0
