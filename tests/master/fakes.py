@@ -125,6 +125,21 @@ from tribofmu.coupling.system import Contact, CoupledSystem, Point
 
 N_STRESS = -20.0  # Pa: with S = 1 m^2 and mu = 0.5 the dry bound mu L is 10 N
 MU_L = 10.0  # N
+DRY_LAW = FrictionLaw(regime=0, mu_friction=0.5, S=1.0)  # dry, mu L = 10 N at N_STRESS
+
+
+def fig2_system(law: FrictionLaw | None = None, omega: float = 30.0, A: float = 2e-3, M: float = 0.6,
+                K: float = 7000.0) -> CoupledSystem:
+    """Fig. 2's rig on fakes (drive X = A cos(omega t), block M, K), dry unless told."""
+    return CoupledSystem(FakeBlock(M=M, K=K), FakeDrive(A=A, omega=omega), FakeFriction(law or DRY_LAW),
+                         {"n": N_STRESS, "T": 290.0})
+
+
+def drive_scales(omega: float = 30.0, A: float = 2e-3):
+    """The scales a scene gives the coupling: the drive's amplitude, velocity, period."""
+    from tribofmu.coupling.algorithms import Scales
+
+    return Scales(A, A * omega, 2 * _math.pi / omega)
 
 
 def rig(law: FrictionLaw, M: float = 1.0, K: float = 0.0, x0: float = 0.0, v0: float = 0.0,

@@ -3,13 +3,12 @@ import pytest
 
 from tribofmu.coupling.algorithms import AdaptiveCoupling, Scales
 from tribofmu.coupling.system import Contact
-from tribofmu.physics import DRY, FLUID, FrictionLaw
+from tribofmu.physics import FLUID, FrictionLaw
 from tribofmu.physics.stepsize import COUPLING_STEPS
 
-from fakes import MU_L, point_at, rig
+from fakes import DRY_LAW, MU_L, drive_scales, fig2_system, point_at, rig
 
 SCALES = Scales(position=1e-3, velocity=0.1, period=0.1)  # min step 10 ns, max 5 ms
-DRY_LAW = FrictionLaw(regime=DRY, mu_friction=0.5, S=1.0)
 
 
 class RecordingController:
@@ -162,19 +161,10 @@ def test_counters_of_a_run_count_what_happened():
     """Over fig. 2's rig (fakes): accepted steps are the points after the start; the
     implicit coupling's stuck steps are the points that ended stuck; the adaptive's
     rejections and landings are the advances that returned nothing."""
-    import math
-
     from tribofmu.coupling.algorithms import ImplicitCoupling
-    from tribofmu.coupling.system import CoupledSystem
     from tribofmu.master import run
 
-    from fakes import FakeBlock, FakeDrive, FakeFriction
-
-    omega = 30.0
-    scales = Scales(2e-3, 2e-3 * omega, 2 * math.pi / omega)
-
-    def fig2():
-        return CoupledSystem(FakeBlock(), FakeDrive(omega=omega), FakeFriction(DRY_LAW), {"n": -20.0, "T": 290.0})
+    scales, fig2 = drive_scales(), fig2_system
 
     implicit = run(fig2(), ImplicitCoupling(step=5e-4), scales.period, scales)
     stuck = sum(p.mode == Contact.STUCK for p in implicit.points[1:])

@@ -14,11 +14,10 @@ from scipy.optimize import brentq
 from tribofmu.coupling.contact import (RETRY_HELD_STIFF, RETRY_HELD_TRANSITION, RetryHeld,
                                        slip_mode)
 from tribofmu.coupling.system import Contact
-from tribofmu.physics import DRY, FLUID, FrictionLaw
+from tribofmu.physics import FLUID, FrictionLaw
 
-from fakes import MU_L, block_after, implicit_step, point_at, rig, settings
+from fakes import DRY_LAW, MU_L, block_after, implicit_step, point_at, rig, settings
 
-DRY_LAW = FrictionLaw(regime=DRY, mu_friction=0.5, S=1.0)  # mu L = 10 N at n = -20 Pa
 
 
 def fluid(m: float, gamma: float = 0.0) -> FrictionLaw:

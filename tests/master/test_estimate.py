@@ -8,12 +8,11 @@ import pytest
 from scipy.integrate import quad
 from scipy.linalg import expm
 
-from tribofmu.coupling.algorithms import AdaptiveCoupling, Scales
+from tribofmu.coupling.algorithms import AdaptiveCoupling
 from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError
-from tribofmu.coupling.system import CoupledSystem
-from tribofmu.physics import DRY, FrictionLaw
+from tribofmu.physics import FrictionLaw
 
-from fakes import FakeBlock, FakeDrive, FakeFriction
+from fakes import drive_scales, fig2_system
 
 # (w2 [1/s^2], c [1/s], h [s]): under-, over- and critically damped, undamped, a free mass,
 # a free mass with damping, and a damping so stiff that exp(l2 h) underflows
@@ -84,12 +83,8 @@ def test_the_adaptive_learns_the_block_of_the_run():
     2K/M, which nobody told the coupling."""
     from tribofmu.master import run
 
-    omega = 30.0
-    system = CoupledSystem(FakeBlock(), FakeDrive(omega=omega),
-                           FakeFriction(FrictionLaw(regime=DRY, mu_friction=0.5, S=1.0)),
-                           {"n": -20.0, "T": 290.0})
+    system, scales = fig2_system(), drive_scales()
     algorithm = AdaptiveCoupling(tol=1e-4)
-    scales = Scales(2e-3, 2e-3 * omega, 2 * math.pi / omega)
     run(system, algorithm, 0.5 * scales.period, scales)
     assert algorithm.estimate.w2 == pytest.approx(2 * 7000.0 / 0.6, rel=2e-3)
 
@@ -152,9 +147,8 @@ def test_carried_estimate_tracks_the_true_error_of_a_fluid_run(m, gamma, omega, 
 
     A = 2e-3
     law = FrictionLaw(regime=FLUID, m=m, gamma=gamma)
-    scales = Scales(A, A * omega, 2 * math.pi / omega)
-    system = CoupledSystem(FakeBlock(M=M, K=K), FakeDrive(A=A, omega=omega), FakeFriction(law),
-                           {"n": -20.0, "T": 290.0})
+    scales = drive_scales(omega, A)
+    system = fig2_system(law, omega, A, M, K)
     out = run(system, AdaptiveCoupling(tol=1e-3), 3 * scales.period, scales)
     t = np.array([p.t_ns for p in out.points]) * 1e-9
 
@@ -177,10 +171,7 @@ def dry_run_errors(omega, tol):
 
     from fakes import exact_dry
 
-    scales = Scales(2e-3, 2e-3 * omega, 2 * math.pi / omega)
-    system = CoupledSystem(FakeBlock(), FakeDrive(omega=omega),
-                           FakeFriction(FrictionLaw(regime=DRY, mu_friction=0.5, S=1.0)),
-                           {"n": -20.0, "T": 290.0})
+    scales, system = drive_scales(omega), fig2_system(omega=omega)
     out = run(system, AdaptiveCoupling(tol=tol), 3 * scales.period, scales)
     window = (scales.period, 3 * scales.period)
     grid = np.linspace(*window, 2001)

@@ -4,23 +4,17 @@ import math
 import numpy as np
 import pytest
 
-from tribofmu.coupling.algorithms import Scales, make_algorithm
-from tribofmu.coupling.interpolation import sample
+from tribofmu.coupling.algorithms import make_algorithm
 from tribofmu.coupling.system import CoupledSystem
 from tribofmu.master import run
 from tribofmu.coupling.interpolation import NS
-from tribofmu.physics import DRY, FLUID, FrictionLaw
+from tribofmu.physics import FLUID, FrictionLaw
 
-from fakes import FakeBlock, FakeDrive, FakeFriction, exact_dry
+from fakes import FakeBlock, drive_scales, exact_dry, fig2_system
 
 OMEGA = 30.0
 PERIOD = 2 * math.pi / OMEGA
-SCALES = Scales(position=2e-3, velocity=2e-3 * OMEGA, period=PERIOD)
-
-
-def fig2_system(law=None, omega=OMEGA):
-    law = law or FrictionLaw(regime=DRY, mu_friction=0.5, S=1.0)
-    return CoupledSystem(FakeBlock(), FakeDrive(omega=omega), FakeFriction(law), {"n": -20.0, "T": 290.0})
+SCALES = drive_scales(OMEGA)
 
 
 def stick_episodes(points, start, end):

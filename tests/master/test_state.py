@@ -1,26 +1,19 @@
 """Rollback, the algorithm's exported state and the pair model's snapshot."""
 import copy
 import json
-import math
 
 import pytest
 
 from tribofmu.coupling.algorithms import AdaptiveCoupling, ImplicitCoupling, Scales
 from tribofmu.coupling.interpolation import NS
 from tribofmu.coupling.pair import PairModel, PairParameters
-from tribofmu.coupling.system import CoupledSystem
 from tribofmu.master import FMUCallError
-from tribofmu.physics import BOUNDARY, DRY, FLUID, FrictionLaw, drive
+from tribofmu.physics import BOUNDARY, FLUID, FrictionLaw, drive
 
-from fakes import FakeBlock, FakeDrive, FakeFriction
+from fakes import DRY_LAW, drive_scales, fig2_system
 
 OMEGA = 30.0
-SCALES = Scales(position=2e-3, velocity=2e-3 * OMEGA, period=2 * math.pi / OMEGA)
-DRY_LAW = FrictionLaw(regime=DRY, mu_friction=0.5, S=1.0)
-
-
-def fig2_fakes(law=DRY_LAW):
-    return CoupledSystem(FakeBlock(), FakeDrive(omega=OMEGA), FakeFriction(law), {"n": -20.0, "T": 290.0})
+SCALES = drive_scales(OMEGA)
 
 
 def slave_states(system):
@@ -36,7 +29,7 @@ def same_points(a, b):
 # -- rollback -------------------------------------------------------------------------------
 
 def test_every_advance_frees_its_states_and_a_rollback_leaves_every_slave_in_place():
-    system = fig2_fakes()
+    system = fig2_system()
     algorithm = AdaptiveCoupling(tol=1e-4)
     algorithm.prepare(system, SCALES)
     point, stop = system.start_point(), round(0.5 * SCALES.period * NS)
@@ -59,7 +52,7 @@ def test_every_advance_frees_its_states_and_a_rollback_leaves_every_slave_in_pla
 
 def test_a_failing_slave_mid_step_leaves_no_state_allocated():
     for algorithm in (ImplicitCoupling(step=1e-3), AdaptiveCoupling()):
-        system = fig2_fakes()
+        system = fig2_system()
         algorithm.prepare(system, SCALES)
         system.friction.fail_at = 0.0  # every friction step fails
         with pytest.raises(FMUCallError, match="scripted failure"):
@@ -80,7 +73,7 @@ def advance_n(algorithm, system, point, n, stop_ns):
 
 def clone_slaves(system):
     """A fresh fig2 system whose slaves continue from this one's (as FMU states would)."""
-    twin = fig2_fakes(system.friction.law)
+    twin = fig2_system(system.friction.law)
     for mine, theirs in zip(system.slaves, twin.slaves):
         state = mine.save()
         theirs.restore(state)
@@ -92,7 +85,7 @@ def clone_slaves(system):
 def test_an_imported_state_continues_bit_identically(name):
     cls = {"implicit": ImplicitCoupling, "adaptive": AdaptiveCoupling}[name]
     stop = round(2 * SCALES.period * NS)
-    system = fig2_fakes()
+    system = fig2_system()
     original = cls(step=1e-3 if name == "implicit" else None, tol=1e-4)
     original.prepare(system, SCALES)
     point, _ = advance_n(original, system, system.start_point(), 40, stop)
@@ -116,7 +109,7 @@ def test_an_imported_state_continues_bit_identically(name):
 
 
 def test_export_state_is_plain_json_that_round_trips_exactly():
-    system = fig2_fakes()
+    system = fig2_system()
     algorithm = AdaptiveCoupling(tol=1e-4)
     algorithm.prepare(system, SCALES)
     advance_n(algorithm, system, system.start_point(), 30, round(SCALES.period * NS))
@@ -128,7 +121,7 @@ def test_export_state_is_plain_json_that_round_trips_exactly():
 
 @pytest.mark.parametrize("missing", [*AdaptiveCoupling.state_names, "scales", "counters"])
 def test_a_state_without_one_of_its_names_is_refused_naming_it(missing):
-    system = fig2_fakes()
+    system = fig2_system()
     algorithm = AdaptiveCoupling()
     algorithm.prepare(system, SCALES)
     state = algorithm.export_state()
@@ -141,7 +134,7 @@ def test_a_state_without_one_of_its_names_is_refused_naming_it(missing):
                    "scales and counters; a state without 'estimate' fails with a bare KeyError "
                    "after the other names were already set")
 def test_a_state_without_its_error_estimate_is_refused_naming_it():
-    system = fig2_fakes()
+    system = fig2_system()
     algorithm = AdaptiveCoupling()
     algorithm.prepare(system, SCALES)
     state = algorithm.export_state()
