@@ -183,3 +183,25 @@ def test_counters_of_a_run_count_what_happened():
     c = algorithm.counters
     assert c.steps == accepted and c.rejected + c.landed == empty
     assert c.landed > 0 and c.rejected > 0
+
+
+@pytest.mark.parametrize("algorithm", ["implicit", "adaptive"])
+@pytest.mark.parametrize("omega", [13.0, 30.0, 80.0])
+def test_dry_runs_keep_coulomb_s_law_at_every_point(algorithm, omega):
+    """At every communication point of a dry run: stuck means dv = 0 (to the coupling's
+    "zero", 1e-10 of the velocity scale) with |F| <= mu L; slipping means F = +-mu L exactly,
+    on the side of dv."""
+    from tribofmu.coupling.algorithms import make_algorithm
+    from tribofmu.master import run
+
+    scales = drive_scales(omega)
+    out = run(fig2_system(omega=omega), make_algorithm(algorithm, step=2e-4, tol=1e-4), 2 * scales.period, scales)
+    assert out.ok
+    modes = set()
+    for p in out.points[1:]:
+        modes.add(p.mode)
+        if p.mode == Contact.STUCK:
+            assert abs(p.dv) <= 1e-10 * scales.velocity and abs(p.F) <= MU_L * (1 + 1e-12)
+        else:
+            assert p.F == p.mode * MU_L and p.dv * p.mode > 0
+    assert modes == {Contact.STUCK, Contact.FORWARD, Contact.BACKWARD}
