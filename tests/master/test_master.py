@@ -4,23 +4,17 @@ import math
 import numpy as np
 import pytest
 
-from tribofmu.coupling.algorithms import Scales, make_algorithm
-from tribofmu.coupling.interpolation import sample
+from tribofmu.coupling.algorithms import make_algorithm
 from tribofmu.coupling.system import CoupledSystem
 from tribofmu.master import run
 from tribofmu.coupling.interpolation import NS
-from tribofmu.physics import DRY, FLUID, FrictionLaw
+from tribofmu.physics import FLUID, FrictionLaw
 
-from fakes import FakeBlock, FakeDrive, FakeFriction
+from fakes import FakeBlock, drive_scales, exact_dry, fig2_system
 
 OMEGA = 30.0
 PERIOD = 2 * math.pi / OMEGA
-SCALES = Scales(position=2e-3, velocity=2e-3 * OMEGA, period=PERIOD)
-
-
-def fig2_system(law=None, omega=OMEGA):
-    law = law or FrictionLaw(regime=DRY, mu_friction=0.5, S=1.0)
-    return CoupledSystem(FakeBlock(), FakeDrive(omega=omega), FakeFriction(law), {"n": -20.0, "T": 290.0})
+SCALES = drive_scales(OMEGA)
 
 
 def stick_episodes(points, start, end):
@@ -95,14 +89,17 @@ def test_adaptive_rolls_back_and_meets_its_tolerance():
         assert s.live_states == 0  # every saved state was freed
 
 
-def test_adaptive_error_estimate_tracks_true_error():
-    """Per step, the estimated error bounds the difference to a much finer implicit run."""
-    coarse = run(fig2_system(), make_algorithm("adaptive", tol=1e-3), 2 * PERIOD, SCALES)
-    fine = run(fig2_system(), make_algorithm("implicit", step=2e-6), 2 * PERIOD, SCALES)
-    t = np.array([p.t_ns for p in coarse.points]) / NS
-    ref = sample(fine.points, t)
-    err = np.abs(np.array([p.v for p in coarse.points]) - ref["v"]) / SCALES.velocity
-    assert np.sqrt(np.mean(err ** 2)) < 1e-2
+@pytest.mark.parametrize("tol", [1e-3, 1e-4])
+def test_adaptive_meets_its_tolerance_against_the_exact_dry_motion(tol):
+    """Fig. 2's rig against its exact piecewise solution (harmonic slip under +-mu L, rigid
+    stick): nRMS(v) at the communication points within 3 tol, and the coupling's own
+    stuck flag agrees with the exact stick phases except at the steps holding a transition."""
+    out = run(fig2_system(), make_algorithm("adaptive", tol=tol), 2 * PERIOD, SCALES)
+    t = np.array([p.t_ns for p in out.points]) / NS
+    _, v, stuck = exact_dry(t)
+    err = (np.array([p.v for p in out.points]) - v) / SCALES.velocity
+    assert np.sqrt(np.mean(err ** 2)) < 3 * tol
+    assert np.mean(stuck == np.array([p.mode == 0 for p in out.points])) > 0.95
 
 
 def test_gauss_seidel_and_jacobi_share_the_step_but_differ_in_order():

@@ -1,0 +1,207 @@
+"""The adaptive coupling's accept / reject / landing logic and its counters."""
+import pytest
+
+from tribofmu.coupling.algorithms import AdaptiveCoupling, Scales
+from tribofmu.coupling.system import Contact
+from tribofmu.physics import FLUID, FrictionLaw
+from tribofmu.physics.stepsize import COUPLING_STEPS
+
+from fakes import DRY_LAW, MU_L, drive_scales, fig2_system, point_at, rig
+
+SCALES = Scales(position=1e-3, velocity=0.1, period=0.1)  # min step 10 ns, max 5 ms
+
+
+class RecordingController:
+    """The coupling's controller, with every call it answers kept."""
+
+    def __init__(self):
+        self.calls = []
+
+    def factor(self, error, order, after_reject=False):
+        value = COUPLING_STEPS.factor(error, order, after_reject)
+        self.calls.append((error, order, after_reject, value))
+        return value
+
+
+def adaptive(system, tol=1e-3, step=1e-3, scales=SCALES):
+    algorithm = AdaptiveCoupling(step=step, tol=tol)
+    algorithm.controller = RecordingController()
+    algorithm.prepare(system, scales)
+    return algorithm
+
+
+def slipping_fluid(m=20.0, M=1.0, K=500.0):
+    """A block on soft springs dragged through a linear fluid at 0.1 m/s: smooth slip."""
+    system = rig(FrictionLaw(regime=FLUID, m=m), M=M, K=K, V0=0.1)
+    return system, point_at(system, Contact.FORWARD, m * 0.1)
+
+
+def states(system):
+    return [s.save() for s in system.slaves]
+
+
+def test_prepare_bounds_the_step_by_the_period():
+    algorithm = adaptive(slipping_fluid()[0], step=1.0)
+    assert algorithm.min_ns == 10 and algorithm.max_ns == 5_000_000
+    assert algorithm.h_ns == algorithm.max_ns  # a first try beyond the bound is clipped
+    assert adaptive(slipping_fluid()[0], step=1e-12).h_ns == algorithm.min_ns
+
+
+def test_accepted_step_returns_both_halves_and_grows_by_the_controller():
+    system, start = slipping_fluid()
+    algorithm = adaptive(system, tol=1e-2, step=1e-3)
+    points = algorithm.advance(system, start, 10**9)
+    assert [p.t_ns for p in points] == [500_000, 1_000_000]
+    assert algorithm.counters.steps == 2 and algorithm.counters.rejected == 0
+    (error, order, after_reject, factor), = algorithm.controller.calls
+    assert error <= 1.0 and not after_reject
+    assert order == (2 if points[-1].ramped else 1)
+    assert algorithm.h_ns == int(min(1_000_000 * factor, algorithm.max_ns))
+    assert algorithm.h_ns > 1_000_000  # an easy step grows the next
+    # the halves' own estimate: one step against two halves, in v
+    assert points[-1].est_error > 0.0
+
+
+def test_rejected_step_rolls_back_shrinks_and_holds_growth_after():
+    system, start = slipping_fluid()
+    algorithm = adaptive(system, tol=1e-9, step=5e-3)
+    before = states(system)
+    assert algorithm.advance(system, start, 10**9) == []
+    assert states(system) == before  # every slave back where it was
+    assert algorithm.counters.rejected == 1 and algorithm.counters.steps == 0
+    assert algorithm.rejected_last
+    (error, order, after_reject, factor), = algorithm.controller.calls
+    assert error > 1.0 and not after_reject and factor < 1.0
+    assert algorithm.h_ns == int(5_000_000 * factor)
+    # retried until accepted; the first accepted step after a rejection does not grow
+    point = start
+    while True:
+        h_ns = algorithm.h_ns
+        new = algorithm.advance(system, point, 10**9)
+        if new:
+            break
+    assert algorithm.controller.calls[-1][2]  # told it follows a rejection
+    assert algorithm.h_ns <= h_ns and not algorithm.rejected_last
+
+
+def test_the_minimum_step_is_forced_through_and_counted():
+    system, start = slipping_fluid()
+    algorithm = adaptive(system, tol=1e-15)
+    algorithm.h_ns = 2 * algorithm.min_ns
+    points = algorithm.advance(system, start, 10**9)
+    assert [p.t_ns for p in points] == [algorithm.min_ns, 2 * algorithm.min_ns]
+    assert algorithm.counters.forced == 1 and algorithm.counters.rejected == 0
+    assert algorithm.controller.calls[-1][0] > 1.0
+
+
+def test_a_last_sliver_of_time_is_one_plain_step_to_the_stop():
+    system, start = slipping_fluid()
+    algorithm = adaptive(system)
+    points = algorithm.advance(system, start, 1)
+    assert [p.t_ns for p in points] == [1]
+    assert algorithm.counters.steps == 1 and algorithm.controller.calls == []
+
+
+def test_steps_split_in_integer_halves_and_end_on_the_stop():
+    system, start = slipping_fluid()
+    algorithm = adaptive(system, tol=1e-2, step=1e-3)
+    algorithm.h_ns = 1_000_001  # odd: halves need an even step
+    points = algorithm.advance(system, start, 10**9)
+    assert [p.t_ns for p in points] == [500_000, 1_000_000]
+    point, stop = points[-1], 3_333_333
+    while point.t_ns < stop:
+        new = algorithm.advance(system, point, stop)
+        point = new[-1] if new else point
+        assert point.t_ns <= stop
+    assert point.t_ns == stop
+
+
+def stuck_to_a_steady_drive(t_break, K=2000.0, V0=0.05, M=1.0):
+    """The block stuck to a drive at constant V0: the stick force 2K (x0 + V0 t) reaches
+    mu L at t_break [s]."""
+    x0 = (MU_L - 2 * K * V0 * t_break) / (2 * K)
+    system = rig(DRY_LAW, M=M, K=K, x0=x0, v0=V0, V0=V0)
+    return system, point_at(system, Contact.STUCK, 2 * K * x0, F_rate=2 * K * V0)
+
+
+def test_breakaway_inside_a_step_is_landed_on():
+    """A step of 1 ms over a breakaway at 0.3137 ms is rolled back and cut to end there
+    (counted as landed, not rejected); the step taken then ends stuck at the breakaway (to
+    the even nanosecond below), and the one after slips."""
+    t_break_ns = 313_700
+    system, start = stuck_to_a_steady_drive(t_break_ns * 1e-9)
+    algorithm = adaptive(system, tol=1e-3, step=1e-3)
+    before = states(system)
+    assert algorithm.advance(system, start, 10**9) == []
+    assert states(system) == before
+    assert algorithm.counters.landed == 1 and algorithm.counters.rejected == 0
+    assert t_break_ns - 4 <= algorithm.h_ns <= t_break_ns
+    points = algorithm.advance(system, start, 10**9)
+    assert points and t_break_ns - 4 <= points[-1].t_ns <= t_break_ns
+    assert all(p.mode == Contact.STUCK for p in points)
+    assert points[-1].F == pytest.approx(MU_L, rel=1e-5)  # the stick force at the bound
+    assert algorithm.counters.landed == 1
+    after = algorithm.advance(system, points[-1], 10**9)
+    while not after:
+        after = algorithm.advance(system, points[-1], 10**9)
+    assert after[0].mode == Contact.FORWARD
+    assert algorithm.counters.landed == 1  # no second landing for the same breakaway
+
+
+def test_a_breakaway_too_close_to_the_start_is_not_landed():
+    """Below a hundredth of the step a landing would make a sliver step: the step is judged
+    by its error instead."""
+    system, start = stuck_to_a_steady_drive(4e-6)
+    algorithm = adaptive(system, tol=1e-3, step=1e-3)
+    algorithm.advance(system, start, 10**9)
+    assert algorithm.counters.landed == 0
+
+
+def test_counters_of_a_run_count_what_happened():
+    """Over fig. 2's rig (fakes): accepted steps are the points after the start; the
+    implicit coupling's stuck steps are the points that ended stuck; the adaptive's
+    rejections and landings are the advances that returned nothing."""
+    from tribofmu.coupling.algorithms import ImplicitCoupling
+    from tribofmu.master import run
+
+    scales, fig2 = drive_scales(), fig2_system
+
+    implicit = run(fig2(), ImplicitCoupling(step=5e-4), scales.period, scales)
+    stuck = sum(p.mode == Contact.STUCK for p in implicit.points[1:])
+    assert implicit.counters["steps"] == len(implicit.points) - 1
+    assert implicit.counters["stick_steps"] == stuck > 0
+
+    system, algorithm = fig2(), AdaptiveCoupling(tol=1e-4)
+    algorithm.prepare(system, scales)
+    point, empty, accepted = system.start_point(), 0, 0
+    stop = round(scales.period * 1e9)
+    while point.t_ns < stop:
+        new = algorithm.advance(system, point, stop)
+        empty += not new
+        accepted += len(new)
+        point = new[-1] if new else point
+    c = algorithm.counters
+    assert c.steps == accepted and c.rejected + c.landed == empty
+    assert c.landed > 0 and c.rejected > 0
+
+
+@pytest.mark.parametrize("algorithm", ["implicit", "adaptive"])
+@pytest.mark.parametrize("omega", [13.0, 30.0, 80.0])
+def test_dry_runs_keep_coulomb_s_law_at_every_point(algorithm, omega):
+    """At every communication point of a dry run: stuck means dv = 0 (to the coupling's
+    "zero", 1e-10 of the velocity scale) with |F| <= mu L; slipping means F = +-mu L exactly,
+    on the side of dv."""
+    from tribofmu.coupling.algorithms import make_algorithm
+    from tribofmu.master import run
+
+    scales = drive_scales(omega)
+    out = run(fig2_system(omega=omega), make_algorithm(algorithm, step=2e-4, tol=1e-4), 2 * scales.period, scales)
+    assert out.ok
+    modes = set()
+    for p in out.points[1:]:
+        modes.add(p.mode)
+        if p.mode == Contact.STUCK:
+            assert abs(p.dv) <= 1e-10 * scales.velocity and abs(p.F) <= MU_L * (1 + 1e-12)
+        else:
+            assert p.F == p.mode * MU_L and p.dv * p.mode > 0
+    assert modes == {Contact.STUCK, Contact.FORWARD, Contact.BACKWARD}

@@ -1,0 +1,364 @@
+"""The contact state machine of one implicit step (coupling/contact.py) against closed forms.
+
+Every rig is a block on springs (or a free mass) under a drive at constant acceleration, so
+what a step should give is known exactly: the held or ramped force's response of a linear
+oscillator, backward Euler or the trapezoidal rule of a linear friction law, the time at
+which the relative velocity reaches zero, the time at which the spring force needed to stay
+stuck reaches the friction's bound.
+"""
+import math
+
+import pytest
+from scipy.optimize import brentq
+
+from tribofmu.coupling.contact import (RETRY_HELD_STIFF, RETRY_HELD_TRANSITION, RetryHeld,
+                                       slip_mode)
+from tribofmu.coupling.system import Contact
+from tribofmu.physics import FLUID, FrictionLaw
+
+from fakes import DRY_LAW, MU_L, block_after, implicit_step, point_at, rig, settings
+
+
+
+def fluid(m: float, gamma: float = 0.0) -> FrictionLaw:
+    return FrictionLaw(regime=FLUID, m=m, gamma=gamma)
+
+
+# -- classification ------------------------------------------------------------------------
+
+def test_slip_mode_counts_within_delta_as_stuck():
+    assert slip_mode(2e-10, 1e-10) == Contact.FORWARD
+    assert slip_mode(-2e-10, 1e-10) == Contact.BACKWARD
+    assert slip_mode(1e-10, 1e-10) == Contact.STUCK == slip_mode(-1e-10, 1e-10)
+    assert Contact.FORWARD.slipping and Contact.BACKWARD.slipping
+    assert not Contact.STUCK.slipping and not Contact.UNKNOWN.slipping
+
+
+@pytest.mark.parametrize("V0", [1.0, -1.0])
+def test_first_step_from_unknown_slips_with_the_drive(V0):
+    """A block at rest under a drive at +-1 m/s slips its way under the full bound, held."""
+    h, M = 1e-3, 0.8
+    system = rig(DRY_LAW, M=M, V0=V0)
+    start = system.start_point()
+    assert start.mode == Contact.UNKNOWN
+    new = implicit_step(system, start, h).solve()
+    side = math.copysign(1.0, V0)
+    assert new.mode == (Contact.FORWARD if V0 > 0 else Contact.BACKWARD)
+    assert new.F == side * MU_L and new.F_rate == 0.0 and not new.ramped
+    x, v = block_after(M, 0.0, 0.0, 0.0, side * MU_L, 0.0, h)
+    assert new.v == pytest.approx(v, rel=1e-14) and new.x == pytest.approx(x, rel=1e-14)
+    assert new.event == 1.0 and new.t_ns == 1_000_000
+
+
+@pytest.mark.parametrize("K", [0.0, 3000.0])
+def test_first_step_from_unknown_sticks_under_the_bound(K):
+    """A drive starting from rest at a = 2 m/s^2 drags a 1 kg block with a held force that
+    makes v(h) = V(h) = a h: F = a h M w / sin(w h) (M a for a free mass), within mu L."""
+    h, M, a = 2e-3, 1.0, 2.0
+    system = rig(DRY_LAW, M=M, K=K, a_drive=a)
+    step = implicit_step(system, system.start_point(), h)
+    new = step.solve()
+    assert new.mode == Contact.STUCK and step.report.stuck
+    w = math.sqrt(2 * K / M)
+    expected = M * a if K == 0 else a * h * M * w / math.sin(w * h)
+    assert new.F == pytest.approx(expected, rel=1e-8)
+    assert abs(new.dv) <= 1e-10
+    assert new.event == 1.0 and math.isnan(new.F_mean)
+
+
+def test_first_step_from_unknown_slips_when_the_stick_force_exceeds_the_bound():
+    h, M, a = 2e-3, 1.0, 25.0  # M a = 25 N > mu L = 10 N: the block lags the drive
+    system = rig(DRY_LAW, M=M, a_drive=a)
+    new = implicit_step(system, system.start_point(), h).solve()
+    assert new.mode == Contact.FORWARD and new.F == MU_L
+    assert new.v == pytest.approx(MU_L * h / M, rel=1e-14)
+    assert new.dv == pytest.approx((a - MU_L / M) * h, rel=1e-12)
+
+
+# -- slip -> stick --------------------------------------------------------------------------
+
+def slipping_block(M, K, v0, h, ramp=False):
+    """A block moving backward at v0 < 0 under a resting drive: forward slip (dv = -v0 > 0),
+    the friction +mu L braking it; returns the step and its start point."""
+    system = rig(DRY_LAW, M=M, K=K, v0=v0)
+    start = point_at(system, Contact.FORWARD, MU_L)
+    return implicit_step(system, start, h, ramp), start
+
+
+def test_stick_onset_of_a_free_mass_is_where_the_braking_stops_it():
+    """Free mass: v(t) = v0 + mu L t / M reaches 0 at t* = -v0 M / mu L; the step ends stuck
+    with the held force that stops the block over the whole step, -M v0 / h."""
+    M, v0, h = 1.4, -0.01, 2e-3
+    step, _ = slipping_block(M, 0.0, v0, h)
+    new = step.solve()
+    assert new.mode == Contact.STUCK
+    assert new.event == pytest.approx(-v0 * M / MU_L / h, abs=1e-9)  # 0.7
+    assert new.F == pytest.approx(-M * v0 / h, rel=1e-8) and abs(new.F) < MU_L
+    assert abs(new.dv) <= 1e-10
+
+
+def test_stick_onset_on_springs_is_the_cubic_root_not_the_secant():
+    """On springs dv(t) curves: the event fraction is the root of the cubic Hermite
+    interpolant of dv (ends and slopes), within its O(h^4) error of the exact crossing,
+    where a straight line between the ends misses by far more."""
+    M, K, v0, h = 1.0, 3000.0, -0.03, 6e-3
+    step, start = slipping_block(M, K, v0, h)
+    new = step.solve()
+    assert new.mode == Contact.STUCK
+    t_star = brentq(lambda t: block_after(M, K, 0.0, v0, MU_L, 0.0, t)[1], 0.0, h, xtol=1e-15)
+    exact = t_star / h
+    assert 0.2 < exact < 0.9
+    assert new.event == pytest.approx(exact, abs=1e-5)
+    dv_end = -block_after(M, K, 0.0, v0, MU_L, 0.0, h)[1]
+    secant = start.dv / (start.dv - dv_end)
+    assert abs(secant - exact) > 1e-4  # the straight line would miss by far more
+    assert abs(new.dv) <= 1e-10 and abs(new.F) < MU_L  # then stuck by the stick force
+
+
+def test_stick_onset_needs_a_crossing():
+    """stick_onset gives 1 (no event) where dv keeps its sign, or does not move."""
+    step, start = slipping_block(1.0, 0.0, -0.01, 1e-3)
+    assert step.stick_onset(0.5 * start.dv, 0.0) == 1.0
+    assert step.stick_onset(start.dv, 0.0) == 1.0
+    assert 0.0 < step.stick_onset(-start.dv, 0.0) < 1.0
+
+
+# -- stick -> slip ----------------------------------------------------------------------------
+
+def stuck_on_springs(x0, K, V0, h, M=1.0):
+    """The block stuck to a drive at constant V0: the force that keeps it stuck is the spring
+    force 2K x(t) = 2K (x0 + V0 t), exactly linear in time; it reaches mu L at
+    t_b = (mu L - 2K x0) / (2K V0)."""
+    system = rig(DRY_LAW, M=M, K=K, x0=x0, v0=V0, V0=V0)
+    start = point_at(system, Contact.STUCK, 2 * K * x0, F_rate=2 * K * V0)
+    t_break = (MU_L - 2 * K * x0) / (2 * K * V0)
+    return implicit_step(system, start, h), t_break
+
+
+def test_stick_ramp_follows_the_drive_exactly():
+    """Stuck all through: the ramp F0 + rate s ends with dv = 0 and x - X as at the start;
+    here it is the exact spring force 2K (x0 + V0 s), so both hold to round-off."""
+    K, x0, V0, h = 2000.0, 1e-3, 0.05, 1e-3  # 2K x from 4 N to 4.2 N: inside the bound
+    step, t_break = stuck_on_springs(x0, K, V0, h)
+    assert t_break > h
+    new = step.solve()
+    assert new.mode == Contact.STUCK and new.event == 1.0
+    assert abs(new.dv) <= 1e-10
+    assert new.x - new.X == pytest.approx(x0, abs=1e-12 * 1e-3)
+    assert new.F_start == pytest.approx(2 * K * x0, rel=1e-6)
+    assert new.F_rate == pytest.approx(2 * K * V0, rel=1e-5)
+    assert new.F == pytest.approx(2 * K * (x0 + V0 * h), rel=1e-6)
+
+
+def test_breakaway_late_in_the_step_is_where_the_stick_ramp_leaves_the_bound():
+    """The held probes still say stuck (the bound's impulse covers the step's), but the
+    ramp crosses mu L at t_b: the event fraction is t_b / h."""
+    K, V0, h = 2000.0, 0.05, 1e-3
+    x0 = (MU_L - 2 * K * V0 * 0.7 * h) / (2 * K)  # breaks away at 0.7 h
+    step, t_break = stuck_on_springs(x0, K, V0, h)
+    new = step.solve()
+    assert new.mode == Contact.STUCK
+    assert new.event == pytest.approx(t_break / h, abs=1e-6)
+    assert abs(new.F) <= MU_L
+
+
+def test_breakaway_early_in_the_step_is_where_the_last_ramp_reaches_the_bound():
+    """The held probe at +delta slips: the contact broke away where the previous step's force
+    ramp, continued, reaches mu L (here exactly t_b, the need being linear)."""
+    K, V0, h = 2000.0, 0.05, 1e-3
+    x0 = (MU_L - 2 * K * V0 * 0.3 * h) / (2 * K)  # breaks away at 0.3 h
+    step, t_break = stuck_on_springs(x0, K, V0, h)
+    new = step.solve()
+    assert new.mode == Contact.FORWARD and new.F == MU_L
+    assert new.event == pytest.approx(t_break / h, abs=1e-9)
+
+
+def test_breakaway_without_a_ramp_has_no_event():
+    """Stuck before with a constant force (F_rate 0): nothing locates the breakaway."""
+    K, V0, h = 2000.0, 0.05, 1e-3
+    x0 = (MU_L - 2 * K * V0 * 0.3 * h) / (2 * K)
+    system = rig(DRY_LAW, K=K, x0=x0, v0=V0, V0=V0)
+    new = implicit_step(system, point_at(system, Contact.STUCK, 2 * K * x0), h).solve()
+    assert new.mode == Contact.FORWARD and new.event == 1.0
+
+
+# -- slip: the root, the ramp, the held retry -----------------------------------------------------
+
+def linear_fluid_rig(m, M=1.0, v0=0.0, V0=0.1, a_drive=0.0):
+    """A free mass under a drive at V0 (accelerating at a_drive) through the fluid law
+    F = m dv: a held step is backward Euler, v1 = (v0 + g V1) / (1 + g) with g = h m / M;
+    a ramped one the trapezoidal rule, v1 = (v0 + g/2 (V0 - v0) + g/2 V1) / (1 + g/2)."""
+    system = rig(fluid(m), M=M, v0=v0, V0=V0, a_drive=a_drive)
+    return system, point_at(system, Contact.FORWARD, m * (V0 - v0))
+
+
+@pytest.mark.parametrize("expected", [0.0, 0.5, 5.0, 50.0])
+def test_held_slip_root_is_backward_euler_and_measures_the_loop_gain(expected):
+    """Whatever loop gain the step expects (none, the right one 5, 10x off either way), the
+    root lands on backward Euler's answer and the measured gain is h m / M."""
+    m, M, h, v0, V0 = 5000.0, 1.0, 1e-3, 0.02, 0.1
+    system, start = linear_fluid_rig(m, M, v0, V0)
+    step = implicit_step(system, start, h, ramp=False, step_settings=settings(expected, root_tol=1e-13))
+    new = step.solve()
+    g = h * m / M
+    assert new.mode == Contact.FORWARD and not new.ramped
+    assert new.v == pytest.approx((v0 + g * V0) / (1 + g), abs=1e-13)
+    assert new.F == pytest.approx(m * new.dv, rel=1e-12)  # the force is the law's at the end
+    assert step.report.loop_gain == pytest.approx(g, rel=1e-6)
+    assert step.report.velocity_per_impulse == pytest.approx(1.0 / M, rel=1e-6)
+
+
+def test_ramped_slip_root_is_the_trapezoidal_rule_at_half_the_gain():
+    m, M, h, v0, V0 = 50.0, 2.0, 1e-3, 0.02, 0.1
+    system, start = linear_fluid_rig(m, M, v0, V0)
+    step = implicit_step(system, start, h, ramp=True, step_settings=settings(root_tol=1e-13))
+    new = step.solve()
+    g = h * m / M
+    assert new.ramped and new.mode == Contact.FORWARD
+    assert new.v == pytest.approx((v0 + 0.5 * g * (V0 - v0) + 0.5 * g * V0) / (1 + 0.5 * g), abs=1e-14)
+    assert new.F_start == start.F and new.F_rate == pytest.approx((new.F - start.F) / h, rel=1e-12)
+    assert step.report.loop_gain == pytest.approx(0.5 * g, rel=1e-6)
+
+
+def test_velocity_per_impulse_of_a_block_on_springs():
+    """A held impulse F h moves a block on springs by F sin(w h) / (M w): per unit impulse
+    sin(w h) / (M w h), not 1/M."""
+    m, M, K, h = 200.0, 0.5, 4000.0, 2e-3
+    system = rig(fluid(m), M=M, K=K, V0=0.1)
+    step = implicit_step(system, point_at(system, Contact.FORWARD, 20.0), h)
+    step.solve()
+    w = math.sqrt(2 * K / M)
+    assert step.report.velocity_per_impulse == pytest.approx(math.sin(w * h) / (M * w * h), rel=1e-6)
+    assert step.report.loop_gain == pytest.approx(m * math.sin(w * h) / (M * w), rel=1e-6)
+
+
+def test_slip_root_meets_its_tolerance_and_no_more():
+    """Quadratic fluid (gamma = 1), held: v1 = v0 + (h m / M) (V0 - v1)^2 has a closed root;
+    the step lands within root_tol of it, and a looser tolerance takes fewer evaluations."""
+    m, M, h, v0, V0 = 2e5, 1.0, 1e-3, 0.0, 0.1
+    g = h * m / M
+    u = (-1 + math.sqrt(1 + 4 * g * (V0 - v0))) / (2 * g)  # dv1 = V0 - v1 >= 0
+    iterations = {}
+    for tol in (1e-4, 1e-12):
+        system = rig(fluid(m, gamma=1.0), M=M, v0=v0, V0=V0)
+        start = point_at(system, Contact.FORWARD, m * V0 * V0)
+        step = implicit_step(system, start, h, step_settings=settings(root_tol=tol))
+        new = step.solve()
+        assert abs(new.dv - u) <= tol
+        iterations[tol] = step.report.iterations
+    assert iterations[1e-4] < iterations[1e-12]
+
+
+def test_ramped_step_too_stiff_to_ramp_asks_for_the_held_retry():
+    m, M, h, a = 1e5, 1.0, 1e-3, 100.0  # ramped gain h m / 2M = 50 > 30
+    # slipping steadily behind an accelerating drive (dv = M a / m): no transition near
+    system, start = linear_fluid_rig(m, M, 0.1 - M * a / m, 0.1, a)
+    step = implicit_step(system, start, h, ramp=True)
+    outcome = step.solve()
+    assert outcome is RETRY_HELD_STIFF and isinstance(outcome, RetryHeld)
+    assert step.report.loop_gain == pytest.approx(0.5 * h * m / M, rel=1e-6)
+
+
+def reversing_rig(m=10.0, M=1.0, K=3000.0, x0=-1e-3, v0=-1e-4):
+    """Drive at rest, the block pulled forward by its springs through v = 0: dv = -v goes
+    from +1e-4 m/s to about -6e-3 m/s within 1 ms (a reversal, FORWARD -> BACKWARD)."""
+    system = rig(fluid(m), M=M, K=K, x0=x0, v0=v0)
+    return system, point_at(system, Contact.FORWARD, -m * v0)
+
+
+def held_linear_answer(m, M, K, x0, v0, h, V=0.0):
+    """Backward Euler in the force of F = m (V - v) on a block on springs: v1 = A + B F1."""
+    A = block_after(M, K, x0, v0, 0.0, 0.0, h)[1]
+    B = block_after(M, K, x0, v0, 1.0, 0.0, h)[1] - A
+    return (A + B * m * V) / (1 + B * m)
+
+
+def test_reversal_of_a_law_without_a_jump_goes_straight_to_backward():
+    m, M, K, x0, v0, h = 10.0, 1.0, 3000.0, -1e-3, -1e-4, 1e-3
+    system, start = reversing_rig(m, M, K, x0, v0)
+    new = implicit_step(system, start, h, step_settings=settings(root_tol=1e-14)).solve()
+    assert new.mode == Contact.BACKWARD and new.event == 1.0
+    assert new.v == pytest.approx(held_linear_answer(m, M, K, x0, v0, h), abs=1e-13)
+    assert new.F == pytest.approx(m * new.dv, rel=1e-10)
+
+
+def test_ramped_step_meeting_a_reversal_asks_for_the_held_retry():
+    system, start = reversing_rig()
+    assert implicit_step(system, start, 1e-3, ramp=True).solve() is RETRY_HELD_TRANSITION
+
+
+def test_ramped_step_meeting_a_stick_asks_for_the_held_retry():
+    step, _ = slipping_block(1.4, 0.0, -0.01, 2e-3, ramp=True)
+    assert step.solve() is RETRY_HELD_TRANSITION
+
+
+# -- the held retry, as the implicit coupling runs it -----------------------------------------------
+
+def implicit_coupling(system, tol=1e-9):
+    from tribofmu.coupling.algorithms import ImplicitCoupling, Scales
+
+    algorithm = ImplicitCoupling(step=1e-3, tol=tol)
+    algorithm.prepare(system, Scales(position=1e-3, velocity=0.1, period=0.1))
+    return algorithm
+
+
+def test_stiff_ramp_is_retried_held_and_the_gain_is_kept():
+    """The ramp is tried (no gain known yet), meets gain 50, and the step is solved again
+    held: backward Euler's answer. The held step's gain h m / M is kept, so the next step
+    of the same length does not try the ramp at all (fewer evaluations, same kind of answer)."""
+    m, M, a = 1e5, 1.0, 100.0
+    h_ns = 1_000_000
+    h, g = h_ns * 1e-9, h_ns * 1e-9 * m / M
+    # 1e-5 m/s off the steady slip, so that the root is not found on a bracket of round-off
+    # width (see test_loop_gain_is_measured_even_when_the_guess_is_the_root)
+    system, start = linear_fluid_rig(m, M, 0.1 - M * a / m - 1e-5, 0.1, a)
+    algorithm = implicit_coupling(system)
+    first = algorithm.solve_step(system, start, h_ns)
+    assert not first.ramped and first.mode == Contact.FORWARD
+    assert first.v == pytest.approx((start.v + g * first.V) / (1 + g), abs=1e-12)
+    assert algorithm.loop_gain == pytest.approx(g, rel=1e-3) and algorithm.loop_gain_step == h
+    tried = algorithm.counters.iterations
+    second = algorithm.solve_step(system, first, h_ns)
+    assert not second.ramped
+    assert second.v == pytest.approx((first.v + g * second.V) / (1 + g), abs=1e-12)
+    assert algorithm.counters.iterations - tried < tried  # no ramped attempt this time
+
+
+def test_reversal_is_retried_held_with_the_exact_held_answer():
+    m, M, K, x0, v0, h_ns = 10.0, 1.0, 3000.0, -1e-3, -1e-4, 1_000_000
+    system, start = reversing_rig(m, M, K, x0, v0)
+    new = implicit_coupling(system).solve_step(system, start, h_ns)
+    assert new.mode == Contact.BACKWARD and not new.ramped
+    assert new.v == pytest.approx(held_linear_answer(m, M, K, x0, v0, h_ns * 1e-9), abs=1e-13)
+
+
+def test_slipping_on_stays_ramped_and_second_order():
+    """Away from transitions the implicit coupling ramps: its error in v over a fixed span
+    falls 4x per halving of the step (trapezoidal), against the exact exponential approach."""
+    m, M, V0, v0, span_ns = 400.0, 1.0, 0.1, 0.0, 8_000_000
+    errors = []
+    for steps in (8, 16, 32):
+        system, point = linear_fluid_rig(m, M, v0, V0)
+        algorithm = implicit_coupling(system, tol=1e-12)
+        for _ in range(steps):
+            point = algorithm.solve_step(system, point, span_ns // steps)
+            assert point.ramped
+        exact = V0 - (V0 - v0) * math.exp(-m / M * span_ns * 1e-9)
+        errors.append(abs(point.v - exact))
+    assert 3.5 < errors[0] / errors[1] < 4.5 and 3.5 < errors[1] / errors[2] < 4.5
+
+
+@pytest.mark.xfail(strict=True, reason="slip_root measures the loop gain on the bracket it happened "
+                   "to find; when the predicted dv is already the root (a steady slip), that bracket "
+                   "is ~1e-18 m/s wide and the secant slope is round-off: 0.85-0.96 of the true gain")
+@pytest.mark.parametrize("m, a", [(1e5, 100.0), (2e5, 1000.0), (1e6, 1000.0)])
+def test_loop_gain_is_measured_even_when_the_guess_is_the_root(m, a):
+    """Held steps in steady slip behind an accelerating drive: the loop gain is h m / M
+    whatever the start (the law is linear); it feeds the next steps' ramp choice and the
+    error estimate's damping."""
+    M, h_ns = 1.0, 1_000_000
+    system, start = linear_fluid_rig(m, M, 0.1 - M * a / m, 0.1, a)
+    algorithm = implicit_coupling(system)
+    new = algorithm.solve_step(system, start, h_ns)
+    assert not new.ramped
+    assert algorithm.loop_gain == pytest.approx(h_ns * 1e-9 * m / M, rel=1e-2)

@@ -1,0 +1,42 @@
+"""The one step-size rule (physics/stepsize.py) and how the adaptive coupling uses it."""
+import math
+
+import pytest
+
+from tribofmu.physics.stepsize import COUPLING_STEPS, KINETICS_SUBSTEPS, StepSizeController
+
+
+@pytest.mark.parametrize("error, order", [(0.5, 2), (0.5, 1), (2.0, 2), (2.0, 1), (0.9, 3)])
+def test_factor_is_safety_times_the_error_to_the_minus_one_over_order_plus_one(error, order):
+    expected = 0.9 * error ** (-1.0 / (order + 1))
+    assert COUPLING_STEPS.factor(error, order) == pytest.approx(expected, rel=1e-15)
+
+
+def test_the_order_sets_how_hard_an_error_shrinks_the_step():
+    """Error 8: a second-order step (local error ~ h^3) halves, a first-order one (h^2)
+    shrinks by sqrt(8): with the safety factor 0.45 and 0.318."""
+    assert COUPLING_STEPS.factor(8.0, 2) == pytest.approx(0.45, rel=1e-15)
+    assert COUPLING_STEPS.factor(8.0, 1) == pytest.approx(0.9 / math.sqrt(8.0), rel=1e-15)
+    # and a step that hit its tolerance exactly is retried at the safety factor whatever the order
+    assert COUPLING_STEPS.factor(1.0, 1) == COUPLING_STEPS.factor(1.0, 2) == 0.9
+
+
+def test_factor_is_clipped_to_its_growth_and_shrink_limits():
+    assert COUPLING_STEPS.factor(1e-12, 2) == 4.0
+    assert COUPLING_STEPS.factor(0.0, 1) == 4.0  # no division by a zero error
+    assert COUPLING_STEPS.factor(1e6, 2) == 0.1
+    assert COUPLING_STEPS.factor(math.inf, 1) == 0.1
+    assert KINETICS_SUBSTEPS.factor(1e-12, 1) == 10.0
+
+
+def test_growth_is_capped_right_after_a_rejection():
+    """The coupling's step does not grow just after a rejection (the kinetics' sub-steps
+    may); shrinking is not affected."""
+    assert COUPLING_STEPS.factor(1e-3, 2, after_reject=True) == 1.0
+    assert COUPLING_STEPS.factor(8.0, 2, after_reject=True) == pytest.approx(0.45, rel=1e-15)
+    assert KINETICS_SUBSTEPS.factor(0.01, 1, after_reject=True) == pytest.approx(9.0, rel=1e-15)
+    custom = StepSizeController(safety=0.8, min_factor=0.2, max_factor=5.0, max_factor_after_reject=1.5)
+    assert custom.factor(1e-6, 1, after_reject=True) == 1.5
+    assert custom.factor(1e-6, 1) == 5.0
+    assert custom.factor(1e6, 1) == 0.2
+    assert custom.factor(0.25, 1) == pytest.approx(1.6, rel=1e-15)

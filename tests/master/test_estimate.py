@@ -1,0 +1,207 @@
+"""The run's own error estimate (coupling/estimate.py) against exact solutions."""
+import math
+import random
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+from scipy.linalg import expm
+
+from tribofmu.coupling.algorithms import AdaptiveCoupling
+from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError
+from tribofmu.physics import FrictionLaw
+
+from fakes import drive_scales, fig2_system
+
+# (w2 [1/s^2], c [1/s], h [s]): under-, over- and critically damped, undamped, a free mass,
+# a free mass with damping, and a damping so stiff that exp(l2 h) underflows
+CASES = [(1e4, 10.0, 1e-3), (100.0, 1e3, 2e-3), (2500.0, 100.0, 1e-3), (4e4, 0.0, 5e-3),
+         (0.0, 0.0, 1e-2), (0.0, 50.0, 1e-2), (1e4, 1e6, 1e-3), (23333.0, 3.0, 0.02)]
+
+
+def matrix(w2, c):
+    return np.array([[0.0, 1.0], [-w2, -c]])
+
+
+def estimate_at(w2, ex, ev):
+    estimate = GlobalErrorEstimate()
+    estimate.w2, estimate.ex, estimate.ev = w2, ex, ev
+    return estimate
+
+
+@pytest.mark.parametrize("w2, c, h", CASES)
+def test_carried_error_is_the_exact_flow_of_the_linear_error_ode(w2, c, h):
+    e0 = np.array([3e-6, -2e-4])
+    estimate = estimate_at(w2, *e0)
+    ev = estimate.advance(h, c, 0.0, 0.0, stuck=False)
+    exact = expm(matrix(w2, c) * h) @ e0
+    scale = np.abs(e0).max()
+    assert estimate.ex == pytest.approx(exact[0], abs=1e-12 * scale, rel=1e-9)
+    assert ev == estimate.ev == pytest.approx(exact[1], abs=1e-12 * scale, rel=1e-9)
+
+
+def test_local_errors_add_after_the_flow_and_superpose():
+    """Errors committed at each step are carried by the steps after: the estimate at the
+    end is the sum over steps of exp(A (t_N - t_k)) l_k, with A changing with c."""
+    rng = random.Random(7)
+    w2, h = 9e3, 1e-3
+    estimate = estimate_at(w2, 0.0, 0.0)
+    total = np.zeros(2)
+    for _ in range(40):
+        c, local = rng.uniform(0.0, 200.0), np.array([rng.uniform(-1e-7, 1e-7), rng.uniform(-1e-5, 1e-5)])
+        estimate.advance(h, c, local[0], local[1], stuck=False)
+        total = expm(matrix(w2, c) * h) @ total + local
+    assert estimate.ex == pytest.approx(total[0], rel=1e-9)
+    assert estimate.ev == pytest.approx(total[1], rel=1e-9)
+
+
+def test_a_stuck_step_zeroes_the_error_in_v_but_carries_x():
+    w2, c, h = 1e4, 10.0, 1e-3
+    e0 = np.array([3e-6, -2e-4])
+    estimate = estimate_at(w2, *e0)
+    assert estimate.advance(h, c, 1e-8, 5e-5, stuck=True) == 0.0 == estimate.ev
+    assert estimate.ex == pytest.approx((expm(matrix(w2, c) * h) @ e0)[0] + 1e-8, rel=1e-12)
+
+
+def test_the_block_is_learned_from_its_answers():
+    """a = F/M - w2 x: from a point and the block's velocity per unit impulse 1/M."""
+    M, K = 0.6, 7000.0
+    estimate = GlobalErrorEstimate()
+    x, F = 1.3e-3, 4.0
+    a = (F - 2 * K * x) / M
+    estimate.observe(x, a, F, 1.0 / M, x_floor=1e-6)
+    assert estimate.w2 == pytest.approx(2 * K / M, rel=1e-12)
+    # x at round-off, no response measured yet, or a nonsense w2 <= 0: nothing learned
+    for args in ((1e-9, a, F, 1.0 / M), (x, a, F, 0.0), (x, F / M + 1.0, F, 1.0 / M)):
+        estimate.observe(*args, x_floor=1e-6)
+        assert estimate.w2 == pytest.approx(2 * K / M, rel=1e-12)
+
+
+def test_the_adaptive_learns_the_block_of_the_run():
+    """On fig. 2's rig (fakes: M = 0.6 kg, K = 7000 N/m) the estimate's w2 converges on
+    2K/M, which nobody told the coupling."""
+    from tribofmu.master import run
+
+    system, scales = fig2_system(), drive_scales()
+    algorithm = AdaptiveCoupling(tol=1e-4)
+    run(system, algorithm, 0.5 * scales.period, scales)
+    assert algorithm.estimate.w2 == pytest.approx(2 * 7000.0 / 0.6, rel=2e-3)
+
+
+# -- the window audit ---------------------------------------------------------------------------
+
+@dataclass
+class P:
+    t_ns: int
+    global_error: float
+    v: float
+
+
+def random_points(seed=3, n=60, span=1.0):
+    rng = random.Random(seed)
+    times = sorted(rng.sample(range(1, int(span * 1e9)), n - 1))
+    return [P(0, 0.0, 0.0)] + [P(t, rng.uniform(-1e-4, 1e-4), rng.uniform(-0.2, 0.2)) for t in times]
+
+
+# the whole run, a window cutting through steps, one reaching beyond the last point (the RMS
+# is over the part covered)
+@pytest.mark.parametrize("window", [(0.0, 1.0), (0.2137, 0.7771), (0.9, 1.5)])
+def test_window_rms_is_the_integral_of_the_linearly_interpolated_error(window):
+    points = random_points()
+    audit = WindowError(window)
+    for i in range(0, len(points), 7):  # fed in chunks, as a run records
+        audit.add(points[i:i + 7])
+    t = np.array([p.t_ns for p in points]) * 1e-9
+    e = np.array([p.global_error for p in points])
+    lo, hi = window[0], min(window[1], t[-1])
+    breaks = [s for s in t if lo < s < hi]
+    square = quad(lambda s: np.interp(s, t, e) ** 2, lo, hi, points=breaks or None, limit=200,
+                  epsabs=0.0, epsrel=1e-12)[0]
+    v_max = max(abs(p.v) for p in points if window[0] <= p.t_ns * 1e-9 <= window[1])
+    assert audit.nrms() == pytest.approx(math.sqrt(square / (hi - lo)) / v_max, rel=1e-9)
+
+
+def test_window_audit_without_coverage_or_motion_is_nan():
+    points = random_points()
+    beyond = WindowError((2.0, 3.0))
+    beyond.add(points)
+    assert math.isnan(beyond.nrms())
+    still = WindowError((0.0, 1.0))
+    still.add([P(p.t_ns, p.global_error, 0.0) for p in points])
+    assert math.isnan(still.nrms())
+
+
+# -- the carried estimate against the true error of a run -----------------------------------------
+
+@pytest.mark.parametrize("m, gamma, omega, M, K", [(25.0, 0.0, 50.0, 0.6, 7000.0), (200.0, 0.0, 30.0, 0.6, 7000.0),
+                                                   (25.0, -0.5, 40.0, 0.3, 3000.0), (25.0, 1.0, 40.0, 0.3, 3000.0)])
+def test_carried_estimate_tracks_the_true_error_of_a_fluid_run(m, gamma, omega, M, K):
+    """Block on springs in a power-law fluid under the sinusoidal drive: the run's estimated
+    global error in v has the RMS of its true error (against an rtol-1e-12 solution of the
+    same ODE, M x'' + 2K x = m sgn(V - v)|V - v|^(gamma + 1)) within a factor 1.5."""
+    from scipy.integrate import solve_ivp
+
+    from tribofmu.master import run
+    from tribofmu.physics import FLUID
+
+    A = 2e-3
+    law = FrictionLaw(regime=FLUID, m=m, gamma=gamma)
+    scales = drive_scales(omega, A)
+    system = fig2_system(law, omega, A, M, K)
+    out = run(system, AdaptiveCoupling(tol=1e-3), 3 * scales.period, scales)
+    t = np.array([p.t_ns for p in out.points]) * 1e-9
+
+    def rhs(s, y):
+        return [y[1], (law.force(-A * omega * math.sin(omega * s) - y[1], -20.0) - 2 * K * y[0]) / M]
+
+    exact = solve_ivp(rhs, (0.0, t[-1]), [0.0, 0.0], method="DOP853", rtol=1e-12, atol=1e-15, t_eval=t).y[1]
+    true = exact - np.array([p.v for p in out.points])
+    estimated = np.array([p.global_error for p in out.points])
+    ratio = math.sqrt(np.mean(estimated ** 2) / np.mean(true ** 2))
+    assert 1 / 1.5 < ratio < 1.5
+
+
+def dry_run_errors(omega, tol):
+    """(true, estimated) nRMS(v) of an adaptive run on fig. 2's rig at drive frequency omega
+    over its second and third periods: the true one on a uniform grid of the delivered
+    (interpolated) signal against the exact piecewise motion, the estimate from WindowError."""
+    from tribofmu.coupling.interpolation import sample
+    from tribofmu.master import run
+
+    from fakes import exact_dry
+
+    scales, system = drive_scales(omega), fig2_system(omega=omega)
+    out = run(system, AdaptiveCoupling(tol=tol), 3 * scales.period, scales)
+    window = (scales.period, 3 * scales.period)
+    grid = np.linspace(*window, 2001)
+    _, v, _ = exact_dry(grid, omega=omega)
+    true = math.sqrt(np.mean((sample(out.points, grid)["v"] - v) ** 2)) / np.abs(v).max()
+    audit = WindowError(window)
+    audit.add(out.points)
+    return true, audit.nrms()
+
+
+@pytest.mark.parametrize("omega, tol", [(30.0, 1e-3), (13.0, 1e-3), (30.0, 1e-4)])
+def test_carried_estimate_is_within_3x_of_the_true_error_of_a_dry_run(omega, tol):
+    true, estimated = dry_run_errors(omega, tol)
+    assert true / 3 < estimated < 3 * true
+
+
+@pytest.mark.xfail(strict=True, reason="at omega = 80 rad/s on fig. 2's rig (mostly stuck) the "
+                   "carried estimate overestimates the true nRMS(v) 5x at tol 1e-3 (2.9e-4 against "
+                   "5.9e-5) and 3.7x at tol 1e-4: conservative, but outside issue 20's factor 3")
+@pytest.mark.parametrize("tol", [1e-3, 1e-4])
+def test_carried_estimate_is_within_3x_of_the_true_error_of_a_mostly_stuck_dry_run(tol):
+    true, estimated = dry_run_errors(80.0, tol)
+    assert true / 3 < estimated < 3 * true
+
+
+@pytest.mark.xfail(strict=True, reason="WindowError takes max |v| only from points inside the "
+                   "window: a window inside one step (no point in it) gives nan although the run "
+                   "covers it and v is not 0 there")
+def test_window_inside_one_step_has_an_estimate():
+    points = [P(0, 1e-4, 0.1), P(1_000_000_000, 3e-4, 0.2)]
+    audit = WindowError((0.4, 0.6))
+    audit.add(points)
+    assert math.isfinite(audit.nrms())
