@@ -130,9 +130,6 @@ def test_a_state_without_one_of_its_names_is_refused_naming_it(missing):
         AdaptiveCoupling().import_state(state)
 
 
-@pytest.mark.xfail(strict=True, reason="AdaptiveCoupling.import_state checks only state_names, "
-                   "scales and counters; a state without 'estimate' fails with a bare KeyError "
-                   "after the other names were already set")
 def test_a_state_without_its_error_estimate_is_refused_naming_it():
     system = fig2_system()
     algorithm = AdaptiveCoupling()

@@ -232,6 +232,8 @@ class AdaptiveCoupling(ImplicitCoupling):
         return state
 
     def import_state(self, state: dict) -> None:
+        if "estimate" not in state:
+            raise ValueError(f"{self.name} state lacks estimate")
         super().import_state(state)
         self.estimate.ex, self.estimate.ev, self.estimate.w2 = state["estimate"]
 

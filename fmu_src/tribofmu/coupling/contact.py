@@ -303,7 +303,12 @@ class ImplicitStep:
                     if direction * h_hi < 0 or h_hi == 0:
                         break
                     lo, h_lo = hi, h_hi
-        gain = max(0.0, -(h_hi - h_lo) / (hi - lo) - 1.0) if hi != lo else 0.0
+        # (a bracket narrower than the "zero" velocity, as when the predicted dv already was
+        # the root, measures round-off: keep the gain the step expected)
+        if abs(hi - lo) > delta:
+            gain = max(0.0, -(h_hi - h_lo) / (hi - lo) - 1.0)
+        else:
+            gain = self.settings.expected_gain
         if h_hi == 0:
             return hi, gain
         if abs(h_lo) <= self.root_tol:
