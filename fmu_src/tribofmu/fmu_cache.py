@@ -111,8 +111,10 @@ def _given_folder(path: Path, names: tuple[str, ...], fmi: int | None, build: bo
         missing = []
     if missing:
         option = f" --fmi {fmi}" if fmi == 3 else ""
-        raise FMUFileError(f"FMU file not found: {path / (missing[0] + '.fmu')} "
-                           f"(build it with 'tribofmu build --out {path}{option}', or drop --fmu-dir)")
+        error = FMUFileError(f"FMU file not found: {path / (missing[0] + '.fmu')} "
+                             f"(build it with 'tribofmu build --out {path}{option}', or drop --fmu-dir)")
+        error.filename = str(path / (missing[0] + ".fmu"))  # as a FileNotFoundError names its file
+        raise error
     if fmi is not None:
         import fmpy
         for name in names:
