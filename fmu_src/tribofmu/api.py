@@ -1,7 +1,7 @@
 """The Python API: load a scenario, override parameters, simulate, get arrays back.
 
     from tribofmu.api import simulate
-    result = simulate("scenarios/fig2_dry.toml", {"drive.omega": 80})
+    result = simulate("fig2_dry", {"drive.omega": 80})   # a shipped scene, or a .toml path
     result.time, result.v, result.stats
 
 The CLI is a thin layer over these functions.
@@ -21,6 +21,7 @@ from .master import (FMUCallError, FMUFileError, GridRecorder, RunLimits, Scales
 from .studies.energy import EnergyAudit
 from .master.interpolation import INPUT_SIGNALS
 from .master.run import COLUMNS
+from .scene.library import resolve_scene
 from .scene.scenario import Scenario, ScenarioError, load_scenario, scales
 from .scene.wiring import build_system, fmu_parameters
 
@@ -60,8 +61,9 @@ class SimulationResult:
 
 
 def load(path: str | Path, overrides: dict[str, Any] | list[str] | None = None) -> Scenario:
-    """Read and validate a scenario; raises ScenarioError with a one-line message."""
-    return load_scenario(path, overrides)
+    """Read and validate a scenario (a .toml path, or a shipped scene's name such as
+    ``"fig2_dry"``); raises ScenarioError with a one-line message."""
+    return load_scenario(resolve_scene(path), overrides)
 
 
 def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[str] | None = None,
@@ -81,7 +83,7 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     ``simulation.max_wall``). notice(text): told once when a run will take long.
     """
     if not isinstance(scenario, Scenario):
-        scenario = load_scenario(scenario, overrides)
+        scenario = load_scenario(resolve_scene(scenario), overrides)
     elif overrides:
         scenario = scenario.with_overrides(overrides)
     sim = scenario.simulation
