@@ -163,7 +163,8 @@ def _parser() -> argparse.ArgumentParser:
     p = command("figures", "the paper's Figs. 2-6 from the shipped scenes, one PNG per figure")
     p.add_argument("--out", default="out/figures", metavar="DIR", help="output directory (default: out/figures)")
     p.add_argument("--only", default=None, metavar="FIG,...",
-                   help="a comma-separated subset of " + ",".join(_figure_names()))
+                   help="a comma-separated subset of " + ",".join(_figure_names()) +
+                        " (default: the paper's fig2-fig6; tn_map, the boundary film's T x n map, only when named)")
     p.add_argument("--scenarios", default=None, metavar="DIR",
                    help="a folder of scene files to use instead of the shipped ones")
     p.add_argument("--fmu-dir", default=None, metavar="DIR", help=fmu_help)
@@ -173,6 +174,37 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=cmd_figures)
     return parser
+
+
+def synopsis() -> list[str]:
+    """One line per command, every option it takes: the README's "The CLI" block is this."""
+    import argparse as ap
+    parser = _parser()
+    sub = next(a for a in parser._actions if isinstance(a, ap._SubParsersAction))
+    lines = []
+    for name, p in sub.choices.items():
+        words = [f"tribofmu {name}"]
+        for action in p._actions:
+            if isinstance(action, ap._HelpAction):
+                continue
+            if not action.option_strings:
+                words.append(action.metavar or action.dest.upper())
+                continue
+            flag = max(action.option_strings, key=len) if action.option_strings[0].startswith("--") \
+                else action.option_strings[0]
+            if action.nargs == 0:
+                text = flag
+            else:
+                value = action.metavar or "{" + ",".join(map(str, action.choices)) + "}" \
+                    if action.metavar or action.choices else action.dest.upper()
+                text = f"{flag} {value}"
+            repeat = isinstance(action, ap._AppendAction)
+            if action.required:
+                words.append(text + (f" [{flag} ...]" if repeat else ""))
+            else:
+                words.append(f"[{text}{' ...' if repeat else ''}]")
+        lines.append(" ".join(words))
+    return lines
 
 
 def _figure_names() -> list[str]:

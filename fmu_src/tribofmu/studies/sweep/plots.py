@@ -16,6 +16,7 @@ from .worker import STATUS_OK
 
 MAX_PORTRAIT_PANELS = 100
 METRIC_LABELS = {"stick_fraction": "stick fraction", "stick_episodes_per_period": "stick episodes / period",
+                 "creep_fraction": "creep fraction", "creep_episodes_per_period": "creep episodes / period",
                  "harmonics": "harmonics of x", "amplitude_ratio": "max|x| / A",
                  "dissipated_per_cycle": "dissipated per cycle [J]", "melt_fraction": "melt fraction"}
 
