@@ -18,8 +18,8 @@ from tribofmu import api, cli
 from tribofmu.build import PRIVATE_PREFIX, build_fmus, private_package_name
 from tribofmu.master.instance import EXTRACT_PREFIX
 
-from scenes import ROOT
-SCENES = ROOT / "scenarios"
+from scenes import ROOT, SCENARIOS
+SCENES = SCENARIOS
 FIG2 = SCENES / "fig2_dry.toml"
 SHORT = ["--set", "time.periods=1", "--set", "time.window=[0,1]"]  # one period: a quick run
 pytestmark = pytest.mark.integration
