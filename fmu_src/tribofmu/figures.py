@@ -300,7 +300,8 @@ def draw_tn_map(runs, path: Path) -> Path:
     lub = sc.friction.lubricant
     melt = lub.mu_shear / lub.mu_shear_bar
     T_up = np.arange(200.0, 1400.0, 2.0)
-    loads = -np.logspace(4, np.log10(3e7), 40)  # Pa
+    # Pa: 40 loads from 1e4 to 3e7 Pa (compression), and the scene's own
+    loads = -np.unique(np.append(np.logspace(4, np.log10(3e7), 40), abs(sc.conditions.n)))
     up, down = np.empty((loads.size, T_up.size)), np.empty((loads.size, T_up.size))
     for i, n in enumerate(loads):
         f = 0.0

@@ -157,3 +157,31 @@ def test_figures_command_subset_reuses_its_runs(tmp_path):
     assert bad.returncode == 2
     assert bad.stderr.strip().splitlines() == [
         "tribofmu: --only fig9: unknown figure 'fig9' (known: fig2, fig3, fig4, fig5, fig6, tn_map)"]
+
+
+def test_accuracy_chart_labels_neither_overprint_nor_clip(tmp_path, monkeypatch):
+    from tribofmu import plots
+    from tribofmu.studies.accuracy import plot_accuracy
+    kept = {}
+    monkeypatch.setattr(plots, "save_png", lambda fig, path, dpi=110: kept.setdefault("fig", fig))
+    rows = []
+    for step, err, wall in ((1e-3, 0.3, 0.08), (3e-4, 0.14, 0.22), (1e-4, 0.054, 0.65), (3e-5, 0.014, 2.1)):
+        for name, w in (("jacobi", wall), ("gauss-seidel", wall * 1.02)):  # the same points, twice
+            rows.append(dict(algorithm=name, step=step, tol=None, nrms_v=err, wall_time_s=w))
+    for tol, err, wall in ((1e-2, 3.8e-3, 0.23), (1e-3, 7.9e-4, 0.18), (2e-4, 9.9e-5, 0.18), (1e-4, 4.2e-5, 0.19)):
+        rows.append(dict(algorithm="adaptive", step=None, tol=tol, nrms_v=err, wall_time_s=wall, default=tol == 2e-4))
+    plot_accuracy(rows, {"reference_wall_time_s": 0.03}, "fig2_dry: error vs cost", tmp_path / "a.png")
+    fig = kept["fig"]
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    ax = fig.axes[0]
+    notes = [t for t in ax.texts]
+    assert sorted(t.get_text() for t in notes).count("h=0.0001 s") == 1  # one label for both lines
+    boxes = [t.get_window_extent(renderer) for t in notes]
+    frame = ax.get_window_extent(renderer)
+    for i, a in enumerate(boxes):
+        assert frame.x0 <= a.x0 and a.x1 <= frame.x1, notes[i].get_text()  # not clipped
+        for b, other in zip(boxes[i + 1:], notes[i + 1:]):
+            assert not a.overlaps(b), (notes[i].get_text(), other.get_text())
+    import matplotlib.pyplot as plt
+    plt.close(fig)

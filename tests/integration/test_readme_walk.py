@@ -3,8 +3,9 @@
 blocks, in order, from a folder outside the checkout.
 
 The venv sees the system's site-packages (numpy, fmpy, matplotlib... are not downloaded
-again) and the package is installed with ``--no-deps --no-build-isolation`` from a copy of
-the checkout, so the walk needs no network and leaves no build files in the checkout. Select
+again) and the package is installed with ``--no-deps`` from a copy of the checkout (no build
+files left in the checkout); pip's isolated build takes setuptools from its cache or the
+package index, the only network the walk may use. Select
 it with ``pytest -m newcomer``; it takes one to three minutes.
 """
 import os
@@ -56,11 +57,11 @@ def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
     python = env_dir / "bin" / "python"
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME")}
     env.update(PATH=f"{env_dir / 'bin'}{os.pathsep}{env['PATH']}", TRIBOFMU_CACHE=str(tmp_path / "cache"),
-               PYTHONDONTWRITEBYTECODE="1", PIP_DISABLE_PIP_VERSION_CHECK="1", PIP_NO_INDEX="1")
-    # the system's pip run by the venv's python installs into the venv (no index, no deps);
+               PYTHONDONTWRITEBYTECODE="1", PIP_DISABLE_PIP_VERSION_CHECK="1")
+    # the system's pip run by the venv's python installs into the venv (no deps);
     # --ignore-installed: leave the system's own tribofmu (a developer's editable one) alone
-    install = subprocess.run([str(python), "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation",
-                              "--no-cache-dir", "--ignore-installed", str(source)],
+    install = subprocess.run([str(python), "-m", "pip", "install", "-q", "--no-deps", "--ignore-installed",
+                              str(source)],
                              cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
     assert install.returncode == 0, install.stderr
     shutil.rmtree(source)  # what runs is the installed package, not the copy it came from

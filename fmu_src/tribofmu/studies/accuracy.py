@@ -243,6 +243,11 @@ def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> No
     if times:  # room for the rightmost labels
         left = min(min(times), summary["reference_wall_time_s"]) / 1.5
         ax.set_xlim(left, max(times) * 3.0)
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    # ticks at 1, 2, 5 x 10^k written plainly; no minor labels (they collide on short ranges)
+    ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("wall time of the run [s]")
     ax.set_ylabel("nRMS error of v on the window [1]")
     ax.set_title(wrap_items(title, 95), fontsize=8)
@@ -261,7 +266,7 @@ def _place_labels(fig, ax, labels, fontsize: float) -> None:
     taken: list[tuple[float, float, float, float]] = []
     for t, err, text, color in labels:
         x, y = ax.transData.transform((t, err))
-        width, height = 0.65 * px * len(text) + 2, px + 2
+        width, height = 0.7 * px * len(text) + 3, px + 2
         for dx, dy in offsets:
             ox, oy = dx * fig.dpi / 72.0, dy * fig.dpi / 72.0
             x0 = x + ox if dx > 0 else x + ox - width
