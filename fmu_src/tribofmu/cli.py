@@ -1,7 +1,7 @@
 """The ``tribofmu`` command: a thin layer over :mod:`tribofmu.api`.
 
 The synopsis of every command is its ``--help`` (the README's "The CLI" section is checked
-against this parser by tests/integration/test_readme_cli.py).
+against this parser by tests/integration/test_user_sees.py).
 
 FMUs: ``--fmu-dir DIR`` uses the FMUs in DIR (they must exist); without it the FMUs built
 from the installed source are found in (or built once into) a per-user cache, whatever
