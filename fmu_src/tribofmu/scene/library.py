@@ -33,12 +33,15 @@ def scene_path(name: str) -> Path:
 
 
 def resolve_scene(arg: str | Path) -> Path:
-    """A scenario argument as a file: an existing path is itself; a bare name (no folder part,
-    with or without ``.toml``) that is not a file here is the shipped scene of that name."""
+    """A scenario argument as a file: a path with a folder part, or a file here, is itself; a
+    bare name (with or without ``.toml``) that is not a file here is the shipped scene of that
+    name (a folder here of that name, e.g. a run's output, does not hide the scene)."""
     path = Path(arg)
-    if path.exists() or len(path.parts) != 1:
+    if path.is_file() or len(path.parts) != 1:
         return path  # a path: the loader reports a missing or unreadable file
     name = path.name[:-5] if path.name.endswith(".toml") else path.name
+    if path.exists() and not (scenes_dir() / f"{name}.toml").is_file():
+        return path  # e.g. a FIFO or folder: the loader says what is wrong with it
     return scene_path(name)
 
 
