@@ -1,7 +1,7 @@
 """The Python API: load a scenario, override parameters, simulate, get arrays back.
 
     from tribofmu.api import simulate
-    result = simulate("scenarios/fig2_dry.toml", {"drive.omega": 80})
+    result = simulate("fig2_dry", {"drive.omega": 80})   # a shipped scene, or a .toml path
     result.time, result.v, result.stats
 
 The CLI is a thin layer over these functions.
@@ -23,6 +23,7 @@ from .coupling.system import CoupledSystem
 from .master import FMUCallError, FMUFileError, FMUInstance, GridRecorder, RunLimits, run
 from .master.energy import EnergyAudit
 from .master.run import COLUMNS
+from .scene.library import resolve_scene
 from .scene.scenario import Scenario, ScenarioError, load_scenario, scales
 from .scene.wiring import constant_inputs, fmu_parameters
 
@@ -62,8 +63,9 @@ class SimulationResult:
 
 
 def load(path: str | Path, overrides: dict[str, Any] | list[str] | None = None) -> Scenario:
-    """Read and validate a scenario; raises ScenarioError with a one-line message."""
-    return load_scenario(path, overrides)
+    """Read and validate a scenario (a .toml path, or a shipped scene's name such as
+    ``"fig2_dry"``); raises ScenarioError with a one-line message."""
+    return load_scenario(resolve_scene(path), overrides)
 
 
 def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[str] | None = None,
@@ -86,7 +88,7 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     only the shown window in the result (with a sink, memory then does not grow with the run).
     """
     if not isinstance(scenario, Scenario):
-        scenario = load_scenario(scenario, overrides)
+        scenario = load_scenario(resolve_scene(scenario), overrides)
     elif overrides:
         scenario = scenario.with_overrides(overrides)
     sim = scenario.simulation

@@ -1,11 +1,7 @@
 """The ``tribofmu`` command: a thin layer over :mod:`tribofmu.api`.
 
-    tribofmu build [--out DIR] [--fmi {2,3}]
-    tribofmu simulate SCENARIO [--out DIR] [--set KEY=VALUE ...] [--algorithm NAME] [--step S] [--tol TOL] [--max-wall S] [--fmi {2,3}]
-    tribofmu export-ssp SCENARIO --out FILE.ssp [--set KEY=VALUE ...] [--pair] [--fmu-dir DIR]
-    tribofmu accuracy SCENARIO [--out DIR] [--set KEY=VALUE ...] [--quick]
-    tribofmu sweep SCENARIO --grid KEY=V1,V2,... [--grid ...] [--out DIR] [--scheduler ADDR] [--workers N]
-    tribofmu figures [--out DIR] [--only fig2,fig4,...]
+The synopsis of every command is its ``--help`` (the README's "The CLI" section is checked
+against this parser by tests/integration/test_user_sees.py).
 
 FMUs: ``--fmu-dir DIR`` uses the FMUs in DIR (they must exist); without it the FMUs built
 from the installed source are found in (or built once into) a per-user cache, whatever
@@ -81,95 +77,182 @@ def one_line(exc: BaseException) -> str:
     return " ".join(text.split())
 
 
+DESCRIPTION = """tribofmu: dry, fluid and boundary friction as FMI co-simulation FMUs.
+
+SCENARIO is a shipped scene's name (list them with 'tribofmu scenes') or the path of a
+.toml scene file. Bad input is one line on stderr and exit code 2, checked before
+anything runs; a failed run exits 1."""
+
+EXAMPLES = {
+    None: ["tribofmu scenes", "tribofmu simulate fig2_dry", "tribofmu figures",
+           "tribofmu <command> --help"],
+    "build": ["tribofmu build", "tribofmu build --out fmus --fmi 3"],
+    "simulate": ["tribofmu simulate fig2_dry",
+                 "tribofmu simulate fig2_dry --set drive.omega=80 --no-plots",
+                 "tribofmu simulate my_scene.toml --algorithm jacobi --step 1e-4 --out out/mine"],
+    "plot": ["tribofmu plot out/fig2_dry"],
+    "scenes": ["tribofmu scenes"],
+    "export-ssp": ["tribofmu export-ssp fig2_dry --out fig2.ssp",
+                   "tribofmu export-ssp fig2_dry --out fig2_pair.ssp --pair"],
+    "sweep": ["tribofmu sweep fig2_dry --grid drive.omega=10,20,30,50,80,130 --workers 0",
+              "tribofmu sweep fig2_dry --grid drive.omega=30,80 --grid conditions.n=-10,-20"],
+    "accuracy": ["tribofmu accuracy fig2_dry --quick"],
+    "figures": ["tribofmu figures", "tribofmu figures --only fig2,fig4 --out out/figs"],
+}
+SCENARIO_HELP = ("a shipped scene's name (see 'tribofmu scenes', e.g. fig2_dry) "
+                 "or the path of a .toml scene file")
+
+
+def _examples(command: str | None) -> str:
+    return "example" + ("s" if len(EXAMPLES[command]) > 1 else "") + ":\n" + "\n".join(
+        f"  {line}" for line in EXAMPLES[command])
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="tribofmu", description=__doc__.split("\n")[0])
+    plain = argparse.RawDescriptionHelpFormatter
+    parser = argparse.ArgumentParser(prog="tribofmu", description=DESCRIPTION, epilog=_examples(None),
+                                     formatter_class=plain)
     parser.add_argument("--version", action="version", version=f"tribofmu {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     fmu_help = "use the .fmu files in DIR (default: built from this source, in a per-user cache)"
 
-    p = sub.add_parser("build", help="build the FMUs (Friction, Drive, BlockSpring, Thermal, Load, TriboPair)")
-    p.add_argument("--out", default=None, help="output directory (default: the per-user FMU cache)")
+    def command(name: str, summary: str, description: str | None = None):
+        return sub.add_parser(name, help=summary, description=description or summary[0].upper() + summary[1:] + ".",
+                              epilog=_examples(name), formatter_class=plain)
+
+    p = command("build", "build the six FMUs (Friction, Drive, BlockSpring, Thermal, Load, TriboPair)")
+    p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: the per-user FMU cache)")
     p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
                    help="FMI version of the co-simulation FMUs (default 2; 3 goes to its own cache folder)")
     p.set_defaults(run=cmd_build)
 
-    p = sub.add_parser("simulate", help="co-simulate a scenario")
-    p.add_argument("scenario")
-    p.add_argument("--out", default=None,
-                   help="output directory (default: out/<scenario name>[--<overrides>])")
+    p = command("simulate", "co-simulate a scene; result.csv, columns.json, stats.json, time.png, phase.png")
+    p.add_argument("scenario", metavar="SCENARIO", help=SCENARIO_HELP)
+    p.add_argument("--out", default=None, metavar="DIR",
+                   help="output directory (default: out/<scene name>[--<overrides>])")
     _add_set(p)
     _add_algorithm(p)
     p.add_argument("--max-wall", type=float, default=None, metavar="S",
                    help="stop a run whose projected wall time exceeds S seconds (0: no limit; "
                         "default: the scene's simulation.max_wall, 1800)")
-    p.add_argument("--fmu-dir", default=None, help=fmu_help)
+    p.add_argument("--fmu-dir", default=None, metavar="DIR", help=fmu_help)
     p.add_argument("--fmi", type=int, choices=(2, 3), default=None,
                    help="run FMI 2.0 (default) or FMI 3.0 FMUs; with --fmu-dir, the FMUs there must be of it")
-    p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG figures (draw them later with 'tribofmu plot DIR')")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=cmd_simulate)
 
-    p = sub.add_parser("export-ssp", help="write the scenario's coupled system as an SSP 1.0 archive")
-    p.add_argument("scenario")
-    p.add_argument("--out", required=True, help="the .ssp file to write")
+    p = command("plot", "redraw time.png and phase.png of a saved simulate result")
+    p.add_argument("result_dir", metavar="DIR", help="a folder written by 'tribofmu simulate' (result.csv, stats.json)")
+    p.add_argument("--out", default=None, metavar="DIR", help="where to write the PNGs (default: DIR)")
+    p.set_defaults(run=cmd_plot)
+
+    p = command("scenes", "list the shipped scenes, one line each")
+    p.set_defaults(run=cmd_scenes)
+
+    p = command("export-ssp", "write a scene's coupled system as an SSP 1.0 archive")
+    p.add_argument("scenario", metavar="SCENARIO", help=SCENARIO_HELP)
+    p.add_argument("--out", required=True, metavar="FILE.ssp", help="the .ssp file to write")
     _add_set(p)
     p.add_argument("--pair", action="store_true",
                    help="replace BlockSpring and Friction by TriboPair.fmu, which couples them implicitly "
                         "inside itself (stick right in masters that exchange values once per step)")
-    p.add_argument("--fmu-dir", default=None, help=fmu_help)
+    p.add_argument("--fmu-dir", default=None, metavar="DIR", help=fmu_help)
     p.set_defaults(run=cmd_export_ssp)
 
-    p = sub.add_parser("sweep", help="run a grid of overrides on Dask; sweep.csv, regime maps")
-    p.add_argument("scenario")
+    p = command("sweep", "run a grid of overrides on Dask; sweep.csv, regime maps")
+    p.add_argument("scenario", metavar="SCENARIO", help=SCENARIO_HELP)
     p.add_argument("--grid", action="append", default=[], required=True, metavar="KEY=V1,V2,...",
                    help="swept values of a scenario key (repeatable: the cartesian product)")
-    p.add_argument("--out", default=None, help="output directory (default: out/<scenario name>-sweep)")
-    p.add_argument("--scheduler", default=None, help="address of an existing Dask scheduler")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: out/<scene name>-sweep)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="address of an existing Dask scheduler")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="local worker processes (default: one per core; 0: no Dask, a plain loop)")
     _add_set(p)
     _add_algorithm(p)
-    p.add_argument("--fmu-dir", default=None, help="use these FMUs (default: the per-user cache, built from this source)")
+    p.add_argument("--fmu-dir", default=None, metavar="DIR",
+                   help="use these FMUs (default: the per-user cache, built from this source)")
     p.add_argument("--retry-failed", action="store_true", help="rerun the points sweep.csv has as failed")
     p.add_argument("--recompute", action="store_true",
                    help="rerun every point (needed when OUT's sweep was computed with other FMUs)")
-    p.add_argument("--timeout", type=float, default=None, help="per-point time limit [s]: then failed")
+    p.add_argument("--timeout", type=float, default=None, metavar="S", help="per-point time limit [s]: then failed")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=cmd_sweep)
 
-    p = sub.add_parser("accuracy", help="error vs cost of every algorithm against the reference solution")
-    p.add_argument("scenario")
-    p.add_argument("--out", default=None, help="output directory (default: out/<scenario name>-accuracy)")
+    p = command("accuracy", "error vs cost of every algorithm against the reference solution")
+    p.add_argument("scenario", metavar="SCENARIO", help=SCENARIO_HELP)
+    p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: out/<scene name>-accuracy)")
     _add_set(p)
     p.add_argument("--quick", action="store_true", help="a shorter ladder of steps and tolerances")
-    p.add_argument("--fmu-dir", default=None, help=fmu_help)
+    p.add_argument("--fmu-dir", default=None, metavar="DIR", help=fmu_help)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     p.set_defaults(run=cmd_accuracy)
 
-    p = sub.add_parser("figures", help="the paper's Figs. 2-6 from the scenes, one PNG per figure")
-    p.add_argument("--out", default="out/figures", help="output directory (default: out/figures)")
+    p = command("figures", "the paper's Figs. 2-6 from the shipped scenes, one PNG per figure")
+    p.add_argument("--out", default="out/figures", metavar="DIR", help="output directory (default: out/figures)")
     p.add_argument("--only", default=None, metavar="FIG,...",
-                   help="a comma-separated subset of fig2,fig3,fig4,fig5,fig6")
-    p.add_argument("--scenarios", default=None, help="the scenes' folder (default: the repository's)")
-    p.add_argument("--fmu-dir", default=None, help=fmu_help)
-    p.add_argument("--data", default=None, help="where the runs' results are kept for reuse (default: OUT/data)")
+                   help="a comma-separated subset of " + ",".join(_figure_names()) +
+                        " (default: the paper's fig2-fig6; tn_map, the boundary film's T x n map, only when named)")
+    p.add_argument("--scenarios", default=None, metavar="DIR",
+                   help="a folder of scene files to use instead of the shipped ones")
+    p.add_argument("--fmu-dir", default=None, metavar="DIR", help=fmu_help)
+    p.add_argument("--data", default=None, metavar="DIR",
+                   help="where the runs' results are kept for reuse (default: OUT/data)")
     p.add_argument("--rerun", action="store_true", help="simulate again even where saved results match")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=cmd_figures)
     return parser
 
 
+def synopsis() -> list[str]:
+    """One line per command, every option it takes: the README's "The CLI" block is this."""
+    import argparse as ap
+    parser = _parser()
+    sub = next(a for a in parser._actions if isinstance(a, ap._SubParsersAction))
+    lines = []
+    for name, p in sub.choices.items():
+        words = [f"tribofmu {name}"]
+        for action in p._actions:
+            if isinstance(action, ap._HelpAction):
+                continue
+            if not action.option_strings:
+                words.append(action.metavar or action.dest.upper())
+                continue
+            flag = max(action.option_strings, key=len) if action.option_strings[0].startswith("--") \
+                else action.option_strings[0]
+            if action.nargs == 0:
+                text = flag
+            else:
+                value = action.metavar or "{" + ",".join(map(str, action.choices)) + "}" \
+                    if action.metavar or action.choices else action.dest.upper()
+                text = f"{flag} {value}"
+            repeat = isinstance(action, ap._AppendAction)
+            if action.required:
+                words.append(text + (f" [{flag} ...]" if repeat else ""))
+            else:
+                words.append(f"[{text}{' ...' if repeat else ''}]")
+        lines.append(" ".join(words))
+    return lines
+
+
+def _figure_names() -> list[str]:
+    from .figures import FIGURES
+    return list(FIGURES)
+
+
 def _add_set(p) -> None:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a scenario value, e.g. drive.omega=80 (repeatable)")
+                   help="override a scenario value, e.g. drive.omega=80 (repeatable); a key the scene "
+                        "does not use is an error")
 
 
 def _add_algorithm(p) -> None:
-    p.add_argument("--algorithm", default=None, help="jacobi, gauss-seidel, implicit, adaptive")
-    p.add_argument("--step", type=float, default=None,
+    p.add_argument("--algorithm", default=None, metavar="NAME",
+                   help="jacobi, gauss-seidel, implicit or adaptive (default: the scene's)")
+    p.add_argument("--step", type=float, default=None, metavar="S",
                    help="communication step [s] (fixed-step algorithms; adaptive: the first step)")
-    p.add_argument("--tol", type=float, default=None, help="tolerance of the adaptive algorithm")
+    p.add_argument("--tol", type=float, default=None, metavar="TOL", help="tolerance of the adaptive algorithm")
 
 
 # -- checks made before anything runs ----------------------------------------------------------
@@ -274,14 +357,47 @@ def resolve_fmu_dir(fmu_dir: str | None, names, quiet: bool = False, fmi: int | 
     return find_fmus(names, fmu_dir, fmi=fmi, build=None if fmu_dir is None else False, notice=notice)
 
 
-def label_overrides(overrides, algorithm, step, tol) -> dict[str, str]:
-    """The --set values and the algorithm options: what makes a run differ from the scene."""
+def label_overrides(overrides, algorithm=None, step=None, tol=None, max_wall=None, fmi=None,
+                    scenario=None, base=None) -> dict[str, str]:
+    """What makes a run differ from the scene, canonical: the --set values and the options
+    --algorithm, --step, --tol, --max-wall (as their simulation.* keys; an option wins over a
+    --set of the same key, as in the run) and --fmi 3, sorted by key. Given the overridden
+    ``scenario``, each --set value is written as the scenario holds it (``--step 1e-3`` and
+    ``--set simulation.step=0.001`` give the same label); given the ``base`` scene too, a
+    value equal to the scene's own is dropped (the same run, the same folder)."""
     from .provenance import overrides_dict
-    label = overrides_dict(overrides)
-    for key, value in (("simulation.algorithm", algorithm), ("simulation.step", step), ("simulation.tol", tol)):
+    from .scene.scenario import to_dict
+    data = to_dict(scenario) if scenario is not None else {}
+    old = to_dict(base) if base is not None else {}
+    label = {}
+    for key, text in overrides_dict(overrides).items():
+        table, _, name = key.partition(".")
+        label[key] = data.get(table, {}).get(name, text)
+    for key, value in (("simulation.algorithm", algorithm), ("simulation.step", step),
+                       ("simulation.tol", tol), ("simulation.max_wall", max_wall)):
         if value is not None:
-            label[key] = f"{value:g}" if isinstance(value, float) else str(value)
-    return label
+            label[key] = value
+    out = {}
+    for key in sorted(label):
+        table, _, name = key.partition(".")
+        if base is not None and name in old.get(table, {}) and _canonical(old[table][name]) == _canonical(label[key]):
+            continue
+        out[key] = _canonical(label[key])
+    if fmi == 3:
+        out["fmi"] = "3"
+    return out
+
+
+def _canonical(value) -> str:
+    """One spelling per value: 0.001 for 1e-3, 80 for 80.0, true/false, 5,6.5 for [5, 6.5]."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        text = repr(float(value))
+        return text[:-2] if text.endswith(".0") else text
+    if isinstance(value, (list, tuple)):
+        return ",".join(_canonical(v) for v in value)
+    return str(value)
 
 
 # -- commands -------------------------------------------------------------------------------
@@ -302,21 +418,27 @@ def cmd_build(args) -> int:
 def cmd_simulate(args) -> int:
     from . import api
     from .atomic import result_set
+    from .columns import SIDECAR_NAME
     from .progress import RunBar
     from .provenance import overrides_dict, record
     from .result_csv import ResultCsvWriter, expected_bytes
+    from .scene.library import resolve_scene
+    from .scene.scenario import to_dict
+    from .studies.metrics import result_metrics
 
-    scenario = api.load(args.scenario, args.overrides)
+    scene_file = resolve_scene(args.scenario)
+    scenario = api.load(scene_file, args.overrides)
     algorithm = check_algorithm_options(scenario, args.algorithm, args.step, args.tol, args.max_wall)
-    out = Path(args.out) if args.out else output_folder(
-        scenario.name, label_overrides(args.overrides, args.algorithm, args.step, args.tol))
+    out = Path(args.out) if args.out else output_folder(scenario.name, label_overrides(
+        args.overrides, args.algorithm, args.step, args.tol, args.max_wall, args.fmi,
+        scenario=scenario, base=api.load(scene_file) if args.overrides else scenario))
     samples = api.output_samples(scenario) + 1
     preflight(out, expected_bytes(scenario, samples) + (0 if args.no_plots else PLOT_BYTES))
     fmu_dir = resolve_fmu_dir(args.fmu_dir, scenario.fmus, args.quiet, args.fmi)
     quiet = True if args.quiet else None
     with result_set(out) as tmp:  # swapped in whole when done; untouched on failure or Ctrl-C
         # rows go to disk as they come: memory does not grow with the run, only the shown
-        # window is kept (for the plots)
+        # window is kept (for the metrics and the plots)
         with ResultCsvWriter(tmp / "result.csv", scenario) as csv_rows, \
                 RunBar(scenario.name, scenario.stop_time, enabled=False if quiet else None) as bar:
             result = api.simulate(scenario, algorithm=args.algorithm, step=args.step, tol=args.tol,
@@ -324,15 +446,20 @@ def cmd_simulate(args) -> int:
                                   max_wall=-1.0 if args.max_wall is None else args.max_wall,
                                   sink=csv_rows, keep_window=True)
         stats = dict(result.stats)
+        if result.ok:
+            # the scene's metrics on its shown window; null where one does not apply (NaN)
+            stats["metrics"] = {k: (v if v == v else None) for k, v in result_metrics(result).items()}
         settings = {"algorithm": algorithm, "step": stats.get("step"), "tol": stats.get("tol"),
                     "requested": {"algorithm": args.algorithm, "step": args.step, "tol": args.tol}}
-        stats["provenance"] = record(args.scenario, overrides_dict(args.overrides), settings, stats.get("fmus"))
+        stats["provenance"] = record(scene_file, overrides_dict(args.overrides), settings, stats.get("fmus"))
+        stats["scenario"] = to_dict(scenario)  # what was simulated, for 'tribofmu plot'
         (tmp / "stats.json").write_text(json.dumps(stats, indent=2) + "\n")
         if not result.ok:  # a failed run leaves its stats (with the message), never a partial result
             (tmp / "result.csv").unlink()
-        elif not args.no_plots:
-            from .plots import plot_result
-            plot_result(result, tmp)
+            (tmp / SIDECAR_NAME).unlink(missing_ok=True)
+    if result.ok and not args.no_plots:  # the result is on disk: a failed drawing loses nothing
+        from .plots import plot_result
+        plot_result(result, out)
     estimate = result.stats["estimated_error"]["nrms_v"]
     accuracy = f", estimated nRMS(v) {estimate:.2g}" if estimate is not None else ""
     print(f"{scenario.name}: {result.message}; {result.stats['communication_steps']} steps, "
@@ -345,11 +472,51 @@ def cmd_simulate(args) -> int:
     return 0
 
 
+def cmd_plot(args) -> int:
+    """Redraw a saved result from its result.csv and the scenario recorded in stats.json."""
+    from .columns import read_result_csv
+    from .plots import plot_signals
+    from .scene.scenario import from_dict
+    folder = Path(args.result_dir)
+    csv, stats_file = folder / "result.csv", folder / "stats.json"
+    for path in (csv, stats_file):
+        if not path.is_file():
+            raise UsageError(f"{folder}: no {path.name} here (a folder written by 'tribofmu simulate')")
+    try:
+        stats = json.loads(stats_file.read_text(encoding="utf-8"))
+        data = stats["scenario"]
+    except (ValueError, KeyError, TypeError):
+        raise UsageError(f"{stats_file}: no scenario recorded (written by an older tribofmu: "
+                         "simulate again)") from None
+    scenario = from_dict(data, stats_file.name)
+    try:
+        signals = read_result_csv(csv)
+    except ValueError as exc:
+        raise UsageError(f"{csv}: not a result table ({exc})") from None
+    missing = [k for k in ("time", "X", "V", "x", "v") if k not in signals]
+    if missing:
+        raise UsageError(f"{csv}: no column {missing[0]!r}")
+    out = check_out_dir(Path(args.out)) if args.out else folder
+    out.mkdir(parents=True, exist_ok=True)
+    for path in plot_signals(signals, scenario, out):
+        print(path)
+    return 0
+
+
+def cmd_scenes(args) -> int:
+    from .scene.library import scene_names, scene_path, scene_summary
+    names = scene_names()
+    width = max(map(len, names))
+    for name in names:
+        print(f"{name:<{width}}  {scene_summary(scene_path(name))}")
+    return 0
+
+
 def cmd_export_ssp(args) -> int:
     from . import api
     from .scene.ssp import export_ssp
     from .scene.wiring import instances
-    scenario = api.load(args.scenario, args.overrides)
+    scenario = api.load(args.scenario, args.overrides)  # a shipped scene's name or a path
     out = check_out_file(Path(args.out))
     names = [inst.fmu.name for inst in instances(scenario, args.pair)]  # a scene the pair cannot take: exit 2
     preflight_folder(out.parent, SSP_BYTES)
@@ -366,16 +533,17 @@ def cmd_sweep(args) -> int:
     require("tqdm", "tqdm", "tribofmu sweep")
     if args.workers != 0:
         require("distributed", "dask[distributed]", "tribofmu sweep on Dask (--workers 0 runs without)")
-    scenario = api.load(args.scenario, args.overrides)
+    from .scene.library import resolve_scene
+    scene_file = resolve_scene(args.scenario)
+    scenario = api.load(scene_file, args.overrides)
     check_algorithm_options(scenario, args.algorithm, args.step, args.tol)
     check_number("--timeout", args.timeout)
-    out = Path(args.out) if args.out else output_folder(Path(args.scenario).stem, {}, "-sweep",
-                                                                "the scenario file's name")
+    out = Path(args.out) if args.out else output_folder(scene_file.stem, {}, "-sweep", "the scenario file's name")
     grid = parse_grid(args.grid)
     points = math.prod(len(values) for values in grid.values())
     preflight_folder(out, points * SWEEP_POINT_BYTES + (0 if args.no_plots else PLOT_BYTES))
     try:
-        rows = sweep(args.scenario, grid, out, scheduler=args.scheduler,
+        rows = sweep(scene_file, grid, out, scheduler=args.scheduler,
                      workers=args.workers, overrides=args.overrides, algorithm=args.algorithm,
                      step=args.step, tol=args.tol, fmu_dir=args.fmu_dir,
                      retry_failed=args.retry_failed, recompute=args.recompute, timeout=args.timeout,

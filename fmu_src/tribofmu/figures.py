@@ -10,6 +10,12 @@
   ``fig5_newtonian``, ``fig5_dilatant``); the lower panel has an inset enlarging v(t).
 - Fig. 6 (``fig6_boundary``): X, x and V, v, plus the lubricant's excess volume f(t) with
   the melting point f = mu/mub.
+- ``tn_map`` (not of the paper, only with ``--only tn_map``; about 10 s, no FMU): the
+  boundary film at rest under a slow temperature ramp up and back down at each load: where
+  melting and solidification happen at different temperatures (the T x n hysteresis band).
+
+Positions are in mm and velocities in mm/s in every figure (µm, µm/s for the boundary
+scenes, whose amplitude is 1.4 µm): :func:`tribofmu.plots.length_scale`.
 
 Each run's signals on the window are saved in ``OUT/data/<run>.npz`` (or ``--data DIR``)
 with a key made of the scene file, the overrides, the hash of the sources a result depends
@@ -26,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 
-SCENARIOS_DIR = Path(__file__).resolve().parents[2] / "scenarios"
 FIG4_OMEGAS = (10.0, 20.0, 30.0, 50.0, 80.0, 130.0)
 SIGNALS = ("time", "X", "V", "x", "v", "F", "f", "stuck")
 
@@ -60,7 +65,9 @@ FIGURES = {
     "fig4": _fig4_runs(),
     "fig5": FIG5_RUNS,
     "fig6": [Run("fig6_boundary", "fig6_boundary.toml")],
+    "tn_map": [],  # the friction law alone, no simulation
 }
+PAPER_FIGURES = ("fig2", "fig3", "fig4", "fig5", "fig6")  # what a plain 'tribofmu figures' draws
 
 
 class Signals:
@@ -134,12 +141,13 @@ def make_figures(out_dir: str | Path = "out/figures", only: list[str] | None = N
     data_dir: where the runs' signals are saved and reused (default ``OUT/data``)."""
     from .fmu_cache import find_fmus
 
+    from .scene.library import scenes_dir
+
     out_dir = Path(out_dir)
-    scenarios_dir = Path(scenarios_dir) if scenarios_dir else SCENARIOS_DIR
+    scenarios_dir = Path(scenarios_dir) if scenarios_dir else scenes_dir()
     if not scenarios_dir.is_dir():
-        raise FileNotFoundError(f"scenes folder not found: {scenarios_dir} (pass --scenarios DIR, "
-                                "the repository's scenarios/)")
-    names = list(only) if only else list(FIGURES)
+        raise FileNotFoundError(f"scenes folder not found: {scenarios_dir} (--scenarios DIR)")
+    names = list(only) if only else list(PAPER_FIGURES)
     fmu_dir = find_fmus(("Drive", "BlockSpring", "Friction"), fmu_dir, build=None if fmu_dir is None else False,
                         notice=None if quiet else (lambda text: print(f"tribofmu: {text}", file=sys.stderr)))
     data_dir = Path(data_dir) if data_dir else out_dir / "data"
@@ -152,37 +160,36 @@ def make_figures(out_dir: str | Path = "out/figures", only: list[str] | None = N
                 results[run.label] = _load_or_simulate(run, scenarios_dir, data_dir, fmu_dir, rerun,
                                                        quiet, code)
         runs = [results[run.label] for run in FIGURES[name]]
+        if name == "tn_map":
+            runs = [api_load(scenarios_dir / "fig6_boundary.toml")]
         paths.append(DRAW[name](runs, out_dir / f"{name}.png"))
     return paths
 
 
+def api_load(path: Path):
+    from . import api
+    return api.load(path)
+
+
 # -- drawing -------------------------------------------------------------------------------------
 def _plt():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+    from .plots import pyplot
+    return pyplot()
 
 
 def _save(fig, path: Path) -> Path:
-    from .atomic import atomic_write_bytes
-    import io
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=120)
-    _plt().close(fig)
-    atomic_write_bytes(path, buffer.getvalue())
-    return path
+    from .plots import save_png
+    return save_png(fig, path, dpi=120)
 
 
 def _time_pair(axes, r: Signals, first: str, second: str) -> None:
-    """Upper: X (dashed), x (solid); lower: V (dashed), v (solid), in readable units."""
-    from .plots import draw_pair, unit_scale
-    k, unit = unit_scale(np.concatenate([r.X, r.x]), "m")
+    """Upper: X (dashed), x (solid); lower: V (dashed), v (solid), in the scene's units."""
+    from .plots import draw_pair, length_scale
+    k, prefix = length_scale(r.scenario)
     draw_pair(axes[0], r.time, r.X, r.x, k, "X (upper block)", "x (lower block)", "C0")
-    axes[0].set_ylabel(f"{first} [{unit}]")
-    k, unit = unit_scale(np.concatenate([r.V, r.v]), "m/s")
+    axes[0].set_ylabel(f"{first} [{prefix}m]")
     draw_pair(axes[1], r.time, r.V, r.v, k, "V (upper block)", "v (lower block)", "C3")
-    axes[1].set_ylabel(f"{second} [{unit}]")
+    axes[1].set_ylabel(f"{second} [{prefix}m/s]")
 
 
 def draw_fig2(runs, path: Path) -> Path:
@@ -199,16 +206,15 @@ def draw_fig2(runs, path: Path) -> Path:
 
 
 def draw_fig3(runs, path: Path) -> Path:
-    from .plots import finish_axes, scene_label, title, unit_scale
+    from .plots import finish_axes, length_scale, scene_label, title
     plt = _plt()
     (r,) = runs
     fig, axes = plt.subplots(2, 1, figsize=(7.5, 6), sharex=True)
-    k, unit = unit_scale(r.X - r.x, "m")
+    k, prefix = length_scale(r.scenario)
     axes[0].plot(r.time, (r.X - r.x) * k, color="C0", label="X − x")
-    axes[0].set_ylabel(f"X − x [{unit}]")
-    k, unit = unit_scale(r.V - r.v, "m/s")
+    axes[0].set_ylabel(f"X − x [{prefix}m]")
     axes[1].plot(r.time, (r.V - r.v) * k, color="C3", label="V − v")
-    axes[1].set_ylabel(f"V − v [{unit}]")
+    axes[1].set_ylabel(f"V − v [{prefix}m/s]")
     for ax in axes:
         ax.axhline(0.0, color="0.5", lw=0.7)
     axes[-1].set_xlabel("t [s]")
@@ -219,48 +225,47 @@ def draw_fig3(runs, path: Path) -> Path:
 
 
 def draw_fig4(runs, path: Path) -> Path:
-    from .plots import title, unit_scale
+    from .plots import length_scale, quantity, title
     plt = _plt()
     fig, axes = plt.subplots(2, 3, figsize=(11, 7))
+    k, prefix = length_scale(runs[0].scenario)  # one unit for all six panels
     for ax, r, letter in zip(axes.ravel(), runs, "abcdef"):
-        kx, ux = unit_scale(r.x, "m")
-        kv, uv = unit_scale(r.v, "m/s")
-        ax.plot(r.x * kx, r.v * kv, color="C0", lw=1.2)
+        ax.plot(r.x * k, r.v * k, color="C0", lw=1.2)
         ax.set_title(f"({letter}) ω = {r.scenario.drive.omega:g} rad/s", fontsize=10)
-        ax.set_xlabel(f"x [{ux}]")
-        ax.set_ylabel(f"v [{uv}]")
+        ax.set_xlabel(f"x [{prefix}m]")
+        ax.set_ylabel(f"v [{prefix}m/s]")
         ax.grid(alpha=0.3)
         ax.locator_params(nbins=5)
     sc = runs[0].scenario
-    title(fig, f"Fig. 4 — phase portraits v(x), dry friction: A = {sc.drive.A:g} m, L = {sc.load:g} N, "
-               f"M = {sc.block.M:g} kg, K = {sc.block.K:g} N/m, μ = {sc.friction.mu_friction:g}", 130, 10)
+    title(fig, f"Fig. 4 — phase portraits v(x), dry friction; A = {quantity(sc.drive.A, 'm')}, "
+               f"L = {quantity(sc.load, 'N')}, M = {sc.block.M:g} kg, K = {sc.block.K:g} N/m, "
+               f"μ = {sc.friction.mu_friction:g}", 130, 10)
     fig.tight_layout()
     return _save(fig, path)
 
 
 def draw_fig5(runs, path: Path) -> Path:
-    from .plots import draw_pair, finish_axes, title, unit_scale
+    from .plots import draw_pair, finish_axes, length_scale, quantity, title
     plt = _plt()
-    fig, axes = plt.subplots(3, 1, figsize=(7.5, 8.5), sharex=True)
+    fig, axes = plt.subplots(3, 1, figsize=(7.5, 9.5), sharex=True, gridspec_kw={"height_ratios": [1, 1, 1.35]})
     names = ("pseudoplastic", "Newtonian", "dilatant")
+    k, prefix = length_scale(runs[0].scenario)
     for ax, r, name in zip(axes, runs, names):
-        k, unit = unit_scale(np.concatenate([r.V, r.v]), "m/s")
         draw_pair(ax, r.time, r.V, r.v, k, "V (upper block)", "v (lower block)", "C3")
-        ax.set_ylabel(f"V, v [{unit}]")
-        ax.set_title(f"{name}, γ = {r.scenario.friction.gamma:.3g}", fontsize=9, loc="left")
+        ax.set_ylabel(f"V, v [{prefix}m/s]")
+        ax.set_title(f"{name}, γ = {r.scenario.friction.gamma:.3g}".replace("-", "−"), fontsize=9, loc="left")
     r = runs[-1]
-    k, unit = unit_scale(r.v, "m/s")
     # between the drive's troughs, below v: the inset hides no curve
-    inset = axes[-1].inset_axes([0.37, 0.06, 0.27, 0.3])
+    inset = axes[-1].inset_axes([0.36, 0.05, 0.34, 0.32])
     inset.plot(r.time, r.v * k, color="C3", lw=1.0)
-    inset.set_title(f"v enlarged [{unit}] vs t [s]", fontsize=7, pad=2)
-    inset.tick_params(labelsize=6)
+    inset.set_title(f"v enlarged [{prefix}m/s]", fontsize=8, pad=2)
+    inset.tick_params(labelsize=8, pad=1)
     inset.locator_params(nbins=3)
     inset.patch.set_alpha(0.9)
     axes[-1].set_xlabel("t [s]")
     finish_axes(axes)
     sc = runs[0].scenario
-    title(fig, f"Fig. 5 — fluid friction: A = {sc.drive.A:g} m, ω = {sc.drive.omega:g} rad/s, "
+    title(fig, f"Fig. 5 — fluid friction; A = {quantity(sc.drive.A, 'm')}, ω = {sc.drive.omega:g} rad/s, "
                f"M = {sc.block.M:g} kg, K = {sc.block.K:g} N/m, m = {sc.friction.m:g}")
     fig.tight_layout()
     return _save(fig, path)
@@ -283,4 +288,53 @@ def draw_fig6(runs, path: Path) -> Path:
     return _save(fig, path)
 
 
-DRAW = {"fig2": draw_fig2, "fig3": draw_fig3, "fig4": draw_fig4, "fig5": draw_fig5, "fig6": draw_fig6}
+def draw_tn_map(runs, path: Path) -> Path:
+    """f of the boundary film at rest (dv = 0) under a slow temperature ramp up then down,
+    per load (the friction law alone): where the two ramps differ, melting and
+    solidification happen at different temperatures."""
+    from .physics.friction import BOUNDARY
+    plt = _plt()
+    (sc,) = runs
+    law = sc.friction.law()
+    if law.regime != BOUNDARY:
+        raise ValueError(f"tn_map needs a boundary-friction scene, got {sc.friction.regime}")
+    lub = sc.friction.lubricant
+    melt = lub.mu_shear / lub.mu_shear_bar
+    T_up = np.arange(200.0, 1400.0, 2.0)
+    # Pa: 40 loads from 1e4 to 3e7 Pa (compression), and the scene's own
+    loads = -np.unique(np.append(np.logspace(4, np.log10(3e7), 40), abs(sc.conditions.n)))
+    up, down = np.empty((loads.size, T_up.size)), np.empty((loads.size, T_up.size))
+    for i, n in enumerate(loads):
+        f = 0.0
+        for j, T in enumerate(T_up):  # each temperature held 1 s: f settles (rates >= 1e3 1/s)
+            f = law.advance_f(f, 0.0, n, T, 1.0)
+            up[i, j] = f
+        for j in range(T_up.size - 1, -1, -1):
+            f = law.advance_f(f, 0.0, n, T_up[j], 1.0)
+            down[i, j] = f
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4.5))
+    mesh = ax[0].pcolormesh(T_up, -loads, down - up, shading="auto", cmap="viridis")
+    fig.colorbar(mesh, ax=ax[0], label="f (cooling) − f (heating)")
+    molten = [T_up[np.argmax(row > melt)] if np.any(row > melt) else np.nan for row in up]
+    ax[0].plot(molten, -loads, "w--", label="f > μ/μ̄ (molten) at rest")
+    ax[0].set_yscale("log")
+    ax[0].set_xlabel("T [K]")
+    ax[0].set_ylabel("−n [Pa]")
+    ax[0].set_title("hysteresis band: T × n, film at rest", fontsize=10)
+    ax[0].legend(loc="lower right", fontsize=8)
+    k = int(np.argmin(np.abs(loads - sc.conditions.n)))
+    ax[1].plot(T_up, up[k], label="heating")
+    ax[1].plot(T_up, down[k], "--", label="cooling")
+    ax[1].axhline(melt, color="gray", ls=":", label="melting: f = μ/μ̄")
+    ax[1].set_xlabel("T [K]")
+    ax[1].set_ylabel("f at rest [1]")
+    from .plots import quantity
+    ax[1].set_title(f"n = {quantity(float(loads[k]), 'Pa')} (the scene's load)", fontsize=10)
+    ax[1].legend(fontsize=8)
+    ax[1].grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+DRAW = {"fig2": draw_fig2, "fig3": draw_fig3, "fig4": draw_fig4, "fig5": draw_fig5, "fig6": draw_fig6,
+        "tn_map": draw_tn_map}

@@ -1,33 +1,76 @@
-"""Figures of one run: X, x and V, v over the shown window; the phase portrait v(x).
+"""Figures of one run: ``time.png`` (X, x; V, v; and whatever else the scene couples: f(t)
+for boundary friction, T(t) with a Thermal FMU, the load with a Load FMU) and ``phase.png``
+(the phase portrait v(x)).
 
 Titles are made from the values actually simulated (:func:`scene_label`), never from the
-scene file's title text, so a run with ``--set drive.omega=80`` says 80 rad/s. Axes carry
-units, scaled to a readable prefix (mm, um, ...) instead of matplotlib's offset text.
+scene file's title text, so a run with ``--set drive.omega=80`` says 80 rad/s; an input
+that a program drives is shown as the program ("T: 290 K → film heating", "L(t): 15–75 N"),
+and titles wrap only between items, never inside "μ = 0.5".
+
+Units: one per quantity in every figure, chosen from the scene's drive amplitude (not from
+each panel's data): positions in mm and velocities in mm/s, or µm and µm/s for scenes whose
+amplitude is below 0.1 mm (the boundary-lubricated scenes, A = 1.4 µm).
+
+matplotlib is imported by the drawing functions only, so importing this module is cheap.
 """
 from __future__ import annotations
 
+import io
+import math
+import re
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")  # files only, no screen needed
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+_PREFIXES = ((1e9, "G"), (1e6, "M"), (1e3, "k"), (1.0, ""), (1e-3, "m"), (1e-6, "µ"), (1e-9, "n"))
+# parameter units printed with an SI prefix (others: plain numbers)
+_PREFIXED = {"m", "Pa", "N", "J", "W", "m/s"}
 
-_PREFIXES = ((1.0, ""), (1e-3, "m"), (1e-6, "µ"), (1e-9, "n"))
+
+def pyplot():
+    """matplotlib.pyplot on the file-only Agg backend (imported on first use)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
 
 
 def unit_scale(values, unit: str) -> tuple[float, str]:
     """``(factor, label)``: values * factor read in ``label`` (e.g. 1e3, "mm" for metres ~1e-3)."""
     top = float(np.nanmax(np.abs(values))) if np.size(values) else 0.0
-    for size, prefix in _PREFIXES:
+    for size, prefix in _PREFIXES[3:]:
         if top >= size * 0.999 or size == _PREFIXES[-1][0]:
             return 1.0 / size, prefix + unit
     return 1.0, unit  # pragma: no cover
 
 
+def length_scale(sc) -> tuple[float, str]:
+    """``(factor, prefix)`` for every position and velocity of this scene's figures: mm
+    (1e3, "m"), or µm (1e6, "µ") when the drive amplitude is below 0.1 mm."""
+    from .scene.scenario import scales
+    size = abs(sc.drive.A) if "Drive" in sc.fmus else scales(sc)[0]
+    return (1e3, "m") if size >= 1e-4 else (1e6, "µ")
+
+
 def _fmt(value: float) -> str:
-    return f"{value:.4g}"
+    return f"{value:.4g}".replace("-", "−")
+
+
+def _prefix(value: float, unit: str) -> tuple[float, str]:
+    """``(size, prefixed unit)`` to print value as ``value / size`` in ``prefixed unit``."""
+    if unit not in _PREFIXED or value == 0 or not math.isfinite(value):
+        return 1.0, unit
+    for size, prefix in _PREFIXES:
+        if abs(value) >= size * 0.9995:
+            return size, prefix + unit
+    return _PREFIXES[-1][0], _PREFIXES[-1][1] + unit
+
+
+def quantity(value: float, unit: str) -> str:
+    """``2 mm``, ``1.4 µm``, ``−1 MPa``, ``30 rad/s``: a value with an SI prefix where the unit
+    takes one, never e-notation for those."""
+    size, label = _prefix(value, unit)
+    return _fmt(value / size) if unit == "1" else f"{_fmt(value / size)} {label}"
 
 
 def has_drive(sc) -> bool:
@@ -38,27 +81,86 @@ def has_friction(sc) -> bool:
     return "Friction" in sc.fmus
 
 
-def scene_label(sc) -> str:
-    """One line naming the regime and the simulated parameters that shape the figure."""
-    parts = []
+def load_range(sc) -> tuple[float, float]:
+    """Smallest and largest normal stress n [Pa] over the run."""
+    if "Load" in sc.fmus:
+        return sc.load_program.program_().extremes(0.0, sc.stop_time)
+    return sc.conditions.n, sc.conditions.n
+
+
+def _range(low: float, high: float, unit: str) -> str:
+    """``15–75 N``: both ends in the prefix of the larger one."""
+    if math.isclose(low, high, rel_tol=1e-9, abs_tol=0.0):
+        return quantity(low, unit)
+    size, label = _prefix(max(abs(low), abs(high)), unit)
+    return f"{_fmt(low / size)}–{_fmt(high / size)} {label}"
+
+
+def scene_items(sc, signals: dict | None = None) -> list[str]:
+    """The parameters that shape the run's figures, one item each (see :func:`scene_label`).
+
+    signals: the run's signals (``T`` with a Thermal FMU), to print the temperature reached."""
+    items = []
     if has_drive(sc):
-        parts.append(f"A = {_fmt(sc.drive.A)} m, ω = {_fmt(sc.drive.omega)} rad/s")
-    parts.append(f"M = {_fmt(sc.block.M)} kg, K = {_fmt(sc.block.K)} N/m")
+        items += [f"A = {quantity(sc.drive.A, 'm')}", f"ω = {_fmt(sc.drive.omega)} rad/s"]
+    items += [f"M = {_fmt(sc.block.M)} kg", f"K = {_fmt(sc.block.K)} N/m"]
     if not has_friction(sc):
-        regime = "no friction"
         if sc.block.x0 or sc.block.v0:
-            parts.append(f"x0 = {_fmt(sc.block.x0)} m, v0 = {_fmt(sc.block.v0)} m/s")
-    else:
-        fr = sc.friction
-        regime = f"{fr.regime} friction"
-        if fr.regime == "dry":
-            parts.append(f"μ = {_fmt(fr.mu_friction)}, L = {_fmt(sc.load)} N")
-        elif fr.regime == "fluid":
-            parts.append(f"m = {_fmt(fr.m)}, γ = {_fmt(fr.gamma)}")
+            items += [f"x0 = {quantity(sc.block.x0, 'm')}", f"v0 = {quantity(sc.block.v0, 'm/s')}"]
+        return items
+    fr = sc.friction
+    low, high = load_range(sc)
+    if fr.regime == "dry":
+        items.append(f"μ = {_fmt(fr.mu_friction)}")
+        loads = (-high * fr.S, -low * fr.S)
+        items.append(f"L(t): {_range(*loads, 'N')}" if "Load" in sc.fmus else f"L = {quantity(loads[0], 'N')}")
+        return items
+    items += [f"m = {_fmt(fr.m)}", f"γ = {_fmt(fr.gamma)}"]
+    if fr.regime == "boundary":
+        items.append(f"n(t): {_range(low, high, 'Pa')}" if "Load" in sc.fmus else f"n = {quantity(low, 'Pa')}")
+        if "Thermal" in sc.fmus:
+            T = None if signals is None else signals.get("T")
+            if T is not None and np.size(T) and np.all(np.isfinite(T)):
+                items.append(f"T: {_fmt(sc.conditions.T)} K → {_fmt(float(T[-1]))} K (film heating)")
+            else:
+                items.append(f"T: {_fmt(sc.conditions.T)} K → film heating")
         else:
-            parts.append(f"m = {_fmt(fr.m)}, γ = {_fmt(fr.gamma)}, n = {_fmt(sc.conditions.n)} Pa, "
-                         f"T = {_fmt(sc.conditions.T)} K")
-    return f"{sc.name}: {regime}; " + ", ".join(parts)
+            items.append(f"T = {_fmt(sc.conditions.T)} K")
+    return items
+
+
+def regime_name(sc) -> str:
+    return f"{sc.friction.regime} friction" if has_friction(sc) else "no friction"
+
+
+def scene_label(sc, signals: dict | None = None) -> str:
+    """One line naming the regime and the simulated parameters that shape the figure."""
+    return f"{sc.name}: {regime_name(sc)}; " + ", ".join(scene_items(sc, signals))
+
+
+_BREAKS = re.compile(r"(?<=[,;]) |(?<=:) (?=\S+ friction)| (?=— )")
+
+
+def wrap_items(text: str, width: int) -> str:
+    """Wrap text to lines of at most ``width`` characters, breaking only after ``, `` or ``; ``
+    (between items), never inside an item such as ``μ = 0.5``."""
+    lines, line = [], ""
+    for piece in _BREAKS.split(text):
+        if line and len(line) + 1 + len(piece) > width:
+            lines.append(line)
+            line = piece
+        else:
+            line = f"{line} {piece}" if line else piece
+    lines.append(line)
+    return "\n".join(lines)
+
+
+def title(fig, text: str, width: int = 90, fontsize: float = 9) -> int:
+    """A figure title wrapped between items to the figure's width (nothing is cut); returns
+    its number of lines."""
+    wrapped = wrap_items(text, width)
+    fig.suptitle(wrapped, fontsize=fontsize)
+    return wrapped.count("\n") + 1
 
 
 def draw_pair(ax, t, drive, block, factor: float, drive_label: str, block_label: str, color: str,
@@ -76,55 +178,90 @@ def finish_axes(axes) -> None:
             ax.legend(loc="best", fontsize=8, framealpha=0.85)
 
 
-def title(fig, text: str, width: int = 90, fontsize: float = 9) -> None:
-    """A figure title wrapped to the figure's width (long parameter lists must not be cut)."""
-    import textwrap
-    fig.suptitle(textwrap.fill(text, width), fontsize=fontsize)
+def fixed_layout(fig, title_lines: int = 0, left: float = 0.95, right: float = 0.2, bottom: float = 0.55,
+                 top: float = 0.2, hspace: float = 0.12) -> None:
+    """Margins in inches instead of tight_layout, which draws the whole figure once more
+    just to measure it (a third of the drawing time of a run's plots)."""
+    width, height = fig.get_size_inches()
+    top += 0.2 * title_lines + (0.1 if title_lines else 0.0)
+    fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=bottom / height,
+                        top=1 - top / height, hspace=hspace)
+
+
+def save_png(fig, path: Path, dpi: int = 110) -> Path:
+    """Render the figure, then write the file whole (renamed into place) and close the figure."""
+    from .atomic import atomic_write_bytes
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi, pil_kwargs={"compress_level": 3})
+    pyplot().close(fig)
+    atomic_write_bytes(Path(path), buffer.getvalue())
+    return Path(path)
+
+
+def window(signals: dict, sc) -> dict:
+    """The signals on the scene's shown window."""
+    start, end = sc.window
+    t = signals["time"]
+    m = (t >= start - 1e-12) & (t <= end + 1e-12)
+    return {k: np.asarray(v)[m] for k, v in signals.items()}
 
 
 def plot_result(result, out_dir: Path) -> list[Path]:
-    """Write time.png (with f(t) for boundary friction) and phase.png; returns their paths."""
+    """time.png and phase.png of a :class:`tribofmu.api.SimulationResult`; returns their paths."""
+    from .columns import result_signals
+    return plot_signals(result_signals(result), result.scenario, out_dir)
+
+
+def plot_signals(signals: dict, sc, out_dir: Path) -> list[Path]:
+    """time.png and phase.png from a run's signals (``{name: array}`` with ``time``, as in
+    result.csv) and its scenario; returns their paths."""
+    plt = pyplot()
     out_dir = Path(out_dir)
-    sc = result.scenario
-    m = result.window_mask()
-    t = result.time[m]
-    paths = []
+    s = window(signals, sc)
+    t = s["time"]
     drive = has_drive(sc)
-    boundary = sc.friction.regime == "boundary" and has_friction(sc)
-    rows = 3 if boundary else 2
-    fig, axes = plt.subplots(rows, 1, figsize=(7.5, 2.5 * rows + 0.6), sharex=True)
-    k, unit = unit_scale(np.concatenate([result.x[m], result.X[m] if drive else []]), "m")
-    draw_pair(axes[0], t, result.X[m], result.x[m], k, "X (drive)", "x (block)", "C0", drive)
-    axes[0].set_ylabel(f"position [{unit}]")
-    k, unit = unit_scale(np.concatenate([result.v[m], result.V[m] if drive else []]), "m/s")
-    draw_pair(axes[1], t, result.V[m], result.v[m], k, "V (drive)", "v (block)", "C3", drive)
-    axes[1].set_ylabel(f"velocity [{unit}]")
-    if boundary:
-        lub = sc.friction.lubricant
-        axes[2].plot(t, result.f[m], color="C2", label="f (excess volume)")
-        axes[2].axhline(lub.mu_shear / lub.mu_shear_bar, color="0.5", lw=0.8, ls=":",
-                        label="melting: f = μ/μ̄")
-        axes[2].set_ylabel("f [1]")
+    k, prefix = length_scale(sc)
+    boundary = has_friction(sc) and sc.friction.regime == "boundary"
+    extra = [name for name, present in (("f", boundary), ("T", "T" in s and "Thermal" in sc.fmus),
+                                        ("n", "n" in s and "Load" in sc.fmus)) if present]
+    rows = 2 + len(extra)
+    fig, axes = plt.subplots(rows, 1, figsize=(7.5, 2.3 * rows + 0.9), sharex=True)
+    draw_pair(axes[0], t, s["X"], s["x"], k, "X (drive)", "x (block)", "C0", drive)
+    axes[0].set_ylabel(f"position [{prefix}m]")
+    draw_pair(axes[1], t, s["V"], s["v"], k, "V (drive)", "v (block)", "C3", drive)
+    axes[1].set_ylabel(f"velocity [{prefix}m/s]")
+    stuck = np.asarray(s.get("stuck", np.zeros(len(t)))) > 0.5
+    if stuck.any() and not stuck.all():
+        axes[1].fill_between(t, 0, 1, where=stuck, transform=axes[1].get_xaxis_transform(),
+                             color="C1", alpha=0.15, lw=0, label="stuck")
+    for ax, name in zip(axes[2:], extra):
+        if name == "f":
+            lub = sc.friction.lubricant
+            ax.plot(t, s["f"], color="C2", label="f (excess volume)")
+            ax.axhline(lub.mu_shear / lub.mu_shear_bar, color="0.5", lw=0.8, ls=":", label="melting: f = μ/μ̄")
+            ax.set_ylabel("f [1]")
+        elif name == "T":
+            ax.plot(t, s["T"], color="C1", label="T (Thermal FMU)")
+            ax.set_ylabel("T [K]")
+        elif sc.friction.regime == "dry" and has_friction(sc):
+            ax.plot(t, -s["n"] * sc.friction.S, color="C4", label="L = −n S (Load FMU)")
+            ax.set_ylabel("load L [N]")
+        else:
+            kn, un = unit_scale(s["n"], "Pa")
+            ax.plot(t, s["n"] * kn, color="C4", label="n (Load FMU)")
+            ax.set_ylabel(f"n [{un}]")
     finish_axes(axes)
     axes[-1].set_xlabel("t [s]")
-    title(fig, scene_label(sc))
-    fig.tight_layout()
-    paths.append(out_dir / "time.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    fixed_layout(fig, title(fig, scene_label(sc, s)))
+    paths = [save_png(fig, out_dir / "time.png")]
 
     fig, ax = plt.subplots(figsize=(5, 4.4))
-    kx, ux = unit_scale(result.x[m], "m")
-    kv, uv = unit_scale(result.v[m], "m/s")
-    ax.plot(result.x[m] * kx, result.v[m] * kv, color="C0")
-    ax.set_xlabel(f"x [{ux}]")
-    ax.set_ylabel(f"v [{uv}]")
+    ax.plot(s["x"] * k, s["v"] * k, color="C0")
+    ax.set_xlabel(f"x [{prefix}m]")
+    ax.set_ylabel(f"v [{prefix}m/s]")
     label = f"phase portrait v(x), ω = {_fmt(sc.drive.omega)} rad/s" if drive else "phase portrait v(x)"
     ax.set_title(label, fontsize=10)
     ax.grid(alpha=0.3)
-    fig.tight_layout()
-    paths.append(out_dir / "phase.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    fixed_layout(fig, top=0.35)
+    paths.append(save_png(fig, out_dir / "phase.png"))
     return paths
-

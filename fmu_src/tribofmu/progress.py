@@ -89,7 +89,9 @@ class RunBar:
         if now - self._last < self.interval and status.t < status.stop_time:
             return
         self._last = now
-        self._bar.n = min(status.t, status.stop_time)
+        # the run ends on the whole nanosecond nearest the stop, which may lie past the
+        # bar's float total: clamp to it (tqdm warns "clamping frac" at a fraction > 1)
+        self._bar.n = min(status.t, status.stop_time, self._bar.total)
         self._bar.set_postfix_str(f"{status.steps} steps, {status.rejected} rejected", refresh=False)
         self._bar.refresh()
 

@@ -1,44 +1,19 @@
 """``result.csv``: the output grid's rows, streamed to disk as the run produces them.
 
-The columns come from one table, :data:`COLUMNS` (name, unit, how to compute it from the
-sampled signals, and which scenes have it): a new column is one entry there, and the
-writer, the header and the free-space estimate follow.
+The columns come from the one table of :mod:`tribofmu.columns` (name, unit, meaning, which
+scenes have it, how it is computed from the sampled signals): the writer, the header, the
+``columns.json`` sidecar and the free-space estimate follow it.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import json
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
+from .columns import SIDECAR_NAME, columns_for, header, rows, sidecar
 
-@dataclass(frozen=True)
-class Column:
-    name: str
-    unit: str
-    value: Callable[[dict[str, np.ndarray]], np.ndarray]  # the sampled signals (and "time" [s]) -> values
-    applies: Callable[[object], bool] = lambda scenario: True  # does the scene have this column?
-
-
-def _signal(name: str) -> Callable[[dict[str, np.ndarray]], np.ndarray]:
-    return lambda signals: signals[name]
-
-
-COLUMNS: tuple[Column, ...] = (
-    Column("time", "s", _signal("time")),
-    Column("X", "m", _signal("X")),
-    Column("V", "m/s", _signal("V")),
-    Column("x", "m", _signal("x")),
-    Column("v", "m/s", _signal("v")),
-    Column("F", "N", _signal("F")),
-    Column("f", "1", _signal("f")),
-)
 BYTES_PER_VALUE = 25  # "%.17g" and a comma: the free-space estimate
-
-
-def columns_for(scenario) -> tuple[Column, ...]:
-    return tuple(c for c in COLUMNS if c.applies(scenario))
 
 
 def expected_bytes(scenario, samples: int) -> int:
@@ -47,17 +22,20 @@ def expected_bytes(scenario, samples: int) -> int:
 
 
 class ResultCsvWriter:
-    """Writes result.csv as :class:`~tribofmu.master.run.GridRecorder` hands over its samples:
-    pass it as ``sink`` (``writer(start, signals)``, signals with "time" [s])."""
+    """Writes result.csv (and columns.json beside it) as
+    :class:`~tribofmu.master.run.GridRecorder` hands over its samples: pass it as ``sink``
+    (``writer(start, signals)``, signals with "time" [s])."""
 
     def __init__(self, path: Path, scenario):
-        self.columns = columns_for(scenario)
+        path = Path(path)
+        self.scenario, self.columns = scenario, columns_for(scenario)
         self.rows = 0
+        (path.parent / SIDECAR_NAME).write_text(json.dumps(sidecar(self.columns), indent=2) + "\n")
         self._fh = open(path, "w", encoding="ascii", newline="\n")
-        self._fh.write(",".join(c.name for c in self.columns) + "\n")
+        self._fh.write(header(self.columns) + "\n")
 
     def __call__(self, start: int, signals: dict[str, np.ndarray]) -> None:
-        table = np.column_stack([c.value(signals) for c in self.columns])
+        table = rows(signals, self.scenario, self.columns)
         np.savetxt(self._fh, table, delimiter=",", fmt="%.17g")
         self.rows += len(table)
 

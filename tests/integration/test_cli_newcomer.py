@@ -18,8 +18,8 @@ from tribofmu import api, cli
 from tribofmu.build import PRIVATE_PREFIX, build_fmus, private_package_name
 from tribofmu.master.instance import EXTRACT_PREFIX
 
-from scenes import ROOT
-SCENES = ROOT / "scenarios"
+from scenes import ROOT, SCENARIOS
+SCENES = SCENARIOS
 FIG2 = SCENES / "fig2_dry.toml"
 SHORT = ["--set", "time.periods=1", "--set", "time.window=[0,1]"]  # one period: a quick run
 pytestmark = pytest.mark.integration
@@ -151,7 +151,7 @@ def test_a_failed_run_does_not_leave_older_results_beside_its_stats(tmp_path, fm
     out = tmp_path / "run"
     argv = ["simulate", str(FIG2), "--out", str(out), "--fmu-dir", str(fmu_dir), "-q", *SHORT]
     assert cli.main(argv) == 0
-    assert {p.name for p in out.iterdir()} == {"stats.json", "result.csv", "time.png", "phase.png"}
+    assert {p.name for p in out.iterdir()} == {"stats.json", "result.csv", "columns.json", "time.png", "phase.png"}
     good = _short_result(fmu_dir)
     failed = dataclasses.replace(good, ok=False, message="stopped at t = 0.1 s: friction: fmi2DoStep")
     failed.stats = dict(good.stats, ok=False, message=failed.message)

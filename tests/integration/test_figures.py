@@ -10,8 +10,8 @@ import pytest
 
 from tribofmu import api, figures
 
-from scenes import ROOT
-SCENES = ROOT / "scenarios"
+from scenes import ROOT, SCENARIOS
+SCENES = SCENARIOS
 
 
 def fake_run(scene: str, overrides=None) -> figures.Signals:
@@ -37,8 +37,8 @@ def drawn(monkeypatch):
     runs = {"fig2": [fake_run("fig2_dry.toml")], "fig3": [fake_run("fig2_dry.toml")],
             "fig4": [fake_run("fig2_dry.toml", {"drive.omega": w}) for w in figures.FIG4_OMEGAS],
             "fig5": [fake_run(r.scene) for r in figures.FIG5_RUNS], "fig6": [fake_run("fig6_boundary.toml")]}
-    for name, draw in figures.DRAW.items():
-        draw(runs[name], Path(f"{name}.png"))
+    for name in figures.PAPER_FIGURES:
+        figures.DRAW[name](runs[name], Path(f"{name}.png"))
     yield kept
     import matplotlib.pyplot as plt
     plt.close("all")
@@ -56,7 +56,7 @@ def test_layouts_are_the_papers(drawn):
         f"({c}) ω = {w:g} rad/s" for c, w in zip("abcdef", figures.FIG4_OMEGAS)]
     assert len(panels["fig5"]) == 3  # three stacked panels, the inset in the lowest
     assert [len(ax.child_axes) for ax in panels["fig5"]] == [0, 0, 1]
-    assert panels["fig5"][2].child_axes[0].get_title() == "v enlarged [mm/s] vs t [s]"
+    assert panels["fig5"][2].child_axes[0].get_title() == "v enlarged [mm/s]"
     assert panels["fig3"][0].get_ylabel() == "X − x [mm]" and panels["fig6"][2].get_ylabel() == "f [1]"
 
 
@@ -75,6 +75,44 @@ def test_every_axis_has_units_and_no_tick_labels_overlap(drawn):
                          if t.get_visible() and t.get_text()]
                 for a, b in zip(boxes, boxes[1:]):
                     assert not a.overlaps(b), (name, [t.get_text() for t in axis.get_ticklabels()])
+
+
+def test_one_unit_per_quantity_and_titles_wrapped_between_items(drawn):
+    import re
+    for name, fig in drawn.items():
+        units = {re.search(r"\[(.*)\]", label).group(1) for ax in fig.axes
+                 for label in (ax.get_xlabel(), ax.get_ylabel()) if label and not label.startswith(("t ", "f "))}
+        positions = {u for u in units if u.endswith("m")}
+        velocities = {u for u in units if u.endswith("m/s")}
+        assert len(positions) <= 1 and len(velocities) <= 1, (name, units)
+        expected = "µ" if name == "fig6" else "m"  # the 1.4 µm boundary scene: µm; else mm
+        assert all(u.startswith(expected) for u in positions | velocities), (name, units)
+        text = fig._suptitle.get_text()
+        assert "e-0" not in text and "0.002 m" not in text, text
+        for line in text.split("\n")[:-1]:  # a line ends after an item, never inside "μ = 0.5"
+            assert not line.rstrip().endswith("="), text
+        for line in text.split("\n")[1:]:
+            assert not line.startswith(("=", "0", "1", "2", "3", "4", "5", "6", "7", "8", "9")), text
+
+
+def test_the_fig5_inset_is_legible(drawn):
+    inset = drawn["fig5"].axes[2].child_axes[0]
+    sizes = [t.get_fontsize() for axis in (inset.xaxis, inset.yaxis) for t in axis.get_ticklabels()]
+    assert sizes and min(sizes) >= 8
+
+
+def test_titles_wrap_only_between_items():
+    from tribofmu.plots import scene_label, wrap_items
+    for name in ("fig2_dry", "fig6_boundary", "boundary_heating", "dry_load_oscillation", "fig5_pseudoplastic"):
+        label = scene_label(api.load(name, {"drive.omega": 12.345678}))
+        for width in range(20, 120, 7):
+            lines = wrap_items(label, width).split("\n")
+            assert " ".join(lines) == label
+            for line in lines[:-1]:
+                assert line.endswith((",", ";", ":")) or lines[lines.index(line) + 1].startswith("—"), lines
+    assert "L(t): 15–75 N" in scene_label(api.load("dry_load_oscillation"))
+    assert "T: 290 K → film heating" in scene_label(api.load("boundary_heating"))
+    assert "A = 1.4 µm" in scene_label(api.load("fig6_boundary"))
 
 
 def test_a_free_oscillator_draws_no_drive(tmp_path):
@@ -118,4 +156,32 @@ def test_figures_command_subset_reuses_its_runs(tmp_path):
     bad = subprocess.run([*cmd[:4], "--only", "fig9"], cwd=tmp_path, env=env, capture_output=True, text=True)
     assert bad.returncode == 2
     assert bad.stderr.strip().splitlines() == [
-        "tribofmu: --only fig9: unknown figure 'fig9' (known: fig2, fig3, fig4, fig5, fig6)"]
+        "tribofmu: --only fig9: unknown figure 'fig9' (known: fig2, fig3, fig4, fig5, fig6, tn_map)"]
+
+
+def test_accuracy_chart_labels_neither_overprint_nor_clip(tmp_path, monkeypatch):
+    from tribofmu import plots
+    from tribofmu.studies.accuracy import plot_accuracy
+    kept = {}
+    monkeypatch.setattr(plots, "save_png", lambda fig, path, dpi=110: kept.setdefault("fig", fig))
+    rows = []
+    for step, err, wall in ((1e-3, 0.3, 0.08), (3e-4, 0.14, 0.22), (1e-4, 0.054, 0.65), (3e-5, 0.014, 2.1)):
+        for name, w in (("jacobi", wall), ("gauss-seidel", wall * 1.02)):  # the same points, twice
+            rows.append(dict(algorithm=name, step=step, tol=None, nrms_v=err, wall_time_s=w))
+    for tol, err, wall in ((1e-2, 3.8e-3, 0.23), (1e-3, 7.9e-4, 0.18), (2e-4, 9.9e-5, 0.18), (1e-4, 4.2e-5, 0.19)):
+        rows.append(dict(algorithm="adaptive", step=None, tol=tol, nrms_v=err, wall_time_s=wall, default=tol == 2e-4))
+    plot_accuracy(rows, {"reference_wall_time_s": 0.03}, "fig2_dry: error vs cost", tmp_path / "a.png")
+    fig = kept["fig"]
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    ax = fig.axes[0]
+    notes = [t for t in ax.texts]
+    assert sorted(t.get_text() for t in notes).count("h=0.0001 s") == 1  # one label for both lines
+    boxes = [t.get_window_extent(renderer) for t in notes]
+    frame = ax.get_window_extent(renderer)
+    for i, a in enumerate(boxes):
+        assert frame.x0 <= a.x0 and a.x1 <= frame.x1, notes[i].get_text()  # not clipped
+        for b, other in zip(boxes[i + 1:], notes[i + 1:]):
+            assert not a.overlaps(b), (notes[i].get_text(), other.get_text())
+    import matplotlib.pyplot as plt
+    plt.close(fig)

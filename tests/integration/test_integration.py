@@ -141,7 +141,7 @@ def test_cli_simulate_writes_result_stats_and_figures(fmu_dir, tmp_path):
                "--set", "drive.omega=80", "--set", "time.periods=2", "--set", "time.window=[1,2]")
     assert proc.returncode == 0, proc.stderr
     lines = (out / "result.csv").read_text().splitlines()
-    assert lines[0] == "time,X,V,x,v,F,f"
+    assert lines[0] == "time,X,V,x,v,F,f,stuck,dv,a"
     table = np.loadtxt(out / "result.csv", delimiter=",", skiprows=1)
     T = 2 * math.pi / 80.0
     assert table[-1, 0] == pytest.approx(2 * T)

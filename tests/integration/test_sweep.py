@@ -157,7 +157,8 @@ def test_small_sweep_on_two_dask_workers_writes_rows_portraits_pictures(tmp_path
     for r in csv_rows:
         assert r["status"] == "ok"
         for m in METRICS:
-            assert (r[m] == "") == (m == "melt_fraction")  # dry friction: no melting
+            # dry friction: no melting, and it sticks rather than creeps
+            assert (r[m] == "") == (m in ("melt_fraction", "creep_fraction", "creep_episodes_per_period"))
         assert 0 <= float(r["stick_fraction"]) <= 1 and float(r["harmonics"]) >= 1
         assert float(r["dissipated_per_cycle"]) >= 0
     with np.load(out / "portraits.npz") as z:

@@ -132,3 +132,41 @@ def test_compute_metrics_gives_every_metric():
     V, v, _ = stuck_signal(t, T, lambda p: p < 0.5)
     out = M.compute_metrics(t, V, np.sin(t), v, V - v, np.zeros_like(t), T, 1.0)
     assert list(out) == list(M.METRICS)
+
+
+# -- creep (fluid and boundary friction) and no stick where the law cannot stick -------------------
+def test_creep_share_of_a_sinusoidal_slip_is_the_arcsine_share():
+    # V - v = D sin(w t + phase): |V - v| < r A w for a share (2/pi) asin(r A w / D), twice a period
+    A, omega, D, phase = 3e-3, 17.0, 0.021, 0.4
+    period = 2 * np.pi / omega
+    t = np.linspace(0.0, 4 * period, 40001)
+    V = A * omega * np.cos(omega * t)
+    v = V - D * np.sin(omega * t + phase)
+    expected = 2 / np.pi * np.arcsin(M.CREEP_REL * A * omega / D)
+    assert M.creep_fraction(t, V, v, A, omega) == pytest.approx(expected, abs=2e-4)
+    assert M.creep_episodes_per_period(t, V, v, A, omega, period) == 2
+
+
+def test_creep_runs_longer_than_a_crossing_are_counted_as_episodes():
+    # dv held inside the band for 0.3 T once a period (a plateau), else far outside it
+    A, omega = 1e-3, 40.0
+    period = 2 * np.pi / omega
+    t = np.linspace(0.0, 3 * period, 30001)
+    phase = (t / period) % 1.0
+    dv = np.where((phase > 0.2) & (phase < 0.5), 0.01 * A * omega, 0.5 * A * omega)
+    assert M.creep_fraction(t, dv, np.zeros_like(t), A, omega) == pytest.approx(0.3, abs=1e-3)
+    assert M.creep_episodes_per_period(t, dv, np.zeros_like(t), A, omega, period) == 1
+
+
+def test_a_law_that_cannot_stick_reports_no_stick_whatever_the_mask():
+    T = 0.5
+    t = np.linspace(0, 2 * T, 2001)
+    V, v = np.cos(t), np.cos(t) * 0.9
+    mask = ((t / T) % 1.0 < 0.1).astype(float)  # the coupling held dv = 0 briefly
+    for regime in ("fluid", "boundary", "none"):
+        out = M.compute_metrics(t, V, np.sin(t), v, V - v, np.zeros_like(t), T, 1.0,
+                                stuck_mask=mask, regime=regime)
+        assert out["stick_fraction"] == 0 and out["stick_episodes_per_period"] == 0
+        assert np.isnan(out["creep_fraction"]) == (regime == "none")
+    dry = M.compute_metrics(t, V, np.sin(t), v, V - v, np.zeros_like(t), T, 1.0, stuck_mask=mask, regime="dry")
+    assert dry["stick_fraction"] == pytest.approx(0.1, abs=2e-3) and np.isnan(dry["creep_fraction"])

@@ -177,7 +177,11 @@ class Scenario:
         data = to_dict(self)
         for key, value in overrides.items():
             _assign(data, key, value, self.source)
-        return from_dict(data, self.source)
+        result = from_dict(data, self.source)
+        problems = override_problems(result, list(overrides))
+        if problems:
+            raise ScenarioError(f"{self.source}: {problems[0]}")
+        return result
 
 
 # -- the TOML layout: table -> dataclass ------------------------------------------------
@@ -466,6 +470,9 @@ def _coerce(value: Any, default: Any, key: str, source: str) -> Any:
     if isinstance(default, str):
         if isinstance(value, str):
             return value
+        choices = enum_choices(key)
+        if choices:
+            raise ScenarioError(f"{source}: {key} must be one of {', '.join(choices)}, got {value!r}")
         raise ScenarioError(f"{source}: {key} must be a string, got {value!r}")
     return value
 
@@ -496,3 +503,57 @@ def scales(scenario: Scenario) -> tuple[float, float, float]:
     position = max(abs(d.A) if "Drive" in scenario.fmus else 0.0, abs(b.x0), abs(b.v0) / max(w0, d.omega))
     velocity = max(position * d.omega, abs(b.v0), abs(b.x0) * w0)
     return position or 1e-9, velocity or 1e-9, d.period
+
+
+# -- overrides that cannot apply to the scene ----------------------------------------------
+def enum_choices(key: str) -> list[str]:
+    """The allowed values of a key that takes one of a few names (empty for other keys)."""
+    if key == "friction.regime":
+        return list(REGIMES)
+    if key == "load.program":
+        return list(PROGRAMS)
+    if key == "simulation.algorithm":
+        from ..master.algorithms import ALGORITHMS
+        return list(ALGORITHMS)
+    return []
+
+
+# The friction keys each regime reads (the lubricant constants: boundary only).
+_REGIME_KEYS = {"dry": {"regime", "mu_friction", "S"},
+                "fluid": {"regime", "m", "gamma"},
+                "boundary": _FRICTION_KEYS - {"mu_friction"}}
+
+
+def override_problems(scenario: Scenario, keys) -> list[str]:
+    """Why each overridden key would change nothing in this scene (one message per key):
+    a table of an FMU the scene does not list, a friction key its regime does not read, a
+    boundary-model switch or condition its regime ignores."""
+    fmus, regime = set(scenario.fmus), scenario.friction.regime
+    listed = f"scenario.fmus = {list(scenario.fmus)}"
+    out = []
+    for key in keys:
+        table, _, name = str(key).partition(".")
+        if table == "thermal" and "Thermal" not in fmus:
+            out.append(f"{key}: this scene has no Thermal FMU ({listed}), so [thermal] is not used")
+        elif table == "load" and "Load" not in fmus:
+            out.append(f"{key}: this scene has no Load FMU ({listed}), so [load] is not used "
+                       "(the constant normal stress is conditions.n)")
+        elif table == "drive" and name != "omega" and "Drive" not in fmus:
+            out.append(f"{key}: this scene has no Drive FMU ({listed}); "
+                       "drive.omega only sets its time span")
+        elif table in ("friction", "effects", "conditions") and "Friction" not in fmus:
+            out.append(f"{key}: this scene has no Friction FMU ({listed}), so [{table}] is not used")
+        elif table == "friction" and regime in _REGIME_KEYS and name not in _REGIME_KEYS[regime]:
+            used = ", ".join(f"friction.{k}" for k in sorted(_REGIME_KEYS[regime] - {"regime"})
+                             ) if regime != "boundary" else "the boundary model's keys"
+            out.append(f"{key}: {regime} friction does not use it (it uses {used})")
+        elif table == "effects" and regime != "boundary":
+            out.append(f"{key}: the boundary-model switches apply to boundary friction only, "
+                       f"this scene's friction is {regime}")
+        elif key == "conditions.n" and "Load" in fmus:
+            out.append(f"{key}: this scene's normal stress comes from its Load FMU (set [load] instead)")
+        elif key == "conditions.n" and regime == "fluid":
+            out.append(f"{key}: fluid friction does not depend on the normal stress")
+        elif key == "conditions.T" and regime != "boundary" and "Thermal" not in fmus:
+            out.append(f"{key}: {regime} friction does not depend on the temperature")
+    return out

@@ -316,40 +316,83 @@ def rows_csv(rows: list[dict]) -> str:
 
 def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> None:
     """Error against wall time, one line per algorithm, each point labelled with its step
-    [s] or tolerance; the scene's default ringed; the reference solver's time dashed."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    [s] or tolerance; the scene's default ringed; the reference solver's time dashed.
 
-    fig, ax = plt.subplots(figsize=(7.0, 4.8))
-    names = list(dict.fromkeys(r["algorithm"] for r in rows))
-    for k, name in enumerate(names):
+    Algorithms whose points coincide (Jacobi and Gauss-Seidel give the same error at the
+    same step on a two-FMU loop) are drawn with distinct markers and line styles, and a
+    step shared by such points is labelled once, in grey; the monolithic anchors (LSODA,
+    Radau, the event-driven dry solve) are dashed squares. Each label takes the first of a
+    few places around its point where it overlaps no earlier label; the x range leaves room
+    for the labels of the rightmost points."""
+    from ..plots import pyplot, save_png, wrap_items
+    plt = pyplot()
+
+    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    styles = [("o", "-"), ("s", "--"), ("^", "-."), ("D", ":")]
+    labels: list[list] = []  # [t, err, text, color]
+    times = []
+    for k, name in enumerate(dict.fromkeys(r["algorithm"] for r in rows)):
         # nRMS >= 1 is no solution (a solver that "succeeded" far off): in the CSV, not drawn
         sel = [r for r in rows if r["algorithm"] == name and np.isfinite(r["nrms_v"]) and 0 < r["nrms_v"] < 1]
         if not sel:
             continue
         anchor = sel[0]["family"] == "monolithic"
         sel.sort(key=lambda r: r["wall_time_s"])
-        ax.loglog([r["wall_time_s"] for r in sel], [r["nrms_v"] for r in sel], "s--" if anchor else "o-",
-                  color=f"C{k}", label=_legend(name, summary), ms=4, lw=1.0 if anchor else 1.5)
-        for j, r in enumerate(sel):  # alternate above/below so neighbours' labels do not collide
+        marker, line = ("s", "--") if anchor else styles[k % len(styles)]
+        ax.loglog([r["wall_time_s"] for r in sel], [r["nrms_v"] for r in sel], marker=marker, ls=line,
+                  color=f"C{k}", label=_legend(name, summary), ms=5 if k % 2 else 4,
+                  mfc="none" if k % 2 else f"C{k}", lw=1.0 if anchor else 1.5)
+        for r in sel:
             text = (f"h={r['step']:g} s" if r["step"] else f"rtol={r['tol']:g}" if name in ("LSODA", "Radau")
                     else f"{r['tol']:g} T" if name == "event-driven" else f"tol={r['tol']:g}")
-            ax.annotate(text, (r["wall_time_s"], r["nrms_v"]), fontsize=6, color=f"C{k}",
-                        xytext=(4, 5 if j % 2 == 0 else -9), textcoords="offset points")
+            t, err = r["wall_time_s"], r["nrms_v"]
+            times.append(t)
+            twin = next((lab for lab in labels if lab[2] == text and abs(math.log10(lab[0] / t)) < 0.15
+                         and abs(math.log10(lab[1] / err)) < 0.1), None)
+            if twin is not None:  # the same step at the same point: one label, in grey
+                twin[3] = "0.3"
+            else:
+                labels.append([t, err, text, f"C{k}"])
             if r.get("default"):
-                ax.plot(r["wall_time_s"], r["nrms_v"], "o", ms=11, mfc="none", mec="k", mew=1.2)
+                ax.plot(t, err, "o", ms=12, mfc="none", mec="k", mew=1.2)
     ax.plot([], [], "o", ms=9, mfc="none", mec="k", label="the scene's default")
     ax.axvline(summary["reference_wall_time_s"], color="k", ls="--", lw=1, label="reference solver")
+    if times:  # room for the rightmost labels
+        left = min(min(times), summary["reference_wall_time_s"]) / 1.5
+        ax.set_xlim(left, max(times) * 3.0)
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    # ticks at 1, 2, 5 x 10^k written plainly; no minor labels (they collide on short ranges)
+    ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("wall time of the run [s]")
     ax.set_ylabel("nRMS error of v on the window [1]")
-    import textwrap
-    ax.set_title(textwrap.fill(title, 95), fontsize=8)
+    ax.set_title(wrap_items(title, 95), fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    _place_labels(fig, ax, labels, fontsize=7)
+    save_png(fig, path, dpi=120)
+
+
+def _place_labels(fig, ax, labels, fontsize: float) -> None:
+    """Annotate each (t, err, text, color) at the first offset whose box overlaps no
+    earlier label's box (display coordinates; the last candidate if all overlap)."""
+    px = fontsize * fig.dpi / 72.0  # a character's height in pixels
+    offsets = [(5, 4), (5, -11), (5, 12), (5, -19), (-5, 4), (-5, -11)]  # points; -5: right-aligned
+    taken: list[tuple[float, float, float, float]] = []
+    for t, err, text, color in labels:
+        x, y = ax.transData.transform((t, err))
+        width, height = 0.7 * px * len(text) + 3, px + 2
+        for dx, dy in offsets:
+            ox, oy = dx * fig.dpi / 72.0, dy * fig.dpi / 72.0
+            x0 = x + ox if dx > 0 else x + ox - width
+            box = (x0, y + oy, x0 + width, y + oy + height)
+            if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in taken):
+                break
+        taken.append(box)
+        ax.annotate(text, (t, err), fontsize=fontsize, color=color, xytext=(dx, dy), textcoords="offset points",
+                    ha="left" if dx > 0 else "right")
 
 
 def _legend(name: str, summary: dict) -> str:

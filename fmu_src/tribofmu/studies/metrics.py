@@ -14,9 +14,11 @@ Every function takes the window's samples (``t`` increasing, SI units) and retur
     it counts slow creeping slip as stick (at w = 130 rad/s on Fig. 2's parameters: 0.958
     by the threshold where the blocks are stuck 0.91 of the time).
     Only dry friction sticks: fluid and boundary friction have no static force, the
-    lubricant always creeps (the solid boundary lubricant at ~1 % of max|V|), so the coupling
-    is never stuck there and both stick measures are 0; ``melt_fraction`` is the regime
-    measure of boundary friction.
+    lubricant always creeps (the solid boundary lubricant at ~1 % of max|V|), so both stick
+    measures are exactly 0 for them (and for a scene without friction), whatever the
+    coupling's stuck mask says (the master may hold dv = 0 over a step where dv crosses
+    zero; that is a step of the numerics, not stick). ``creep_fraction`` and
+    ``melt_fraction`` are their regime measures.
 
 ``stick_episodes_per_period``
     Number of stick episodes (maximal runs of stuck samples, as above) per drive period,
@@ -29,6 +31,21 @@ Every function takes the window's samples (``t`` increasing, SI units) and retur
     0 episodes: there is no stick-slip; ``stick_fraction`` (1 or 0) tells which. With less
     than one whole period in the window, the runs in the whole window are counted and
     divided by its length in periods.
+
+``creep_fraction``
+    Fluid and boundary friction only (NaN for dry friction, which sticks, and without
+    friction): share of window time (time-weighted) with the blocks creeping together,
+    ``|V - v| < CREEP_REL * A w`` (``CREEP_REL`` = 0.05: 5 % of the drive's velocity
+    amplitude). The paper's "stick-slip" of a pseudoplastic fluid or a solid boundary
+    lubricant is this creep: the block follows the drive slowly slipping, never stuck. A
+    relative velocity crossing zero creeps briefly too: a sinusoidal ``V - v`` of amplitude
+    ``D > CREEP_REL * A w`` gives a share ``(2/pi) asin(CREEP_REL * A w / D)`` in two
+    episodes per period (a Newtonian fluid's small share; compare the shares).
+
+``creep_episodes_per_period``
+    Fluid and boundary friction only: episodes of creep (as above) per drive period,
+    counted like ``stick_episodes_per_period`` (whole periods taken as periodic, runs and
+    gaps shorter than 0.005 T ignored; 0 when creeping always or never).
 
 ``harmonics``
     Number of significant harmonics of ``x(t)``: the Fourier amplitudes
@@ -61,8 +78,9 @@ import math
 
 import numpy as np
 
-METRICS = ("stick_fraction", "stick_episodes_per_period", "harmonics", "amplitude_ratio",
-           "dissipated_per_cycle", "melt_fraction")
+METRICS = ("stick_fraction", "stick_episodes_per_period", "creep_fraction", "creep_episodes_per_period",
+           "harmonics", "amplitude_ratio", "dissipated_per_cycle", "melt_fraction")
+CREEP_REL = 0.05  # |V - v| < CREEP_REL * A w counts as creeping together
 
 STICK_REL_TOL = 1e-3  # |V - v| <= STICK_REL_TOL * max|V| counts as stuck
 MIN_STICK = 0.005  # shortest stick episode (and slip gap) counted, in drive periods
@@ -252,20 +270,49 @@ def melt_fraction(t, f, threshold: float | None) -> float:
     return time_fraction(t, f > threshold)
 
 
+def creeping(V, v, A: float, omega: float, rel: float = CREEP_REL) -> np.ndarray:
+    """Boolean mask of creep: ``|V - v| < rel * A w`` (A [m], w [rad/s])."""
+    V, v = _arrays(V, v)
+    return np.abs(V - v) < rel * abs(A * omega)
+
+
+def creep_fraction(t, V, v, A: float, omega: float, rel: float = CREEP_REL) -> float:
+    """Share of window time with ``|V - v| < rel * A w``."""
+    return time_fraction(t, creeping(V, v, A, omega, rel))
+
+
+def creep_episodes_per_period(t, V, v, A: float, omega: float, period: float, rel: float = CREEP_REL,
+                              min_stick: float = MIN_STICK) -> float:
+    """Episodes of ``|V - v| < rel * A w`` per drive period (counted as stick episodes are)."""
+    return stuck_episodes_per_period(t, creeping(V, v, A, omega, rel), period, min_stick)
+
+
 def compute_metrics(t, V, x, v, F, f, period: float, amplitude: float,
                     melt_threshold: float | None = None, rel_tol: float = STICK_REL_TOL,
-                    stuck_mask=None) -> dict[str, float]:
+                    stuck_mask=None, regime: str | None = None, omega: float | None = None) -> dict[str, float]:
     """All of :data:`METRICS` for one window's arrays; the stick measures from ``stuck_mask``
-    (the coupling's state) when given, else estimated from ``|V - v|``."""
-    if stuck_mask is not None:
+    (the coupling's state) when given, else estimated from ``|V - v|``.
+
+    regime: "dry", "fluid", "boundary" or "none" (no friction); a regime that cannot stick
+    has stick measures 0, and only fluid and boundary friction have creep measures. None:
+    not known (stick measured as given, creep NaN). omega [rad/s]: the drive's (default
+    2 pi / period)."""
+    omega = 2 * math.pi / period if omega is None else omega
+    if regime is not None and regime != "dry":
+        stick = episodes = 0.0
+    elif stuck_mask is not None:
         stick = stuck_fraction(t, stuck_mask)
         episodes = stuck_episodes_per_period(t, stuck_mask, period)
     else:
         stick = stick_fraction(t, V, v, rel_tol)
         episodes = stick_episodes_per_period(t, V, v, period, rel_tol)
+    creeps = regime in ("fluid", "boundary")
     return {
         "stick_fraction": stick,
         "stick_episodes_per_period": episodes,
+        "creep_fraction": creep_fraction(t, V, v, amplitude, omega) if creeps else math.nan,
+        "creep_episodes_per_period": (creep_episodes_per_period(t, V, v, amplitude, omega, period)
+                                      if creeps else math.nan),
         "harmonics": harmonics(t, x, period),
         "amplitude_ratio": amplitude_ratio(x, amplitude),
         "dissipated_per_cycle": dissipated_per_cycle(t, F, V, v, period),
@@ -275,13 +322,15 @@ def compute_metrics(t, V, x, v, F, f, period: float, amplitude: float,
 
 def result_metrics(result) -> dict[str, float]:
     """:func:`compute_metrics` on a :class:`tribofmu.api.SimulationResult`'s shown window,
-    the stick measures from the coupling's own stuck state."""
+    the stick measures from the coupling's own stuck state (dry friction; 0 for the others)."""
     sc = result.scenario
     m = result.window_mask()
     threshold = None
-    if sc.friction.regime == "boundary" and "Friction" in sc.fmus:
+    has_friction = "Friction" in sc.fmus
+    if sc.friction.regime == "boundary" and has_friction:
         lub = sc.friction.lubricant
         threshold = lub.mu_shear / lub.mu_shear_bar
     return compute_metrics(result.time[m], result.V[m], result.x[m], result.v[m], result.F[m],
                            result.f[m], sc.drive.period, sc.drive.A, threshold,
-                           stuck_mask=np.asarray(result.stuck)[m])
+                           stuck_mask=np.asarray(result.stuck)[m],
+                           regime=sc.friction.regime if has_friction else "none", omega=sc.drive.omega)

@@ -16,6 +16,7 @@ from .worker import STATUS_OK
 
 MAX_PORTRAIT_PANELS = 100
 METRIC_LABELS = {"stick_fraction": "stick fraction", "stick_episodes_per_period": "stick episodes / period",
+                 "creep_fraction": "creep fraction", "creep_episodes_per_period": "creep episodes / period",
                  "harmonics": "harmonics of x", "amplitude_ratio": "max|x| / A",
                  "dissipated_per_cycle": "dissipated per cycle [J]", "melt_fraction": "melt fraction"}
 
@@ -91,11 +92,11 @@ def plot_sweep(rows: list[dict[str, Any]], keys: list[str], portraits: dict[str,
     else:
         return paths
     if len(rows) <= MAX_PORTRAIT_PANELS:
-        paths.append(_plot_portraits(rows, keys, portraits, shape, out_dir / "portraits.png", title, plt))
+        paths.append(_plot_portraits(rows, keys, portraits, shape, out_dir / "portraits.png", title, plt, base))
     return paths
 
 
-def _plot_portraits(rows, keys, portraits, shape, path: Path, title: str, plt) -> Path:
+def _plot_portraits(rows, keys, portraits, shape, path: Path, title: str, plt, base=None) -> Path:
     n0, n1 = shape
     if len(keys) == 1:  # one row of panels, wrapped at 6
         ncols = min(6, len(rows))
@@ -108,20 +109,24 @@ def _plot_portraits(rows, keys, portraits, shape, path: Path, title: str, plt) -
     for ax in axes.flat:
         ax.axis("off")
     short = {k: k.split(".")[-1] for k in keys}
+    # one unit for every panel, as in every other figure: mm and mm/s (µm for a base scene
+    # whose amplitude is under 0.1 mm)
+    from ...plots import length_scale
+    scale, prefix = length_scale(base) if base is not None else (1e3, "m")
     for k, (row, (r, c)) in enumerate(zip(rows, cells)):
         ax = axes[r, c]
         ax.axis("on")
         label = ", ".join(f"{short[key]}={format_value(row[key])}" for key in keys)
         x, v = portraits["x"][k], portraits["v"][k]
         if row["status"] == STATUS_OK and np.isfinite(x).all():
-            ax.plot(x * 1e3, v, lw=0.9, color="C0")
+            ax.plot(x * scale, v * scale, lw=0.9, color="C0")
         else:
             ax.text(0.5, 0.5, "failed", ha="center", va="center", color="C3", transform=ax.transAxes)
         ax.set_title(label, fontsize=8)
         ax.tick_params(labelsize=6)
         ax.grid(alpha=0.3)
-    fig.supxlabel("x [mm]", fontsize=8)
-    fig.supylabel("v [m/s]", fontsize=8)
+    fig.supxlabel(f"x [{prefix}m]", fontsize=8)
+    fig.supylabel(f"v [{prefix}m/s]", fontsize=8)
     fig.suptitle(f"{title}: phase portraits v(x) on the window", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -1,0 +1,83 @@
+"""A newcomer's walk through the README: a fresh virtual environment, a plain (not editable)
+``pip install`` of this checkout, then every ``tribofmu`` command of the README's ``bash``
+blocks, in order, from a folder outside the checkout.
+
+The venv sees the system's site-packages (numpy, fmpy, matplotlib... are not downloaded
+again) and the package is installed with ``--no-deps`` from a copy of the checkout (no build
+files left in the checkout); pip's isolated build takes setuptools from its cache or the
+package index, the only network the walk may use. Select
+it with ``pytest -m newcomer``; it takes one to three minutes.
+"""
+import os
+import re
+import shutil
+import subprocess
+import venv
+
+import pytest
+
+from scenes import ROOT
+
+pytestmark = [pytest.mark.integration, pytest.mark.newcomer]
+SKIP = ("bash .ci/run",)  # the test command itself
+
+
+def readme_commands() -> list[str]:
+    """Every tribofmu command in the README's bash blocks, in order (``a && b`` split)."""
+    text = (ROOT / "README.md").read_text()
+    out = []
+    for block in re.findall(r"```bash\n(.*?)```", text, re.S):
+        for line in block.splitlines():
+            line = line.split("  #")[0].strip()
+            if not line or line in SKIP:
+                continue
+            for part in line.split(" && "):
+                part = part.strip()
+                if part.startswith("tribofmu "):
+                    out.append(part)
+                else:
+                    assert part in ("python -m pip install .",), f"README command the walk does not know: {part}"
+    return out
+
+
+def test_the_readme_names_the_plain_install_and_the_scenes_by_name():
+    text = (ROOT / "README.md").read_text()
+    assert "python -m pip install . && tribofmu simulate fig2_dry" in text
+    commands = readme_commands()
+    assert "tribofmu simulate fig2_dry" in commands and "tribofmu figures" in commands
+
+
+def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
+    source = tmp_path / "checkout"
+    shutil.copytree(ROOT, source, symlinks=True, ignore=shutil.ignore_patterns(
+        ".git", "out", "build", "*.egg-info", "__pycache__", ".pytest_cache", ".hypothesis", "docs"))
+    env_dir = tmp_path / "venv"
+    venv.EnvBuilder(system_site_packages=True, with_pip=False, symlinks=True).create(env_dir)
+    python = env_dir / "bin" / "python"
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME")}
+    env.update(PATH=f"{env_dir / 'bin'}{os.pathsep}{env['PATH']}", TRIBOFMU_CACHE=str(tmp_path / "cache"),
+               PYTHONDONTWRITEBYTECODE="1", PIP_DISABLE_PIP_VERSION_CHECK="1")
+    # the system's pip run by the venv's python installs into the venv (no deps);
+    # --ignore-installed: leave the system's own tribofmu (a developer's editable one) alone
+    install = subprocess.run([str(python), "-m", "pip", "install", "-q", "--no-deps", "--ignore-installed",
+                              str(source)],
+                             cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert install.returncode == 0, install.stderr
+    shutil.rmtree(source)  # what runs is the installed package, not the copy it came from
+    work = tmp_path / "newcomer"
+    work.mkdir()
+    where = subprocess.run([str(python), "-c", "import tribofmu, sys; print(tribofmu.__file__)"],
+                           cwd=work, env=env, capture_output=True, text=True)
+    assert where.returncode == 0 and where.stdout.strip().startswith(str(env_dir)), where.stdout + where.stderr
+    tribofmu = env_dir / "bin" / "tribofmu"
+    assert tribofmu.is_file()
+    for command in readme_commands():
+        argv = [str(tribofmu), *command.split()[1:]]
+        proc = subprocess.run(argv, cwd=work, env=env, capture_output=True, text=True, timeout=900)
+        assert proc.returncode == 0, f"{command}: exit {proc.returncode}\n{proc.stderr[-2000:]}"
+        assert "Traceback" not in proc.stderr and "Warning" not in proc.stderr, f"{command}:\n{proc.stderr}"
+    assert (work / "out" / "fig2_dry" / "result.csv").is_file()
+    assert (work / "out" / "fig2_dry" / "time.png").is_file()
+    assert sorted(p.name for p in (work / "out" / "figures").glob("*.png")) == [
+        "fig2.png", "fig3.png", "fig4.png", "fig5.png", "fig6.png"]
+    assert (work / "docs" / "figures" / "boundary_heating" / "time.png").is_file()
