@@ -457,9 +457,9 @@ def cmd_simulate(args) -> int:
         if not result.ok:  # a failed run leaves its stats (with the message), never a partial result
             (tmp / "result.csv").unlink()
             (tmp / SIDECAR_NAME).unlink(missing_ok=True)
-    if result.ok and not args.no_plots:  # the result is on disk: a failed drawing loses nothing
-        from .plots import plot_result
-        plot_result(result, out)
+        elif not args.no_plots:  # drawn once the rows and stats are on disk, swapped in with them
+            from .plots import plot_result
+            plot_result(result, tmp)
     estimate = result.stats["estimated_error"]["nrms_v"]
     accuracy = f", estimated nRMS(v) {estimate:.2g}" if estimate is not None else ""
     print(f"{scenario.name}: {result.message}; {result.stats['communication_steps']} steps, "

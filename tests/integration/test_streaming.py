@@ -46,6 +46,6 @@ def test_cli_result_csv_has_every_row_of_the_run(tmp_path, fmu_dir):
                      "--set", "time.periods=2", "--set", "time.window=[1,2]"]) == 0
     table = np.loadtxt(out / "result.csv", delimiter=",", skiprows=1)
     whole = api.simulate(FIG2, {"time.periods": 2, "time.window": [1, 2]}, fmu_dir=fmu_dir, build=False)
-    assert (out / "result.csv").read_text().splitlines()[0] == "time,X,V,x,v,F,f"
-    assert table.shape == (len(whole.time), 7)
+    assert (out / "result.csv").read_text().splitlines()[0] == "time,X,V,x,v,F,f,stuck,dv,a"
+    assert table.shape == (len(whole.time), 10)
     assert np.array_equal(table[:, 0], whole.time) and np.array_equal(table[:, 4], whole.v)

@@ -43,7 +43,10 @@ class FMUCallError(FMUError, RuntimeError):
 
 
 class FMUFileError(FMUError, FileNotFoundError):
-    """An FMU file is missing or unreadable."""
+    """An FMU file is missing or unreadable (``filename``, when set, names it)."""
+
+    def __str__(self) -> str:  # the message, also once filename is set (OSError would reformat it)
+        return str(self.args[0]) if self.args else super().__str__()
 
 
 # -- where FMUs are unzipped -------------------------------------------------------------

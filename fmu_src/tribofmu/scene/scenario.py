@@ -513,7 +513,7 @@ def enum_choices(key: str) -> list[str]:
     if key == "load.program":
         return list(PROGRAMS)
     if key == "simulation.algorithm":
-        from ..master.algorithms import ALGORITHMS
+        from ..coupling.algorithms import ALGORITHMS
         return list(ALGORITHMS)
     return []
 

@@ -336,7 +336,7 @@ def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> No
         sel = [r for r in rows if r["algorithm"] == name and np.isfinite(r["nrms_v"]) and 0 < r["nrms_v"] < 1]
         if not sel:
             continue
-        anchor = sel[0]["family"] == "monolithic"
+        anchor = sel[0].get("family") == "monolithic"
         sel.sort(key=lambda r: r["wall_time_s"])
         marker, line = ("s", "--") if anchor else styles[k % len(styles)]
         ax.loglog([r["wall_time_s"] for r in sel], [r["nrms_v"] for r in sel], marker=marker, ls=line,
