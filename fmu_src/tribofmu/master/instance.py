@@ -105,6 +105,30 @@ def extraction_root() -> Path:
         return _extract_root[1]
 
 
+_guards_released_at_exit: set[int] = set()  # library handles (under _extract_lock)
+
+
+def release_pythonfmu_guard_at_exit(dll) -> None:
+    """For an FMU whose binary is pythonfmu's own (built without the native loader): call its
+    ``finalizePythonInterpreter`` at interpreter exit, before C's exit handlers run.
+
+    Such a binary, while still loaded at exit (instances are freed without unloading it, see
+    :meth:`FMUInstance.close`), destroys its static ``shared_ptr<PyState>`` in a C++ static
+    destructor and then resets the destroyed pointer again from its destructor function: a
+    write into freed heap memory that can abort the process after its work is done
+    ("corrupted double-linked list"). Released here first, both find an empty pointer. The
+    native loader does the same for the binary it wraps (and exports no such function)."""
+    release = getattr(dll, "finalizePythonInterpreter", None) if hasattr(dll, "_handle") else None
+    if release is None:
+        return
+    with _extract_lock:
+        if dll._handle in _guards_released_at_exit:
+            return
+        _guards_released_at_exit.add(dll._handle)
+    release.restype, release.argtypes = None, []
+    atexit.register(release)
+
+
 def extract(path: Path) -> Path:
     """The unzipped copy of an FMU file for this process (unzipped once per content)."""
     import fmpy
@@ -175,6 +199,7 @@ class FMUInstance:
             # once imported it is not needed, and its bundled pythonfmu copy (without the
             # builder's binaries) would shadow the installed one in this process.
             sys.path[:] = [entry for entry in sys.path if entry != resources]
+        release_pythonfmu_guard_at_exit(self._fmu.dll)
         if self.fmi_version == 3:  # FMI 3.0 has no setupExperiment: the start time comes here
             self.call("enterInitializationMode", startTime=start_time)
         else:

@@ -251,23 +251,23 @@ static char tf_wrapper_problem[TF_MSG];
 
 /* pythonfmu's binary (0.7.0, and pythonfmu3's) keeps its interpreter guard in a namespace-scope
  * std::shared_ptr<PyState> (the PyState owns a thread) and resets it from an
- * __attribute__((destructor)) function, finalizePythonInterpreter (exported). At dlclose that
- * order is right: the destructor function runs before __cxa_finalize destroys the static. At
- * process exit it is not: exit() runs every __cxa_atexit handler (the static's destructor,
- * which frees the shared_ptr's control block but leaves the pointer) before _dl_fini calls the
- * destructor functions, so finalizePythonInterpreter then releases the freed control block
- * again: it decrements a word of a free heap chunk (a tcache key, or the bk link of a chunk in
- * an unsorted or small bin), and the next malloc or free at exit aborts with "corrupted
- * double-linked list" (SIGABRT, exit 134), depending on the heap layout. That happens for every
- * pythonfmu binary still loaded at exit, whoever loaded it.
+ * __attribute__((destructor)) function, finalizePythonInterpreter (exported). On a dlclose that
+ * order would be right (destructor functions run before __cxa_finalize destroys the static),
+ * but glibc never unloads that binary: it defines STB_GNU_UNIQUE symbols (libstdc++ template
+ * statics), which make it undeletable. So every copy ever loaded is still there at exit, where
+ * the order is wrong: exit() runs every __cxa_atexit handler first (the static's destructor
+ * frees the shared_ptr's control block and leaves the pointer), then _dl_fini calls
+ * finalizePythonInterpreter, which releases the freed control block again: it decrements a
+ * word of a free heap chunk (a tcache key, or the back link of a chunk in an unsorted or small
+ * bin), and a later free at exit may abort with "corrupted double-linked list" (SIGABRT, exit
+ * 134), depending on the heap layout.
  *
- * So the loader releases the guard itself, while the static is alive: at exit from an exit
+ * So the loader releases the guard itself while the static is alive: at exit from an exit
  * handler registered after the binary was opened (handlers run last-in first-out, so before
- * the binary's static destructor), and when the host unloads this loader from its destructor
- * function, which then also unloads the binary (its thread joined, nothing of it left
- * running). Releasing the guard is safe at any time: with Python already running (always, by
- * tf_ensure_python) its thread has finished at once, and the next instantiation makes a new
- * one. */
+ * the binary's static destructor), and when the host unloads this loader, from its destructor
+ * function, which then also closes its handle on the binary. Releasing the guard is safe at
+ * any time: with Python already running (always, by tf_ensure_python) the guard's thread has
+ * finished at once, and the next instantiation makes a new guard. */
 typedef void (*tf_finalize_t)(void);
 static int tf_exiting = 0;
 
