@@ -1,25 +1,23 @@
 """Short runs must end with their own exit code, never an abort at interpreter exit.
 
-Until the FMUs' shared libraries were kept loaded for the process's life, about one short
-``tribofmu sweep ... --workers 0`` in ten (building its FMUs first) ended in ``corrupted
-double-linked list`` (SIGABRT, exit 134) after writing every file: fmpy's ``freeInstance``
-unloads the library at every instance, and the process aborted in OpenBLAS's thread
-shutdown at exit (glibc freeing thread-local storage of finished threads). Measured by
-hand with the console script: 5 aborts in 49 short sweeps before; after, 0 in 480 runs
-(280 sweeps, 180 of them building their FMUs first, and 200 simulates). Each run
-here is a fresh process started like the ``tribofmu`` console script; ``TRIBOFMU_EXIT_RUNS``
-raises the count for a hand check (the report's 200).
+About one short ``tribofmu sweep ... --workers 0`` in ten (building its FMUs first), and
+about 2 in 3 runs of a script that ran fmpy's ``simulate_fmu`` and then this package on one
+machine right after the native loader was merged, ended in ``corrupted double-linked list``
+(SIGABRT, exit 134) after all their work was done, mostly inside OpenBLAS's thread shutdown.
 
-The cause was in pythonfmu's binary, for every copy of it still loaded at exit: it frees its
-static ``shared_ptr<PyState>`` from a C++ static destructor (run by ``exit`` first) and then
-resets the same, already destroyed, pointer from its ``__attribute__((destructor))`` function
-(run later by ``_dl_fini``), decrementing a word of the freed control block: the back link of
-a chunk in one of malloc's bins. Whether a later ``free`` at exit trips over it ("corrupted
-double-linked list") depends on the heap layout, hence the rare and shifting aborts (about 2 in
-3 runs of an fmpy-then-tribofmu script on one machine right after the native loader was merged,
-0 in 60 on another). The native loader now releases that guard itself, before the static
-destructor runs. The abort itself is a matter of luck, so the use after free is also checked
-directly under valgrind where it is installed: that check fails on every run of the old loader.
+The cause is in pythonfmu's binary, for every copy of it loaded at exit (every copy ever
+loaded: its STB_GNU_UNIQUE symbols make glibc ignore dlclose on it). It frees its static
+``shared_ptr<PyState>`` from a C++ static destructor (run first by ``exit``) and then resets
+the same destroyed pointer from its ``__attribute__((destructor))`` function (run later by
+``_dl_fini``), decrementing a word of the freed control block: often the back link of a chunk
+in one of malloc's bins. Whether a later ``free`` at exit (OpenBLAS's, say) walks that link
+depends on the heap layout, hence aborts that come and go with unrelated changes (0 in 60 runs
+of the old code on another machine). Keeping the libraries loaded (an earlier attempt) did not
+remove the cause. The native loader now releases the guard itself before the static
+destructor runs (and the master does so for FMUs built without the loader). As the abort
+itself is luck, the use after free is checked directly under valgrind where it is installed:
+that check fails on every run of the old loader. Each run here is a fresh process;
+``TRIBOFMU_EXIT_RUNS`` raises the count of the repeat tests for a hand check.
 """
 from __future__ import annotations
 

@@ -370,10 +370,10 @@ class FMUInstance:
         unzipped copy stays for other instances of the same file until the process exits.
 
         The FMU's shared library stays loaded until the process exits (fmpy's
-        ``freeInstance`` would also unload it): pythonfmu's binary starts a thread per load,
-        and unloading it while other threads run (OpenBLAS's) left glibc's thread-local
-        storage bookkeeping corrupt, so that about one run in ten aborted at exit with
-        "corrupted double-linked list" (exit 134) in OpenBLAS's thread shutdown.
+        ``freeInstance`` would also unload it), so the next instance of the same file does
+        not load it again. pythonfmu's binary is never unloaded anyway (glibc keeps a library
+        with STB_GNU_UNIQUE symbols); what it does wrong at exit is handled by the native
+        loader and by :func:`release_pythonfmu_guard_at_exit`.
         """
         try:
             self._fmu.terminate()
