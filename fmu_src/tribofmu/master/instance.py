@@ -199,7 +199,7 @@ class FMUInstance:
             # once imported it is not needed, and its bundled pythonfmu copy (without the
             # builder's binaries) would shadow the installed one in this process.
             sys.path[:] = [entry for entry in sys.path if entry != resources]
-        release_pythonfmu_guard_at_exit(self._fmu.dll)
+        release_pythonfmu_guard_at_exit(getattr(self._fmu, "dll", None))
         if self.fmi_version == 3:  # FMI 3.0 has no setupExperiment: the start time comes here
             self.call("enterInitializationMode", startTime=start_time)
         else:
