@@ -108,6 +108,30 @@ def extraction_root() -> Path:
         return _extract_root[1]
 
 
+_guards_released_at_exit: set[int] = set()  # library handles (under _extract_lock)
+
+
+def release_pythonfmu_guard_at_exit(dll) -> None:
+    """For an FMU whose binary is pythonfmu's own (built without the native loader): call its
+    ``finalizePythonInterpreter`` at interpreter exit, before C's exit handlers run.
+
+    Such a binary, while still loaded at exit (instances are freed without unloading it, see
+    :meth:`FMUInstance.close`), destroys its static ``shared_ptr<PyState>`` in a C++ static
+    destructor and then resets the destroyed pointer again from its destructor function: a
+    write into freed heap memory that can abort the process after its work is done
+    ("corrupted double-linked list"). Released here first, both find an empty pointer. The
+    native loader does the same for the binary it wraps (and exports no such function)."""
+    release = getattr(dll, "finalizePythonInterpreter", None) if hasattr(dll, "_handle") else None
+    if release is None:
+        return
+    with _extract_lock:
+        if dll._handle in _guards_released_at_exit:
+            return
+        _guards_released_at_exit.add(dll._handle)
+    release.restype, release.argtypes = None, []
+    atexit.register(release)
+
+
 def extract(path: Path) -> Path:
     """The unzipped copy of an FMU file for this process (unzipped once per content)."""
     import fmpy
@@ -178,6 +202,7 @@ class FMUInstance:
             # once imported it is not needed, and its bundled pythonfmu copy (without the
             # builder's binaries) would shadow the installed one in this process.
             sys.path[:] = [entry for entry in sys.path if entry != resources]
+        release_pythonfmu_guard_at_exit(getattr(self._fmu, "dll", None))
         if self.fmi_version == 3:  # FMI 3.0 has no setupExperiment: the start time comes here
             self.call("enterInitializationMode", startTime=start_time)
         else:
@@ -348,10 +373,10 @@ class FMUInstance:
         unzipped copy stays for other instances of the same file until the process exits.
 
         The FMU's shared library stays loaded until the process exits (fmpy's
-        ``freeInstance`` would also unload it): pythonfmu's binary starts a thread per load,
-        and unloading it while other threads run (OpenBLAS's) left glibc's thread-local
-        storage bookkeeping corrupt, so that about one run in ten aborted at exit with
-        "corrupted double-linked list" (exit 134) in OpenBLAS's thread shutdown.
+        ``freeInstance`` would also unload it), so the next instance of the same file does
+        not load it again. pythonfmu's binary is never unloaded anyway (glibc keeps a library
+        with STB_GNU_UNIQUE symbols); what it does wrong at exit is handled by the native
+        loader and by :func:`release_pythonfmu_guard_at_exit`.
         """
         try:
             self._fmu.terminate()

@@ -249,6 +249,55 @@ static int tf_ensure_python(void)
 static void *tf_wrapper = NULL;
 static char tf_wrapper_problem[TF_MSG];
 
+/* pythonfmu's binary (0.7.0, and pythonfmu3's) keeps its interpreter guard in a namespace-scope
+ * std::shared_ptr<PyState> (the PyState owns a thread) and resets it from an
+ * __attribute__((destructor)) function, finalizePythonInterpreter (exported). On a dlclose that
+ * order would be right (destructor functions run before __cxa_finalize destroys the static),
+ * but glibc never unloads that binary: it defines STB_GNU_UNIQUE symbols (libstdc++ template
+ * statics), which make it undeletable. So every copy ever loaded is still there at exit, where
+ * the order is wrong: exit() runs every __cxa_atexit handler first (the static's destructor
+ * frees the shared_ptr's control block and leaves the pointer), then _dl_fini calls
+ * finalizePythonInterpreter, which releases the freed control block again: it decrements a
+ * word of a free heap chunk (a tcache key, or the back link of a chunk in an unsorted or small
+ * bin), and a later free at exit may abort with "corrupted double-linked list" (SIGABRT, exit
+ * 134), depending on the heap layout.
+ *
+ * So the loader releases the guard itself while the static is alive: at exit from an exit
+ * handler registered after the binary was opened (handlers run last-in first-out, so before
+ * the binary's static destructor), and when the host unloads this loader, from its destructor
+ * function, which then also closes its handle on the binary. Releasing the guard is safe at
+ * any time: with Python already running (always, by tf_ensure_python) the guard's thread has
+ * finished at once, and the next instantiation makes a new guard. */
+typedef void (*tf_finalize_t)(void);
+static int tf_exiting = 0;
+
+static void tf_release_wrapper_state(void)
+{
+    tf_finalize_t release = tf_wrapper ? (tf_finalize_t)dlsym(tf_wrapper, "finalizePythonInterpreter") : NULL;
+    if (release) release();
+}
+
+static void tf_at_exit(void)
+{
+    pthread_mutex_lock(&tf_lock);
+    tf_exiting = 1;  /* the process ends: leave the binary mapped, only release its guard */
+    tf_release_wrapper_state();
+    pthread_mutex_unlock(&tf_lock);
+}
+
+/* Runs when the host dlcloses this loader (before the loader's own exit handlers, so
+ * tf_at_exit then finds nothing to do), and at exit after tf_at_exit (then it does nothing). */
+__attribute__((destructor)) static void tf_at_unload(void)
+{
+    pthread_mutex_lock(&tf_lock);
+    if (tf_wrapper && !tf_exiting) {
+        tf_release_wrapper_state();
+        dlclose(tf_wrapper);
+        tf_wrapper = NULL;
+    }
+    pthread_mutex_unlock(&tf_lock);
+}
+
 static void *tf_open_wrapper(void)
 {
     if (tf_wrapper) return tf_wrapper;
@@ -268,7 +317,11 @@ static void *tf_open_wrapper(void)
         const char *err = dlerror();
         snprintf(tf_wrapper_problem, TF_MSG, "cannot load the pythonfmu binary %s: %s", path,
                  err ? err : "unknown error");
+        return NULL;
     }
+    /* after the dlopen, so that at exit it runs before the binary's static destructors */
+    static int registered = 0;
+    if (!registered && atexit(tf_at_exit) == 0) registered = 1;
     return tf_wrapper;
 }
 
