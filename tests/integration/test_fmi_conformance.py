@@ -88,7 +88,8 @@ def test_fmus_are_built_fresh_and_carry_the_physics(fmu_paths):
             names = set(z.namelist())
             assert "modelDescription.xml" in names
             private = private_package_name()  # the shipped copy's name: never shadows tribofmu
-            for rel in ("fmu/base.py", "physics/friction.py", "physics/block.py", "physics/drive.py",
+            for rel in ("fmu/base.py", "fmu/fmi.py", "fmu/values.py", "fmu/fmu_state.py", "fmu/description.py",
+                        "physics/friction.py", "physics/block.py", "physics/drive.py",
                         "physics/thermal.py", "physics/load.py", "physics/roots.py"):
                 shipped = z.read(f"resources/{private}/{rel}").decode()
                 assert shipped == rewrite_imports((PACKAGE / rel).read_text(), private), f"{name}: stale {rel}"

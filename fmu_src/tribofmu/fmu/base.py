@@ -30,87 +30,32 @@ therefore still cannot step on with a value it believes set. What a host sees, c
 is the README's state table. A step is all or nothing: a refused step (bad value, numerical
 failure, non-finite outputs) leaves the state as it was.
 
-- saves and restores the complete state (variables plus the model's internal state), so
-  get/set and serialize/deserialize FMU state continue bit-identically; a state names the
-  model and build it came from, and one of another model or build is refused.
+- saves and restores the complete state (:mod:`.fmu_state`).
 
 No physics here: the models live in :mod:`tribofmu.physics`.
 """
 from __future__ import annotations
 
 import copy
-import json
 import math
-import os
 import uuid
 from typing import Any, Callable, Iterable
-from xml.etree.ElementTree import Element, SubElement, parse
 
-from .fmi_version import FMI_VERSION
+from .description import ModelDescriptionMixin, _parse_start, _start_values
+# the adapters import the FMI names they declare with from here (DefaultExperiment, the causalities)
+from .fmi import (_KINDS, _PREFIX, _TYPE_NAMES, AUTHOR, CALL_STATUS_CATEGORY, FMI_VERSION, INITIALIZATION,
+                  INPUT, INSTANTIATED, LICENSE, OUTPUT, PARAMETER, STEP, TERMINATED, VERSION,
+                  Causality, DefaultExperiment, Initial, Real, Status, Variability, _PythonFMUSlave)
+from .fmu_state import FMUStateMixin
+from .values import ValueAccessMixin
 
 if FMI_VERSION == 3:
-    from pythonfmu3 import Boolean, Fmi3Causality as Causality, Fmi3Slave as _PythonFMUSlave
-    from pythonfmu3 import Fmi3Variability as Variability, Float64 as Real, Int32 as Integer
-    from pythonfmu3.default_experiment import DefaultExperiment
-    from pythonfmu3.enums import Fmi3Initial as Initial, Fmi3Status as Status
-    from pythonfmu3.fmi3slave import Fmi3StepResult
-else:
-    from pythonfmu import Boolean, Fmi2Causality as Causality, Fmi2Slave as _PythonFMUSlave
-    from pythonfmu import Fmi2Variability as Variability, Integer, Real
-    from pythonfmu.default_experiment import DefaultExperiment
-    from pythonfmu.enums import Fmi2Initial as Initial, Fmi2Status as Status
+    from .fmi import Fmi3StepResult
 
-PARAMETER, INPUT, OUTPUT = Causality.parameter, Causality.input, Causality.output
-
-AUTHOR = "tribofmu developers"
-LICENSE = "MIT"
-VERSION = "0.1.0"
-
-_KINDS = {float: Real, int: Integer, bool: Boolean}
-_PREFIX = f"fmi{FMI_VERSION}"
-# The FMI names of the typed calls, for messages: Python type of the variable -> suffix.
-_TYPE_NAMES = {Real: "Float64" if FMI_VERSION == 3 else "Real",
-               Integer: "Int32" if FMI_VERSION == 3 else "Integer", Boolean: "Boolean"}
-_STATE = "FMUState" if FMI_VERSION == 3 else "FMUstate"
-
-# The log category of a refusal: the FMUs' native loader (tribofmu.native, between the host and
-# pythonfmu's binary) returns the status of such a message as the status of the call, so a
-# refused setter, getter, initialization or FMU state answers fmi2Error/fmi3Error there. The
-# loader hands the message on under the usual logStatusError category.
-CALL_STATUS_CATEGORY = "tribofmuCallStatus"
-
-# The FMI states a co-simulation instance passes through (error is a flag beside them).
-INSTANTIATED, INITIALIZATION, STEP, TERMINATED = (
-    "instantiated", "initialization mode", "step mode", "terminated")
+__all__ = ["TriboModel", "DefaultExperiment", "PARAMETER", "INPUT", "OUTPUT", "positive", "non_negative"]
 
 
-def _start_values(resources: str | None) -> dict[str, str]:
-    """name -> start text of every variable with a start value in the modelDescription.xml
-    beside ``resources`` (empty when there is none, e.g. while pythonfmu builds the FMU)."""
-    if not resources or os.path.basename(os.path.normpath(resources)) != "resources":
-        return {}
-    path = os.path.join(os.path.dirname(os.path.normpath(resources)), "modelDescription.xml")
-    try:
-        root = parse(path).getroot()
-    except (OSError, SyntaxError):
-        return {}
-    starts = {}
-    for node in root.iterfind("ModelVariables/*"):
-        typed = node if FMI_VERSION == 3 else next(iter(node), None)  # FMI 2: <Real start=.../>
-        if typed is not None and typed.get("start") is not None:
-            starts[node.get("name")] = typed.get("start")
-    return starts
-
-
-def _parse_start(kind: type, text: str) -> Any:
-    if kind is bool:
-        if text not in ("true", "false", "1", "0"):
-            raise ValueError(f"not a Boolean: {text!r}")
-        return text in ("true", "1")
-    return kind(text)
-
-
-class TriboModel(_PythonFMUSlave):
+class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _PythonFMUSlave):
     """Base of every tribofmu FMU: declare variables, implement :meth:`advance`."""
 
     author = AUTHOR
@@ -330,87 +275,6 @@ class TriboModel(_PythonFMUSlave):
         if self._in_mode("Terminate", STEP):
             self._mode = TERMINATED
 
-    # -- getters and setters: unknown references, types and states ---------------------------
-    def _set(self, kind: type, vrs, values) -> None:
-        call = f"Set{_TYPE_NAMES[kind]}"
-        for vr, value in zip(vrs, values):
-            var = self.vars.get(vr)
-            why = self._may_not_set(var, vr, kind)
-            if why:
-                self._refuse(call, f"{why}; {value!r} not set", enter_error=True)
-            else:
-                var.setter(value)
-
-    def _may_not_set(self, var, vr: int, kind: type) -> str | None:
-        if var is None:
-            return f"unknown value reference {vr}"
-        if not isinstance(var, kind):
-            return f"{var.name} (value reference {vr}) is not a {_TYPE_NAMES[kind]} variable"
-        if var.causality not in (Causality.parameter, Causality.input) or var.setter is None:
-            return f"{var.name} is an {var.causality.name}: it cannot be set"
-        if self._mode == TERMINATED:
-            return f"{var.name} cannot be set after {_PREFIX}Terminate"
-        if (var.causality == Causality.parameter and self._mode == STEP
-                and var.variability != Variability.tunable):
-            return (f"{var.name} is a fixed parameter: it can be set only before "
-                    f"{_PREFIX}ExitInitializationMode ({_PREFIX}Reset to change it)")
-        return None
-
-    def _get(self, kind: type, vrs, cast: Callable[[Any], Any], missing: Any) -> list:
-        call = f"Get{_TYPE_NAMES[kind]}"
-        if self._mode == INSTANTIATED and not self._describing:
-            self._refuse(call, f"not allowed before {_PREFIX}EnterInitializationMode; "
-                               f"reads as {missing}")
-            return [missing] * len(vrs)
-        values = []
-        for vr in vrs:
-            var = self.vars.get(vr)
-            if var is None or not isinstance(var, kind):
-                what = (f"unknown value reference {vr}" if var is None else
-                        f"{var.name} (value reference {vr}) is not a {_TYPE_NAMES[kind]} variable")
-                self._refuse(call, f"{what}; reads as {missing}")
-                values.append(missing)
-            else:
-                values.append(cast(var.getter()))
-        return values
-
-    if FMI_VERSION == 3:
-        def get_float64(self, vrs):
-            return self._get(Real, vrs, float, math.nan)
-
-        def get_int32(self, vrs):
-            return self._get(Integer, vrs, int, 0)
-
-        def get_boolean(self, vrs):
-            return self._get(Boolean, vrs, bool, False)
-
-        def set_float64(self, vrs, values):
-            self._set(Real, vrs, values)
-
-        def set_int32(self, vrs, values):
-            self._set(Integer, vrs, values)
-
-        def set_boolean(self, vrs, values):
-            self._set(Boolean, vrs, values)
-    else:
-        def get_real(self, vrs):
-            return self._get(Real, vrs, float, math.nan)
-
-        def get_integer(self, vrs):
-            return self._get(Integer, vrs, int, 0)
-
-        def get_boolean(self, vrs):
-            return self._get(Boolean, vrs, bool, False)
-
-        def set_real(self, vrs, values):
-            self._set(Real, vrs, values)
-
-        def set_integer(self, vrs, values):
-            self._set(Integer, vrs, values)
-
-        def set_boolean(self, vrs, values):
-            self._set(Boolean, vrs, values)
-
     # -- stepping ---------------------------------------------------------------------
     def do_step(self, current_time: float, step_size: float):
         """Advance from current_time by step_size [s]: True (OK) or, refused with the reasons
@@ -527,139 +391,6 @@ class TriboModel(_PythonFMUSlave):
         """Advance the model from t to t + h [s]; return why the inputs cannot be stepped
         (a bad value the host must replace: the step is refused), or None."""
         raise NotImplementedError
-
-    # -- FMU state ----------------------------------------------------------------------
-    def _get_fmu_state(self) -> dict[str, Any]:
-        state = {name: getattr(self, name) for name in self._scalar_names()}  # immutable values
-        state.update({name: copy.copy(getattr(self, name)) for name in self.internal_state_names})
-        state["_bad"] = dict(self._bad)
-        state["_initialized"] = self._initialized
-        state["_parameter_token"] = self._parameter_token
-        state["_model"] = self._model_id
-        state["_mode"] = self._mode
-        state["_error"] = self._error
-        return state
-
-    _BOOKKEEPING = ("_bad", "_initialized", "_parameter_token", "_model", "_mode", "_error")
-
-    def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        model = state.get("_model") if isinstance(state, dict) else None
-        if model != self._model_id:
-            if isinstance(state, dict) and "_invalid" in state:
-                what = f"not an FMU state ({state['_invalid']})"
-            elif model is None:
-                what = "not an FMU state of a tribofmu model"
-            else:
-                what = f"an FMU state of {model}"
-            self._refuse(f"Set{_STATE}", f"{what}, not of this model and build ({self._model_id}); "
-                                         f"not restored", enter_error=True)
-            return
-        token = state.get("_parameter_token")
-        same_parameters = token == self._parameter_token
-        self._bad = dict(state["_bad"])
-        self._initialized = bool(state["_initialized"])
-        self._mode = state["_mode"]
-        self._error = state["_error"]
-        for name, value in state.items():
-            if name in self._BOOKKEEPING:
-                continue
-            elif not (same_parameters and name in self._parameter_set):
-                setattr(self, name, value)
-        if not same_parameters:  # a state of another instance (deserialized): its parameters
-            self._new_parameters(token or f"{uuid.uuid4()}:0")
-
-    def _scalar_names(self) -> list[str]:
-        if self._scalar_state_names is None:
-            names = [v.name for v in self.vars.values() if v.causality != Causality.output]
-            names += [v.name for v in self.vars.values()
-                      if v.causality == Causality.output and v.name not in self._getters]
-            self._scalar_state_names = names + ["time"]
-        return self._scalar_state_names
-
-    internal_state_names: tuple[str, ...] = ()
-
-    # pythonfmu calls these on the class, without an instance to log to: they never raise (an
-    # exception would be fmi2Fatal and release the instance); a blob that is no state
-    # deserializes to a marker that setting the state refuses with the reason.
-    @staticmethod
-    def _fmu_state_to_bytes(state: Any) -> bytes:
-        try:
-            return json.dumps(state).encode("utf-8")
-        except Exception as exc:
-            return json.dumps({"_invalid": f"{type(exc).__name__}: {exc}"}).encode("utf-8")
-
-    @staticmethod
-    def _fmu_state_from_bytes(blob: bytes) -> Any:
-        try:
-            state = json.loads(blob.decode("utf-8"))
-        except Exception as exc:
-            return {"_invalid": f"cannot be deserialized: {type(exc).__name__}: {exc}"}
-        return state if isinstance(state, dict) else {"_invalid": "not an FMU state"}
-
-    # -- modelDescription.xml ---------------------------------------------------------
-    def to_xml(self, model_options: dict[str, str] = dict()) -> Element:
-        self._describing = True  # pythonfmu reads each start value through the getters
-        try:
-            root = super().to_xml(model_options)
-        finally:
-            self._describing = False
-        units = sorted(set(self._units.values()))
-        unit_defs = Element("UnitDefinitions")
-        for unit in units:
-            SubElement(unit_defs, "Unit", name=unit)
-        # UnitDefinitions precede LogCategories in the FMI 2.0 and 3.0 schema order.
-        position = list(root).index(root.find("CoSimulation")) + 1
-        root.insert(position, unit_defs)
-        if FMI_VERSION == 3:
-            self._fmi3_variables_and_structure(root)
-        else:
-            self._fmi2_variables_and_structure(root)
-        return root
-
-    def _fmi2_variables_and_structure(self, root: Element) -> None:
-        index = {v.name: i + 1 for i, v in enumerate(self.vars.values())}
-        for node in root.find("ModelVariables"):
-            name = node.get("name")
-            real = node.find("Real")
-            if real is not None and name in self._units:
-                real.set("unit", self._units[name])
-            var = next(v for v in self.vars.values() if v.name == name)
-            if var.causality == Causality.output:
-                for child in node:
-                    child.attrib.pop("start", None)  # initial="calculated" forbids a start
-        structure = root.find("ModelStructure")
-        for child in list(structure):
-            structure.remove(child)
-        outputs = [v for v in self.vars.values() if v.causality == Causality.output]
-        if outputs:
-            out_node = SubElement(structure, "Outputs")
-            init_node = SubElement(structure, "InitialUnknowns")
-            for v in outputs:
-                deps = " ".join(str(index[d]) for d in self._depends_on[v.name])
-                SubElement(out_node, "Unknown", index=str(index[v.name]), dependencies=deps)
-                # No dependencies attribute: initially an output may depend on anything.
-                SubElement(init_node, "Unknown", index=str(index[v.name]))
-
-    def _fmi3_variables_and_structure(self, root: Element) -> None:
-        # FMI 3.0 names variables by valueReference (no indices), types are elements of their own.
-        reference = {v.name: v.value_reference for v in self.vars.values()}
-        for node in root.find("ModelVariables"):
-            name = node.get("name")
-            if node.tag == "Float64" and name in self._units:
-                node.set("unit", self._units[name])
-            if name in reference and self.vars[reference[name]].causality == Causality.output:
-                node.attrib.pop("start", None)  # initial="calculated" forbids a start
-        structure = root.find("ModelStructure")
-        for child in list(structure):
-            structure.remove(child)
-        outputs = [v for v in self.vars.values() if v.causality == Causality.output]
-        for v in outputs:
-            deps = " ".join(str(reference[d]) for d in self._depends_on[v.name])
-            SubElement(structure, "Output", valueReference=str(v.value_reference), dependencies=deps)
-        for v in outputs:
-            # No dependencies attribute: initially an output may depend on anything.
-            SubElement(structure, "InitialUnknown", valueReference=str(v.value_reference))
-
 
 def positive(value: float) -> str | None:
     return None if value > 0 else f"must be > 0, got {value}"

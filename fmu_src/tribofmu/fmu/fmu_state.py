@@ -1,0 +1,83 @@
+"""Saving and restoring the complete state of a :class:`.base.TriboModel` (variables plus the
+model's internal state), so get/set and serialize/deserialize FMU state continue
+bit-identically; a state names the model and build it came from, and one of another model or
+build is refused."""
+from __future__ import annotations
+
+import copy
+import json
+import uuid
+from typing import Any
+
+from .fmi import _STATE, Causality
+
+
+class FMUStateMixin:
+    """The FMU-state calls of :class:`.base.TriboModel`."""
+
+    def _get_fmu_state(self) -> dict[str, Any]:
+        state = {name: getattr(self, name) for name in self._scalar_names()}  # immutable values
+        state.update({name: copy.copy(getattr(self, name)) for name in self.internal_state_names})
+        state["_bad"] = dict(self._bad)
+        state["_initialized"] = self._initialized
+        state["_parameter_token"] = self._parameter_token
+        state["_model"] = self._model_id
+        state["_mode"] = self._mode
+        state["_error"] = self._error
+        return state
+
+    _BOOKKEEPING = ("_bad", "_initialized", "_parameter_token", "_model", "_mode", "_error")
+
+    def _set_fmu_state(self, state: dict[str, Any]) -> None:
+        model = state.get("_model") if isinstance(state, dict) else None
+        if model != self._model_id:
+            if isinstance(state, dict) and "_invalid" in state:
+                what = f"not an FMU state ({state['_invalid']})"
+            elif model is None:
+                what = "not an FMU state of a tribofmu model"
+            else:
+                what = f"an FMU state of {model}"
+            self._refuse(f"Set{_STATE}", f"{what}, not of this model and build ({self._model_id}); "
+                                         f"not restored", enter_error=True)
+            return
+        token = state.get("_parameter_token")
+        same_parameters = token == self._parameter_token
+        self._bad = dict(state["_bad"])
+        self._initialized = bool(state["_initialized"])
+        self._mode = state["_mode"]
+        self._error = state["_error"]
+        for name, value in state.items():
+            if name in self._BOOKKEEPING:
+                continue
+            elif not (same_parameters and name in self._parameter_set):
+                setattr(self, name, value)
+        if not same_parameters:  # a state of another instance (deserialized): its parameters
+            self._new_parameters(token or f"{uuid.uuid4()}:0")
+
+    def _scalar_names(self) -> list[str]:
+        if self._scalar_state_names is None:
+            names = [v.name for v in self.vars.values() if v.causality != Causality.output]
+            names += [v.name for v in self.vars.values()
+                      if v.causality == Causality.output and v.name not in self._getters]
+            self._scalar_state_names = names + ["time"]
+        return self._scalar_state_names
+
+    internal_state_names: tuple[str, ...] = ()
+
+    # pythonfmu calls these on the class, without an instance to log to: they never raise (an
+    # exception would be fmi2Fatal and release the instance); a blob that is no state
+    # deserializes to a marker that setting the state refuses with the reason.
+    @staticmethod
+    def _fmu_state_to_bytes(state: Any) -> bytes:
+        try:
+            return json.dumps(state).encode("utf-8")
+        except Exception as exc:
+            return json.dumps({"_invalid": f"{type(exc).__name__}: {exc}"}).encode("utf-8")
+
+    @staticmethod
+    def _fmu_state_from_bytes(blob: bytes) -> Any:
+        try:
+            state = json.loads(blob.decode("utf-8"))
+        except Exception as exc:
+            return {"_invalid": f"cannot be deserialized: {type(exc).__name__}: {exc}"}
+        return state if isinstance(state, dict) else {"_invalid": "not an FMU state"}

@@ -1,0 +1,94 @@
+"""The typed getters and setters of :class:`.base.TriboModel` (FMI 2.0 ``fmi2GetReal`` ...,
+FMI 3.0 ``fmi3GetFloat64`` ...): an unknown value reference, a variable of another type, an
+output or a fixed parameter after initialization is refused by name, never a crash."""
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+from .fmi import (_PREFIX, _TYPE_NAMES, FMI_VERSION, INSTANTIATED, STEP, TERMINATED, Boolean, Causality,
+                  Integer, Real, Variability)
+
+
+class ValueAccessMixin:
+    """Get and set by value reference, for every FMI type the models declare."""
+
+    def _set(self, kind: type, vrs, values) -> None:
+        call = f"Set{_TYPE_NAMES[kind]}"
+        for vr, value in zip(vrs, values):
+            var = self.vars.get(vr)
+            why = self._may_not_set(var, vr, kind)
+            if why:
+                self._refuse(call, f"{why}; {value!r} not set", enter_error=True)
+            else:
+                var.setter(value)
+
+    def _may_not_set(self, var, vr: int, kind: type) -> str | None:
+        if var is None:
+            return f"unknown value reference {vr}"
+        if not isinstance(var, kind):
+            return f"{var.name} (value reference {vr}) is not a {_TYPE_NAMES[kind]} variable"
+        if var.causality not in (Causality.parameter, Causality.input) or var.setter is None:
+            return f"{var.name} is an {var.causality.name}: it cannot be set"
+        if self._mode == TERMINATED:
+            return f"{var.name} cannot be set after {_PREFIX}Terminate"
+        if (var.causality == Causality.parameter and self._mode == STEP
+                and var.variability != Variability.tunable):
+            return (f"{var.name} is a fixed parameter: it can be set only before "
+                    f"{_PREFIX}ExitInitializationMode ({_PREFIX}Reset to change it)")
+        return None
+
+    def _get(self, kind: type, vrs, cast: Callable[[Any], Any], missing: Any) -> list:
+        call = f"Get{_TYPE_NAMES[kind]}"
+        if self._mode == INSTANTIATED and not self._describing:
+            self._refuse(call, f"not allowed before {_PREFIX}EnterInitializationMode; "
+                               f"reads as {missing}")
+            return [missing] * len(vrs)
+        values = []
+        for vr in vrs:
+            var = self.vars.get(vr)
+            if var is None or not isinstance(var, kind):
+                what = (f"unknown value reference {vr}" if var is None else
+                        f"{var.name} (value reference {vr}) is not a {_TYPE_NAMES[kind]} variable")
+                self._refuse(call, f"{what}; reads as {missing}")
+                values.append(missing)
+            else:
+                values.append(cast(var.getter()))
+        return values
+
+    if FMI_VERSION == 3:
+        def get_float64(self, vrs):
+            return self._get(Real, vrs, float, math.nan)
+
+        def get_int32(self, vrs):
+            return self._get(Integer, vrs, int, 0)
+
+        def get_boolean(self, vrs):
+            return self._get(Boolean, vrs, bool, False)
+
+        def set_float64(self, vrs, values):
+            self._set(Real, vrs, values)
+
+        def set_int32(self, vrs, values):
+            self._set(Integer, vrs, values)
+
+        def set_boolean(self, vrs, values):
+            self._set(Boolean, vrs, values)
+    else:
+        def get_real(self, vrs):
+            return self._get(Real, vrs, float, math.nan)
+
+        def get_integer(self, vrs):
+            return self._get(Integer, vrs, int, 0)
+
+        def get_boolean(self, vrs):
+            return self._get(Boolean, vrs, bool, False)
+
+        def set_real(self, vrs, values):
+            self._set(Real, vrs, values)
+
+        def set_integer(self, vrs, values):
+            self._set(Integer, vrs, values)
+
+        def set_boolean(self, vrs, values):
+            self._set(Boolean, vrs, values)
