@@ -346,9 +346,20 @@ class AdaptiveCoupling(ImplicitCoupling):
     def _carry_error(self, start: Point, full: Point, mid: Point, end: Point, impulse: list[float]) -> None:
         """Carry the global error estimate over the accepted halves (see master/estimate.py):
         their local error is step doubling's difference over 2^p - 1 (p = 2 ramped, 1 held),
-        shared between the halves, plus each half's impulse miss."""
+        shared between the halves, plus each half's impulse miss and, for a friction with
+        internal state, the difference of the friction's own impulse over one step and two."""
         share = 0.5 / (3.0 if full.ramped else 1.0)
         local_x, local_v = share * (full.x - end.x), share * (full.v - end.v)
+        # A lubricant that melts or re-solidifies inside the step moves the friction's own
+        # impulse (its mean force times h) by what the event's timing is off; the block felt
+        # the ramp between the ends, so its v does not show that. One step and two halves
+        # deliver different impulses then: their difference, not divided by 2^p - 1 (an event
+        # inside a step makes it first order), is the impulse error carried on.
+        h_full = (end.t_ns - start.t_ns) / NS
+        if end.mode != 0 and end.f != 0.0 and full.F_mean == full.F_mean and mid.F_mean == mid.F_mean \
+                and end.F_mean == end.F_mean:
+            event = (full.F_mean - 0.5 * (mid.F_mean + end.F_mean)) * h_full * self.velocity_per_impulse
+            impulse = [miss + 0.5 * event for miss in impulse]
         # the friction's slope over the mass, from the loop gain: (h/M) c held, (h/2M) c ramped
         damping = self.loop_gain / self.loop_gain_step * (2.0 if full.ramped else 1.0)
         h = (mid.t_ns - start.t_ns) / NS
