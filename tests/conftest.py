@@ -10,6 +10,7 @@ changes FMU files copies them first.
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -39,3 +40,11 @@ def fmu3_dir(tmp_path_factory) -> Path:
 def fmu_paths(fmu_dir) -> dict[str, Path]:
     """The built FMUs by name: ``{"Friction": .../Friction.fmu, ...}``."""
     return {path.stem: path for path in sorted(fmu_dir.glob("*.fmu"))}
+
+
+@pytest.fixture
+def env(tmp_path):
+    """A subprocess environment with its own FMU cache and temp folder (for ``cli_run.tribofmu``)."""
+    cache, tmp = tmp_path / "cache", tmp_path / "tmpdir"
+    tmp.mkdir()
+    return dict(os.environ, TRIBOFMU_CACHE=str(cache), TMPDIR=str(tmp), PYTHONDONTWRITEBYTECODE="1")

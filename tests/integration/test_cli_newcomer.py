@@ -3,7 +3,6 @@ that do not apply, clean interruption, FMUs and package in one process, no lefto
 import dataclasses
 import hashlib
 import json
-import os
 import signal
 import subprocess
 import sys
@@ -18,7 +17,8 @@ from tribofmu import api, cli
 from tribofmu.build import PRIVATE_PREFIX, build_fmus, private_package_name
 from tribofmu.master.instance import EXTRACT_PREFIX
 
-from scenes import ROOT, SCENARIOS
+from cli_run import tribofmu
+from scenes import SCENARIOS
 SCENES = SCENARIOS
 FIG2 = SCENES / "fig2_dry.toml"
 SHORT = ["--set", "time.periods=1", "--set", "time.window=[0,1]"]  # one period: a quick run
@@ -32,17 +32,6 @@ def fmu_dir(tmp_path_factory):
     return out
 
 
-@pytest.fixture
-def env(tmp_path):
-    """A subprocess environment with its own FMU cache and temp folder."""
-    cache, tmp = tmp_path / "cache", tmp_path / "tmpdir"
-    tmp.mkdir()
-    return dict(os.environ, TRIBOFMU_CACHE=str(cache), TMPDIR=str(tmp), PYTHONDONTWRITEBYTECODE="1")
-
-
-def tribofmu(*args, cwd, env, timeout=600):
-    return subprocess.run([sys.executable, "-m", "tribofmu", *map(str, args)], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=timeout)
 
 
 def one_line(proc) -> str:

@@ -4,8 +4,6 @@ the README's CLI synopsis equal to the parser's."""
 import json
 import os
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,22 +13,13 @@ from tribofmu import api, cli, columns
 from tribofmu.errors import ScenarioError
 from tribofmu.scene.library import resolve_scene, scene_names, scenes_dir
 
+from cli_run import tribofmu
 from scenes import ROOT
 
 pytestmark = pytest.mark.integration
 SHORT = {"time.periods": 1.0, "time.window": [0.0, 1.0]}
 
 
-@pytest.fixture
-def env(tmp_path):
-    cache, tmp = tmp_path / "cache", tmp_path / "tmpdir"
-    tmp.mkdir()
-    return dict(os.environ, TRIBOFMU_CACHE=str(cache), TMPDIR=str(tmp), PYTHONDONTWRITEBYTECODE="1")
-
-
-def tribofmu(*args, cwd, env, timeout=600):
-    return subprocess.run([sys.executable, "-m", "tribofmu", *map(str, args)], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=timeout)
 
 
 # -- result.csv: every coupled signal, units in columns.json ----------------------------------------
