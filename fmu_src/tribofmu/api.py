@@ -164,8 +164,9 @@ def estimated_error(coupling, audit: WindowError) -> dict[str, Any]:
                                           "use --algorithm adaptive, or tribofmu accuracy"}
     value = audit.nrms()
     return {"nrms_v": value if math.isfinite(value) else None,
-            "method": "step doubling's local errors in x and v (and the friction's impulse misses) "
-                      "carried through the block's linearised motion to the window (master/estimate.py)"}
+            "method": "step doubling's local errors in x and v (and the friction's impulse misses and "
+                      "impulse differences) carried through the block's linearised motion to the "
+                      "window (coupling/estimate.py)"}
 
 
 # A run whose own estimate is past this many times its tol says so (README, "How accurate is a run").
@@ -179,7 +180,9 @@ def accuracy_warnings(coupling, estimate: dict[str, Any]) -> list[str]:
     if coupling.name != "adaptive" or value is None or value <= TOLERANCE_BAND * coupling.tol:
         return []
     return [f"estimated nRMS(v) {value:.2g} is {value / coupling.tol:.0f}x tol {coupling.tol:g}: "
-            f"rerun with --tol {coupling.tol * coupling.tol / value:.1g} for an error near tol"]
+            f"rerun with --tol {coupling.tol * coupling.tol / value:.1g} or smaller (the error shrinks "
+            f"with tol, on boundary and dry friction less than in proportion; `tribofmu accuracy` "
+            f"measures it)"]
 
 
 def build_system(scenario: Scenario, slaves: dict) -> CoupledSystem:

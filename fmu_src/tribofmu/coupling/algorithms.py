@@ -344,7 +344,7 @@ class AdaptiveCoupling(ImplicitCoupling):
         return misses
 
     def _carry_error(self, start: Point, full: Point, mid: Point, end: Point, impulse: list[float]) -> None:
-        """Carry the global error estimate over the accepted halves (see master/estimate.py):
+        """Carry the global error estimate over the accepted halves (see coupling/estimate.py):
         their local error is step doubling's difference over 2^p - 1 (p = 2 ramped, 1 held),
         shared between the halves, plus each half's impulse miss and, for a friction with
         internal state, the difference of the friction's own impulse over one step and two."""

@@ -4,13 +4,10 @@
 the same adapter files build for both versions.
 
 Each FMU script declares its variables with :meth:`TriboModel.declare` and implements
-:meth:`TriboModel.advance`. This module is the one place that
+:meth:`TriboModel.advance`. This module, with the mixins beside it, is the one place that
 
-- writes what pythonfmu 0.7 leaves out of ``modelDescription.xml``: units, ``initial``
-  attributes, ``InitialUnknowns`` and the output dependencies of ``ModelStructure``;
-- takes the start values of parameters and inputs from the FMU's own ``modelDescription.xml``
-  (FMI: the start value is the value at instantiation), so an FMU copy whose description
-  was rewritten (``tribofmu export-ssp``) starts from the rewritten values;
+- writes what pythonfmu 0.7 leaves out of ``modelDescription.xml`` and takes the start values
+  from the FMU's own description (:mod:`.description`);
 - enforces the FMI state machine (instantiated, initialization mode, step mode, terminated)
   and turns misuse and bad values into a refusal with a log message of status Error naming
   the call, the variable and the value.
