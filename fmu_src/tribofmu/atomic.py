@@ -17,6 +17,7 @@ import ctypes
 import errno
 import os
 import shutil
+import stat
 import tempfile
 from pathlib import Path
 
@@ -65,8 +66,9 @@ def _sibling(out: Path, kind: str) -> Path:
     return Path(tempfile.mkdtemp(prefix=f".{out.name}.{kind}-{os.getpid()}-", dir=out.parent))
 
 
-def _pid_of(name: str, prefix: str) -> int | None:
-    pid = name[len(prefix):].split("-", 1)[0]
+def _pid_of(name: str, prefix: str, separator: str = "-") -> int | None:
+    """The process id in ``<prefix><pid><separator>...`` (None: not such a name)."""
+    pid = name[len(prefix):].split(separator, 1)[0]
     if pid.isdigit() and len(pid) <= 9:
         return int(pid)
     return None
@@ -80,6 +82,22 @@ def pid_alive(pid: int) -> bool:
     except (PermissionError, OverflowError):  # someone else's process / not a pid at all
         return True
     return True
+
+
+def left_by_gone_process(path: Path, prefix: str, separator: str = "-") -> bool:
+    """Whether ``path``, named ``<prefix><pid><separator>...``, is what a process of this user
+    that no longer exists left behind: a real file or folder (not a link), this user's, its
+    pid not this process and not alive. Anything else is not ours to remove."""
+    pid = _pid_of(path.name, prefix, separator)
+    if pid is None or pid == os.getpid():
+        return False
+    try:
+        info = os.lstat(path)
+    except OSError:
+        return False
+    if stat.S_ISLNK(info.st_mode) or (hasattr(os, "getuid") and info.st_uid != os.getuid()):
+        return False
+    return not pid_alive(pid)
 
 
 def clean_leftovers(out: Path) -> None:

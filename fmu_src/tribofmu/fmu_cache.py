@@ -214,7 +214,7 @@ def check_writable(folder: Path, needed_bytes: int, what: str) -> None:
 def remove_build_leftovers(folder: Path | None = None) -> None:
     """Remove what killed builds left: ``.<Name>.fmu.partial-<pid>`` in ``folder`` and this
     user's ``tribofmu_build_<pid>_*`` staging folders in the temp dir, of processes that are gone."""
-    from .atomic import pid_alive
+    from .atomic import left_by_gone_process, pid_alive
     if folder is not None and folder.is_dir():
         for path in folder.glob(".*.fmu.partial-*"):
             pid = path.name.rsplit("-", 1)[-1]
@@ -223,12 +223,5 @@ def remove_build_leftovers(folder: Path | None = None) -> None:
                     path.unlink()
     tmp = Path(tempfile.gettempdir())
     for path in tmp.glob(BUILD_PREFIX + "*"):
-        pid = path.name[len(BUILD_PREFIX):].split("_", 1)[0]
-        try:
-            info = os.lstat(path)
-        except OSError:
-            continue
-        mine = not hasattr(os, "getuid") or info.st_uid == os.getuid()
-        if (mine and stat.S_ISDIR(info.st_mode) and pid.isdigit() and len(pid) <= 9
-                and not pid_alive(int(pid))):
+        if left_by_gone_process(path, BUILD_PREFIX, "_") and path.is_dir():
             shutil.rmtree(path, ignore_errors=True)

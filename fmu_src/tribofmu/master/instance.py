@@ -19,6 +19,7 @@ import threading
 from pathlib import Path
 from typing import Any, Sequence
 
+from ..atomic import left_by_gone_process
 from ..errors import FMUError
 
 STATUS_NAMES = ("fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error", "fmi2Fatal", "fmi2Pending")
@@ -61,30 +62,12 @@ _extract_root: tuple[int, Path] | None = None  # (pid that made it, folder)
 _extracted: dict[str, Path] = {}
 
 
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (PermissionError, OverflowError):  # someone else's process / not a pid
-        return True
-    return True
-
-
 def remove_orphan_extractions(tmp: Path | None = None) -> None:
     """Remove the extraction folders of processes that are gone (killed, crashed, or
     terminated without exit handlers, as Dask stops its worker processes)."""
     tmp = Path(tmp) if tmp is not None else Path(tempfile.gettempdir())
     for folder in tmp.glob(EXTRACT_PREFIX + "*"):
-        pid = folder.name[len(EXTRACT_PREFIX):].split("-", 1)[0]
-        if not (pid.isdigit() and len(pid) <= 9):  # not a folder of ours (e.g. an all-digit hash)
-            continue
-        try:
-            info = os.lstat(folder)
-        except OSError:
-            continue
-        mine = not hasattr(os, "getuid") or info.st_uid == os.getuid()
-        if mine and not folder.is_symlink() and int(pid) != os.getpid() and not _pid_alive(int(pid)):
+        if left_by_gone_process(folder, EXTRACT_PREFIX):  # (an all-digit hash is no pid: not ours)
             shutil.rmtree(folder, ignore_errors=True)
 
 
