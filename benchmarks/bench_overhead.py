@@ -120,8 +120,9 @@ def main(argv=None) -> int:
     parser.add_argument("--profile", action="store_true", help="cProfile one run of each case")
     args = parser.parse_args(argv)
     from tribofmu import api
+    from tribofmu.fmu_cache import find_fmus
     scenario = api.load(SCENARIO)
-    api.ensure_fmus(FMU_DIR, scenario.fmus, build=True)  # from this source, never stale
+    find_fmus(scenario.fmus, FMU_DIR, build=True)  # from this source, never stale
     print(f"fig2_dry, {args.repeats} repeats, medians")
     print(f"{'case':18s} {'steps':>7s} {'calls':>8s} {'FMU-only':>9s} {'run loop':>9s} {'simulate':>9s} "
           f"{'us/step FMU':>11s} {'us/step master':>14s} {'overhead':>9s}")

@@ -29,6 +29,7 @@ def main(argv=None) -> int:
     parser.add_argument("--step", type=float, default=1e-4)
     args = parser.parse_args(argv)
     from tribofmu import api
+    from tribofmu.fmu_cache import find_fmus
     from tribofmu.master.instance import FMUInstance
 
     original = FMUInstance.do_step
@@ -50,7 +51,7 @@ def main(argv=None) -> int:
         for label, scene, overrides in CASES:
             sc = api.load(ROOT / "scenarios" / f"{scene}.toml", overrides + [f"time.periods={args.periods}",
                                                                               "time.window=[0,0.1]"])
-            api.ensure_fmus(FMU_DIR, sc.fmus, build=None)
+            find_fmus(sc.fmus, FMU_DIR, build=None)
             timings.clear()
             r = api.simulate(sc, fmu_dir=FMU_DIR, build=False, algorithm="implicit", step=args.step)
             ts = sorted(timings)

@@ -177,7 +177,7 @@ def accuracy_warnings(coupling, estimate: dict[str, Any]) -> list[str]:
     """What the run says about its accuracy: its estimate past TOLERANCE_BAND x tol. The run
     stays ok (it did what was asked of each step); the warning is in stats.json and on stderr."""
     value = estimate.get("nrms_v")
-    if coupling.name != "adaptive" or value is None or value <= TOLERANCE_BAND * coupling.tol:
+    if value is None or value <= TOLERANCE_BAND * coupling.tol:  # (None: a fixed-step run)
         return []
     return [f"estimated nRMS(v) {value:.2g} is {value / coupling.tol:.0f}x tol {coupling.tol:g}: "
             f"rerun with --tol {coupling.tol * coupling.tol / value:.1g} or smaller (the error shrinks "
@@ -203,9 +203,3 @@ def output_samples(scenario: Scenario) -> int:
             f"({n * 8 * (len(COLUMNS) + 1) / 1e9:.3g} GB of results); at most {MAX_OUTPUT_SAMPLES:.0e} "
             f"({MAX_OUTPUT_SAMPLES // SAMPLES_PER_PERIOD} periods): simulate fewer periods")
     return n
-
-
-def ensure_fmus(fmu_dir: Path, names, build: bool | None) -> None:
-    """The FMUs ``names`` in ``fmu_dir`` (see :func:`tribofmu.fmu_cache.find_fmus`)."""
-    from .fmu_cache import find_fmus
-    find_fmus(names, fmu_dir, build=build)
