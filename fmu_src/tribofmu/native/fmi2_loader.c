@@ -429,13 +429,19 @@ TF_EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte byt
         return fmi2Error;
     }
     typedef fmi2Status (*de_t)(fmi2Component, const fmi2Byte[], size_t, fmi2FMUstate *);
+    typedef fmi2Status (*free_t)(fmi2Component, fmi2FMUstate *);
     TF_REAL(de_t, fmi2DeSerializeFMUstate)
+    TF_REAL(free_t, fmi2FreeFMUstate)
     fmi2FMUstate inner = NULL;
     fmi2Status status = tf_leave(I, tf_fmi2DeSerializeFMUstate(I->inner, bytes, size, &inner),
                                  "fmi2DeSerializeFMUstate");
     if (status > fmi2Warning) return status;
     tf_state *s = tf_new_state(I, inner);
-    if (!s) return fmi2Error;
+    if (!s) {
+        tf_fmi2FreeFMUstate(I->inner, &inner);
+        tf_log(I, fmi2Error, "fmi2DeSerializeFMUstate: out of memory");
+        return fmi2Error;
+    }
     *state = s;
     return status;
 }

@@ -444,6 +444,7 @@ TF_EXPORT fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *state)
     tf_state *s = tf_new_state(I, inner);
     if (!s) {
         tf_fmi3FreeFMUState(I->inner, &inner);
+        tf_log(I, fmi3Error, "fmi3GetFMUState: out of memory");
         return fmi3Error;
     }
     *state = s;
@@ -511,13 +512,19 @@ TF_EXPORT fmi3Status fmi3DeserializeFMUState(fmi3Instance instance, const fmi3By
         return fmi3Error;
     }
     typedef fmi3Status (*de_t)(fmi3Instance, const fmi3Byte[], size_t, fmi3FMUState *);
+    typedef fmi3Status (*free_t)(fmi3Instance, fmi3FMUState *);
     TF_REAL(de_t, fmi3DeserializeFMUState)
+    TF_REAL(free_t, fmi3FreeFMUState)
     fmi3FMUState inner = NULL;
     fmi3Status status = tf_leave(I, tf_fmi3DeserializeFMUState(I->inner, serializedState, size, &inner),
                                  "fmi3DeserializeFMUState");
     if (status > fmi3Warning) return status;
     tf_state *s = tf_new_state(I, inner);
-    if (!s) return fmi3Error;
+    if (!s) {
+        tf_fmi3FreeFMUState(I->inner, &inner);
+        tf_log(I, fmi3Error, "fmi3DeserializeFMUState: out of memory");
+        return fmi3Error;
+    }
     *state = s;
     return status;
 }
