@@ -62,30 +62,30 @@ def preflight(out: Path, needed_bytes: int, option: str = "--out") -> None:
     """Before any work: ``out``'s parent can take a new folder and has the space the results
     need (OSError, one line, exit 1, otherwise); ``out`` holds nothing but results (exit 2)."""
     from .atomic import check_replaceable
-    from .fmu_cache import check_writable
     check_out_dir(out, option)
     try:
         check_replaceable(out)
     except FileExistsError as exc:
         raise UsageError(f"{option} {exc}") from None
-    parent = out.absolute().parent
-    existing = next(p for p in (parent, *parent.parents) if p.exists())
-    if existing != parent:
-        check_writable(existing, needed_bytes, f"{option}'s parent")
-        parent.mkdir(parents=True, exist_ok=True)
-    check_writable(parent, needed_bytes, f"{option}'s parent")
+    _writable_folder(out.absolute().parent, needed_bytes, f"{option}'s parent")
 
 
 def preflight_folder(out: Path, needed_bytes: int, option: str = "--out") -> None:
     """For outputs kept across runs (a sweep's folder, an .ssp file's folder): ``out`` can be
     written and has the space (OSError, exit 1, otherwise)."""
-    from .fmu_cache import check_writable
     check_out_dir(out, option)
-    out = out.absolute()
-    existing = next(p for p in (out, *out.parents) if p.exists())
-    check_writable(existing, needed_bytes, option)
-    out.mkdir(parents=True, exist_ok=True)
-    check_writable(out, needed_bytes, option)
+    _writable_folder(out.absolute(), needed_bytes, option)
+
+
+def _writable_folder(folder: Path, needed_bytes: int, what: str) -> None:
+    """The absolute ``folder`` takes files and has ``needed_bytes`` free; a missing one is made
+    after its nearest existing ancestor passed the same check."""
+    from .fmu_cache import check_writable
+    existing = next(p for p in (folder, *folder.parents) if p.exists())
+    if existing != folder:
+        check_writable(existing, needed_bytes, what)
+        folder.mkdir(parents=True, exist_ok=True)
+    check_writable(folder, needed_bytes, what)
 
 
 def check_number(name: str, value: float | None) -> None:
