@@ -40,6 +40,8 @@ FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load", "TriboPair")
 SHIPPED = ("__init__.py", "physics", "fmu", "coupling")
 FMI_VERSIONS = (2, 3)
 PRIVATE_PREFIX = "_tribofmu_fmu_"
+# Staging folders in the temp dir, "<prefix><pid>_...": fmu_cache removes those of killed builds.
+BUILD_PREFIX = "tribofmu_build_"
 CACHE_ENV = "TRIBOFMU_CACHE"  # overrides the cache folder (default: $XDG_CACHE_HOME/tribofmu)
 
 # ``from tribofmu.x import y`` / ``import tribofmu.x`` at the start of a line (any indent).
@@ -169,7 +171,7 @@ def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] = FMU_N
     path_before = list(sys.path)
     try:
         # named by pid: the next run removes the folder of a build that was killed
-        with tempfile.TemporaryDirectory(prefix=f"tribofmu_build_{os.getpid()}_") as tmp:
+        with tempfile.TemporaryDirectory(prefix=f"{BUILD_PREFIX}{os.getpid()}_") as tmp:
             package = _stage_package(Path(tmp), private, fmi)
             for name in names:
                 _forget_private_modules()  # imported by the previous build from a folder now gone

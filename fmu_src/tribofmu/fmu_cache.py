@@ -29,7 +29,6 @@ from .errors import FMUError
 
 MANIFEST = "manifest.json"
 LOCK = ".build.lock"
-BUILD_PREFIX = "tribofmu_build_"
 # A cold build writes six FMUs of < 1 MB each and stages them in the temp dir first.
 BUILD_BYTES = 20_000_000
 
@@ -215,6 +214,7 @@ def remove_build_leftovers(folder: Path | None = None) -> None:
     """Remove what killed builds left: ``.<Name>.fmu.partial-<pid>`` in ``folder`` and this
     user's ``tribofmu_build_<pid>_*`` staging folders in the temp dir, of processes that are gone."""
     from .atomic import left_by_gone_process, pid_alive
+    from .build import BUILD_PREFIX
     if folder is not None and folder.is_dir():
         for path in folder.glob(".*.fmu.partial-*"):
             pid = path.name.rsplit("-", 1)[-1]
