@@ -12,7 +12,6 @@ chunk of sampled signals (a mapping of name to array, as the recorder and
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping
@@ -97,18 +96,6 @@ def result_signals(result) -> dict:
         out[name] = getattr(result, name)
     out.update({k: v for k, v in result.inputs.items() if k in BY_NAME and BY_NAME[k].applies(result.scenario)})
     return out
-
-
-def write_result_csv(result, path: Path) -> list[Column]:
-    """``result.csv`` (one header line, SI units, one row per output point) and, beside it,
-    ``columns.json`` with each column's unit and meaning; returns the columns written."""
-    import numpy as np
-    path = Path(path)
-    columns = columns_for(result.scenario)
-    np.savetxt(path, rows(result_signals(result), result.scenario, columns), delimiter=",",
-               header=header(columns), comments="", fmt="%.17g")
-    (path.parent / SIDECAR_NAME).write_text(json.dumps(sidecar(columns), indent=2) + "\n")
-    return columns
 
 
 def read_result_csv(path: Path) -> dict:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .columns import SIDECAR_NAME, columns_for, header, rows, sidecar
+from .columns import SIDECAR_NAME, Column, columns_for, header, result_signals, rows, sidecar
 
 BYTES_PER_VALUE = 25  # "%.17g" and a comma: the free-space estimate
 
@@ -49,3 +49,11 @@ class ResultCsvWriter:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def write_result_csv(result, path: Path) -> list[Column]:
+    """A whole :class:`tribofmu.api.SimulationResult` as ``result.csv`` with ``columns.json``
+    beside it, through the same writer as a streamed run; returns the columns written."""
+    with ResultCsvWriter(path, result.scenario) as writer:
+        writer(0, result_signals(result))
+    return writer.columns

@@ -11,6 +11,7 @@ import pytest
 
 from tribofmu import api, cli, columns
 from tribofmu.errors import ScenarioError
+from tribofmu.result_csv import write_result_csv
 from tribofmu.scene.library import resolve_scene, scene_names, scenes_dir
 
 from cli_run import tribofmu
@@ -29,7 +30,7 @@ def test_result_csv_carries_every_coupled_signal_with_units(fmu_dir, tmp_path, n
     overrides = dict(SHORT) if name != "boundary_heating" else {"time.periods": 0.5, "time.window": [0, 0.5]}
     result = api.simulate(name, overrides, fmu_dir=fmu_dir, build=False)
     assert result.ok, result.message
-    written = columns.write_result_csv(result, tmp_path / "result.csv")
+    written = write_result_csv(result, tmp_path / "result.csv")
     names = ["time", "X", "V", "x", "v", "F", "f", "stuck", "dv", "a", *extra]
     assert [c.name for c in written] == names
     with open(tmp_path / "result.csv") as fh:
