@@ -78,14 +78,12 @@ def preflight_folder(out: Path, needed_bytes: int, option: str = "--out") -> Non
 
 
 def _writable_folder(folder: Path, needed_bytes: int, what: str) -> None:
-    """The absolute ``folder`` takes files and has ``needed_bytes`` free; a missing one is made
-    after its nearest existing ancestor passed the same check."""
+    """The absolute ``folder`` takes files and has ``needed_bytes`` free; for a missing one its
+    nearest existing ancestor is checked instead, and nothing is made (whatever fails later,
+    before the results are written, leaves no empty folder behind)."""
     from .fmu_cache import check_writable
     existing = next(p for p in (folder, *folder.parents) if p.exists())
-    if existing != folder:
-        check_writable(existing, needed_bytes, what)
-        folder.mkdir(parents=True, exist_ok=True)
-    check_writable(folder, needed_bytes, what)
+    check_writable(existing, needed_bytes, what)
 
 
 def check_number(name: str, value: float | None) -> None:

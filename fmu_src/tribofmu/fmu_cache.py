@@ -162,16 +162,24 @@ def _read_manifest(folder: Path) -> dict[str, str]:
 
 
 def _private_folder(folder: Path) -> None:
-    """Make the cache folder and its parents up to the cache root; each must be a real folder
-    of this user, and the root private (0700)."""
+    """Make the cache folder and its parents; from the cache root down each must be a real
+    folder of this user, and the root private (0700).
+
+    The root's own missing parents (``~/.cache`` on a new account, a ``TRIBOFMU_CACHE`` under
+    a folder not made yet) are made too, private as the XDG base-directory spec asks of
+    ``~/.cache``; the ones that exist are not checked: they are the user's."""
     from .build import cache_root
     root = cache_root()
-    for path in [p for p in (folder, *folder.parents) if p == root or root in p.parents][::-1]:
+    missing_above = [p for p in root.parents if not p.exists()][::-1]
+    ours = [p for p in (folder, *folder.parents) if p == root or root in p.parents][::-1]
+    for path in (*missing_above, *ours):
         try:
             path.mkdir(mode=0o700, exist_ok=True)
             info = os.lstat(path)
-        except OSError as exc:  # a failed write: exit 1 in the CLI
-            raise OSError(exc.errno, f"cannot write the FMU cache {path}: {exc.strerror}") from None
+        except OSError as exc:  # a failed write: one line, exit 1 in the CLI
+            raise write_error(f"cannot write the FMU cache {path}: {exc.strerror or exc}", exc.errno) from None
+        if path in missing_above:
+            continue
         if stat.S_ISLNK(info.st_mode) or not stat.S_ISDIR(info.st_mode):
             raise FMUCacheError(f"FMU cache {path} is not a folder (a link or a file); remove it or "
                                 f"set TRIBOFMU_CACHE")
@@ -192,6 +200,14 @@ def _build_lock(folder: Path):
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
+def write_error(message: str, errno_: int | None) -> OSError:
+    """A folder that cannot be written, as a plain OSError (exit 1 in the CLI): not the
+    subclass its errno would pick, since a FileNotFoundError reads as a missing input (exit 2)."""
+    error = OSError(message)
+    error.errno = errno_
+    return error
+
+
 def check_writable(folder: Path, needed_bytes: int, what: str) -> None:
     """Raise OSError (one line) unless a file can be created in ``folder`` and the disk has
     ``needed_bytes`` free."""
@@ -200,14 +216,14 @@ def check_writable(folder: Path, needed_bytes: int, what: str) -> None:
         fd, probe = tempfile.mkstemp(prefix=".tribofmu-probe-", dir=folder)
         os.close(fd)
     except OSError as exc:
-        raise OSError(exc.errno, f"cannot write into {what} {folder}: {exc.strerror}") from None
+        raise write_error(f"cannot write into {what} {folder}: {exc.strerror or exc}", exc.errno) from None
     finally:
         if probe:
             with contextlib.suppress(OSError):
                 os.unlink(probe)
     free = shutil.disk_usage(folder).free
     if free < needed_bytes:
-        raise OSError(28, f"{what} {folder} has {free / 1e6:.1f} MB free, {needed_bytes / 1e6:.1f} MB needed")
+        raise write_error(f"{what} {folder} has {free / 1e6:.1f} MB free, {needed_bytes / 1e6:.1f} MB needed", 28)
 
 
 def remove_build_leftovers(folder: Path | None = None) -> None:

@@ -63,6 +63,38 @@ def test_simulate_and_export_ssp_from_another_folder_build_missing_fmus(tmp_path
     assert list(cache.iterdir()) == [built]  # found, not rebuilt elsewhere
 
 
+def fresh_account(tmp_path, env, **extra):
+    """A new account's environment: an empty HOME (no ~/.cache), no XDG variables, no
+    TRIBOFMU_CACHE (unless given in extra)."""
+    home = tmp_path / "home"
+    home.mkdir(parents=True)
+    fresh = {k: v for k, v in env.items() if k != "TRIBOFMU_CACHE" and not k.startswith("XDG_")}
+    return home, dict(fresh, HOME=str(home), **extra)
+
+
+def test_a_fresh_account_without_a_cache_folder_simulates_and_builds(tmp_path, env):
+    home, fresh = fresh_account(tmp_path, env)
+    proc = tribofmu("simulate", "fig2_dry", *SHORT, "--no-plots", "-q", cwd=tmp_path, env=fresh)
+    assert proc.returncode == 0, proc.stderr
+    assert len(list((tmp_path / "out").glob("*/result.csv"))) == 1
+    for made in (home / ".cache", home / ".cache" / "tribofmu"):  # made private, as XDG asks
+        assert made.is_dir() and (made.stat().st_mode & 0o077) == 0, made
+    # a TRIBOFMU_CACHE under folders not made yet: build and export-ssp make them too
+    _, under = fresh_account(tmp_path / "b", env, TRIBOFMU_CACHE=str(tmp_path / "new" / "deep" / "cache"))
+    assert tribofmu("build", cwd=tmp_path, env=under).returncode == 0
+    proc = tribofmu("export-ssp", "fig2_dry", "--out", tmp_path / "a.ssp", cwd=tmp_path, env=under)
+    assert proc.returncode == 0 and (tmp_path / "a.ssp").is_file(), proc.stderr
+
+
+def test_a_cache_that_cannot_be_made_is_one_line_exit_1_and_leaves_nothing(tmp_path, env):
+    blocker = tmp_path / "afile"
+    blocker.write_text("not a folder")
+    _, fresh = fresh_account(tmp_path, env, TRIBOFMU_CACHE=str(blocker / "cache"))
+    proc = tribofmu("simulate", "fig2_dry", *SHORT, cwd=tmp_path, env=fresh)
+    assert proc.returncode == 1 and "cannot write the FMU cache" in one_line(proc)
+    assert not (tmp_path / "out").exists()  # no empty output folder left behind
+
+
 @pytest.mark.parametrize("args, message", [
     (["--algorithm", "jacobi", "--tol", "1e-5"], "--tol applies to the adaptive algorithm only, not jacobi"),
     (["--algorithm", "implicit", "--tol", "1e-3"], "--tol applies to the adaptive algorithm only, not implicit"),

@@ -57,8 +57,12 @@ def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
     env_dir = tmp_path / "venv"
     venv.EnvBuilder(system_site_packages=True, with_pip=False, symlinks=True).create(env_dir)
     python = env_dir / "bin" / "python"
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME")}
-    env.update(PATH=f"{env_dir / 'bin'}{os.pathsep}{env['PATH']}", TRIBOFMU_CACHE=str(tmp_path / "cache"),
+    # a fresh account: an empty HOME (no ~/.cache), no XDG variables, no TRIBOFMU_CACHE
+    home = tmp_path / "home"
+    home.mkdir()
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME", "TRIBOFMU_CACHE") and not k.startswith("XDG_")}
+    env.update(PATH=f"{env_dir / 'bin'}{os.pathsep}{env['PATH']}", HOME=str(home),
                PYTHONDONTWRITEBYTECODE="1", PIP_DISABLE_PIP_VERSION_CHECK="1")
     # the system's pip run by the venv's python installs into the venv (no deps);
     # --ignore-installed: leave the system's own tribofmu (a developer's editable one) alone
@@ -84,3 +88,4 @@ def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
     assert sorted(p.name for p in (work / "out" / "figures").glob("*.png")) == [
         "fig2.png", "fig3.png", "fig4.png", "fig5.png", "fig6.png"]
     assert (work / "docs" / "figures" / "boundary_heating" / "time.png").is_file()
+    assert any((home / ".cache" / "tribofmu" / "fmus").glob("*/Friction.fmu"))  # the default cache, made
