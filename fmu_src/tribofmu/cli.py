@@ -25,6 +25,7 @@ from .cli_checks import (PLOT_BYTES, one_line, SSP_BYTES, SWEEP_POINT_BYTES, Usa
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
+EXIT_TOL_NOT_MET = 3  # the run completed and its result is kept, but its checked error is past --tol
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -283,7 +284,8 @@ def cmd_simulate(args) -> int:
                                   max_wall=-1.0 if args.max_wall is None else args.max_wall,
                                   sink=csv_rows, keep_window=True)
         stats = dict(result.stats)
-        if result.ok:
+        completed = stats.get("completed", result.ok)  # ran to the end (maybe short of its tol)
+        if completed:
             # the scene's metrics on its shown window; null where one does not apply (NaN)
             stats["metrics"] = {k: (v if v == v else None) for k, v in result_metrics(result).items()}
         settings = {"algorithm": algorithm, "step": stats.get("step"), "tol": stats.get("tol"),
@@ -291,21 +293,24 @@ def cmd_simulate(args) -> int:
         stats["provenance"] = record(scene_file, overrides_dict(args.overrides), settings, stats.get("fmus"))
         stats["scenario"] = to_dict(scenario)  # what was simulated, for 'tribofmu plot'
         (tmp / "stats.json").write_text(json.dumps(stats, indent=2) + "\n")
-        if not result.ok:  # a failed run leaves its stats (with the message), never a partial result
+        if not completed:  # a failed run leaves its stats (with the message), never a partial result
             (tmp / "result.csv").unlink()
             (tmp / SIDECAR_NAME).unlink(missing_ok=True)
         elif not args.no_plots:  # drawn once the rows and stats are on disk, swapped in with them
             from .plots import plot_result
             plot_result(result, tmp)
     estimate = result.stats["estimated_error"]["nrms_v"]
-    accuracy = f", estimated nRMS(v) {estimate:.2g}" if estimate is not None else ""
+    checked = result.stats["estimated_error"].get("method", "").startswith("checked")
+    accuracy = (f", {'checked' if checked else 'estimated'} nRMS(v) {estimate:.2g}"
+                + (f" (tol {result.stats['tol']:g})" if checked else "")) if estimate is not None else ""
     print(f"{scenario.name}: {result.message}; {result.stats['communication_steps']} steps, "
           f"{result.stats['wall_time']:.2f} s{accuracy} -> {out}/")
-    for warning in result.stats["warnings"]:
-        print(f"tribofmu: warning: {warning}", file=sys.stderr)
-    if not result.ok:
+    if not result.stats.get("completed", result.ok):
         print(f"tribofmu: {result.message}", file=sys.stderr)
         return EXIT_FAILED
+    if not result.ok:  # completed, kept, but short of its tolerance: one line, exit 3
+        print(f"tribofmu: {result.message}", file=sys.stderr)
+        return EXIT_TOL_NOT_MET
     return 0
 
 

@@ -62,6 +62,7 @@ class RunOutcome:
     wall_time: float  # s
     counters: dict = field(default_factory=dict)
     calls: dict = field(default_factory=dict)
+    out_of_time: bool = False  # stopped because its pace projected past limits.max_wall
 
 
 class PointList:
@@ -183,7 +184,7 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
     current = system.start_point()
     recorder.add(current)
     ok, message = True, "completed"
-    noticed = False
+    noticed = out_of_time = False
     try:
         while current.t_ns < stop_ns:
             new = algorithm.advance(system, current, stop_ns)
@@ -218,13 +219,14 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
         ok, message = False, f"stopped at t = {current.t_ns / NS:.9g} s: {exc}"
     except (FloatingPointError, RunawayError) as exc:
         ok, message = False, str(exc)
+        out_of_time = isinstance(exc, RunawayError)
     recorder.finish()
     wall = _time.perf_counter() - begin
     c = algorithm.counters
     return RunOutcome(recorder.kept(), ok, message, wall,
                       counters=dict(steps=c.steps, rejected=c.rejected, landed=c.landed, iterations=c.iterations,
                                     forced=c.forced, stick_steps=c.stick_steps),
-                      calls=system.calls)
+                      calls=system.calls, out_of_time=out_of_time)
 
 
 class RunawayError(NumericalError):

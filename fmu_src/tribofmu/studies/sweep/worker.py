@@ -56,8 +56,10 @@ def run_point(scenario: Scenario, fmu_dir: str, algorithm: str | None = None, st
         with deferred_interrupts():
             result = api.simulate(scenario, algorithm=algorithm, step=step, tol=tol, fmu_dir=fmu_dir,
                                   build=False, progress=progress)
-        if not result.ok:
+        if not result.ok:  # failed, or completed short of its tolerance: the point is not met
             out["message"] = result.message
+            if result.stats.get("completed"):  # its metrics are still worth a look
+                out["metrics"] = result_metrics(result)
         else:
             out["metrics"] = result_metrics(result)
             m = result.window_mask()

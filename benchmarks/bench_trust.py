@@ -1,0 +1,117 @@
+"""Issue 27's targets, measured: does ``--tol`` give the error the user gets, and does every
+run that misses it say so?
+
+    python benchmarks/bench_trust.py [--tols default,1e-3,1e-4] [--only SUBSTRING] [--out FILE.json]
+
+At parameter points no scene uses (dry, fluid and boundary friction across docs/model.md's
+ranges), each run of ``tribofmu.api.simulate`` (whole call, its checks included) is compared
+with the independent reference (``studies.reference``, rtol 1e-10). Printed per run: the tol
+asked (``default`` is the scene's own, 1e-3), the error reported
+(``stats["estimated_error"]["nrms_v"]``), the true nRMS(v) on the window, their ratio,
+``ok``, the wall time, the per-step tolerances run. Then the targets:
+
+- silent misses: runs with true error past 3x tol that end ok (target: 0);
+- reported / true within [0.5, 10] (or both below tol/10);
+- true / tol within [0.03, 1.5];
+- at the defaults every point meets 1e-3, each run under 30 s.
+
+Not collected by pytest (no test_ prefix). Timings are of a shared machine: see the load
+printed at the start and the end.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+POINTS = [
+    # dry friction: slow drives, light and heavy blocks, another friction coefficient
+    ("dry omega=3", "fig2_dry", {"drive.omega": 3.0}),
+    ("dry M=0.05", "fig2_dry", {"block.M": 0.05}),
+    ("dry omega=25 M=0.8", "fig2_dry", {"drive.omega": 25.0, "block.M": 0.8}),
+    ("dry mu=0.2 omega=50", "fig2_dry", {"friction.mu_friction": 0.2, "drive.omega": 50.0}),
+    # fluids
+    ("pseudoplastic gamma=-0.4 m=15", "fig5_pseudoplastic", {"friction.gamma": -0.4, "friction.m": 15.0}),
+    ("dilatant gamma=1 omega=40", "fig5_dilatant", {"friction.gamma": 1.0, "drive.omega": 40.0}),
+    ("newtonian M=0.3 m=40", "fig5_newtonian", {"block.M": 0.3, "friction.m": 40.0}),
+    # boundary friction: other viscous exponents, another frequency
+    ("boundary gamma=-0.95", "fig6_boundary", {"friction.gamma": -0.95}),
+    ("boundary gamma=-0.3", "fig6_boundary", {"friction.gamma": -0.3}),
+    ("boundary gamma=0", "fig6_boundary", {"friction.gamma": 0.0}),
+    ("boundary gamma=0.3", "fig6_boundary", {"friction.gamma": 0.3}),
+    ("boundary gamma=1", "fig6_boundary", {"friction.gamma": 1.0}),
+    ("boundary gamma=2", "fig6_boundary", {"friction.gamma": 2.0}),
+    ("boundary omega=20", "fig6_boundary", {"drive.omega": 20.0}),
+]
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tols", default="default,1e-3,1e-4")
+    parser.add_argument("--only", default=None, help="run only the points whose label holds this")
+    parser.add_argument("--max-wall", type=float, default=300.0, help="each run's budget [s]")
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args(argv)
+
+    from tribofmu import api
+    from tribofmu.fmu_cache import find_fmus
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.studies.reference import nrms, reference_solution
+    from tribofmu.scene.library import resolve_scene
+
+    tols = [None if t == "default" else float(t) for t in args.tols.split(",")]
+    points = [p for p in POINTS if args.only is None or args.only in p[0]]
+    fmu_dir = find_fmus(("Drive", "BlockSpring", "Friction"))
+    print(f"# bench_trust {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
+          f"load {os.getloadavg()[0]:.1f}", flush=True)
+    print(f"{'point':32s} {'tol':>7s} {'reported':>9s} {'true':>9s} {'rep/true':>8s} {'ok':>5s} "
+          f"{'wall s':>7s}  per-step tols", flush=True)
+    rows = []
+    for label, scene, overrides in points:
+        scenario = load_scenario(resolve_scene(scene), overrides)
+        reference = reference_solution(scenario)
+        for tol in tols:
+            begin = time.perf_counter()
+            result = api.simulate(scenario, tol=tol, fmu_dir=fmu_dir, build=False, max_wall=args.max_wall)
+            wall = time.perf_counter() - begin
+            true = nrms(result.time, result.v, reference.time, reference.v, scenario.window) \
+                if result.stats.get("completed", result.ok) else float("nan")
+            reported = result.stats["estimated_error"]["nrms_v"]
+            asked = result.stats["tol"]
+            row = {"point": label, "tol": asked, "tol_given": tol, "reported": reported, "true": true,
+                   "ok": result.ok, "warned": bool(result.stats.get("warnings")), "wall": wall,
+                   "step_tols": [r["step_tol"] for r in result.stats.get("check", {}).get("runs", [])]}
+            rows.append(row)
+            ratio = reported / true if reported and true else float("nan")
+            print(f"{label:32s} {asked:7.0e} {reported if reported is not None else float('nan'):9.2e} "
+                  f"{true:9.2e} {ratio:8.2f} {str(result.ok):>5s} {wall:7.1f}  "
+                  f"{', '.join(f'{s:.2g}' for s in row['step_tols'])}", flush=True)
+    silent = [r for r in rows if r["true"] > 3 * r["tol"] and r["ok"]]
+    off = [r for r in rows if r["ok"] and r["reported"] and not (
+        0.5 <= r["reported"] / r["true"] <= 10 or max(r["reported"], r["true"]) < r["tol"] / 10)]
+    band = [r for r in rows if r["ok"] and not 0.03 <= r["true"] / r["tol"] <= 1.5]
+    defaults = [r for r in rows if r["tol_given"] is None]
+    print(f"\nsilent misses (true > 3x tol, ok): {len(silent)} of {len(rows)}"
+          + "".join(f"\n  {r['point']} tol {r['tol']:g}: true {r['true']:.2g}" for r in silent))
+    print(f"reported/true outside [0.5, 10] (ok runs): {len(off)}"
+          + "".join(f"\n  {r['point']} tol {r['tol']:g}: {r['reported']:.2g} vs {r['true']:.2g}" for r in off))
+    print(f"true/tol outside [0.03, 1.5] (ok runs): {len(band)}"
+          + "".join(f"\n  {r['point']} tol {r['tol']:g}: {r['true'] / r['tol']:.3g}" for r in band))
+    if defaults:
+        met = [r for r in defaults if r["true"] <= 1e-3]
+        print(f"defaults meeting 1e-3: {len(met)} of {len(defaults)}; slowest "
+              f"{max(r['wall'] for r in defaults):.1f} s")
+    print(f"# load at the end {os.getloadavg()[0]:.1f}")
+    if args.out:
+        Path(args.out).write_text(json.dumps(rows, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,40 @@
+"""A run that cannot meet its tolerance keeps its result set but is not ok: stats.json says
+so with the checked error and what to do, the CLI prints one line and exits 3 (issue 27)."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tribofmu import checked, cli
+
+pytestmark = pytest.mark.integration
+SHORT = ["--set", "time.periods=1", "--set", "time.window=[0,1]"]
+
+
+def test_a_tolerance_not_met_keeps_the_results_says_so_and_exits_3(tmp_path, fmu_dir, monkeypatch, capsys):
+    monkeypatch.setattr(checked, "MAX_RUNS", 1)  # the sequence stops before its check
+    out = tmp_path / "o"
+    code = cli.main(["simulate", "fig2_dry", *SHORT, "--tol", "1e-7", "--max-wall", "0", "--fmu-dir",
+                     str(fmu_dir), "--out", str(out), "--no-plots", "-q"])
+    captured = capsys.readouterr()
+    assert code == 3, captured.err
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and "tolerance 1e-07 not checked" in lines[0] and "Traceback" not in captured.err
+    stats = json.loads((out / "stats.json").read_text())
+    assert stats["ok"] is False and stats["completed"] is True and stats["tolerance_met"] is False
+    assert stats["tol"] == 1e-7 and stats["estimated_error"]["nrms_v"] is None
+    assert (out / "result.csv").is_file()  # kept: the user decides
+
+
+def test_a_met_tolerance_is_ok_and_reports_the_checked_error(tmp_path, fmu_dir, capsys):
+    out = tmp_path / "o"
+    code = cli.main(["simulate", "fig2_dry", *SHORT, "--fmu-dir", str(fmu_dir), "--out", str(out),
+                     "--no-plots", "-q"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "checked nRMS(v)" in captured.out and "(tol 0.001)" in captured.out
+    stats = json.loads((out / "stats.json").read_text())
+    assert stats["ok"] and stats["tolerance_met"] and stats["estimated_error"]["nrms_v"] <= 1e-3
+    assert len(stats["check"]["runs"]) >= 2 and stats["step_tol"] == stats["check"]["runs"][-1]["step_tol"]
+    assert stats["wall_time"] >= sum(r["wall_time"] for r in stats["check"]["runs"])

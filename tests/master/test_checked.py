@@ -1,0 +1,146 @@
+"""Global error control (tribofmu.checked) against fake runs: the reported error is the
+checked difference of two runs, ``ok`` means it met tol, the budget ends the sequence, the
+chosen run's samples reach the sink whole and only once."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pytest
+
+from tribofmu import checked
+
+WINDOW = (1.0, 2.0)
+
+
+@dataclass
+class FakeScenario:
+    window: tuple = WINDOW
+
+
+@dataclass
+class FakeResult:
+    time: np.ndarray
+    v: np.ndarray
+    ok: bool = True
+    message: str = "completed"
+    scenario: FakeScenario = field(default_factory=FakeScenario)
+    stats: dict = field(default_factory=dict)
+
+
+class FakeRuns:
+    """run_once stand-in: v = sin(t) plus an error of size error(step_tol) (a shape that does
+    not depend on step_tol, as a coherent global error); records every call."""
+
+    def __init__(self, error, fail_at=None, sleep=None):
+        self.error, self.fail_at, self.calls = error, fail_at, []
+
+    def __call__(self, step_tol=None, max_wall=None, sink=None):
+        self.calls.append((step_tol, max_wall))
+        t = np.linspace(0.0, 2.0, 201)
+        v = np.sin(3 * t) + self.error(step_tol) * np.cos(7 * t)
+        if sink is not None:
+            sink(0, {"time": t[:100], "v": v[:100]})
+            sink(100, {"time": t[100:], "v": v[100:]})
+        failed = self.fail_at is not None and len(self.calls) >= self.fail_at
+        message = "stopped at t = 1 s: at this pace the run would take 2 h" if failed else "completed"
+        return FakeResult(t, v, ok=not failed, message=message,
+                          stats={"wall_time": 0.01, "communication_steps": 10, "fmu_calls_total": 100,
+                                 "estimated_error": {"nrms_v": 0.0}, "out_of_time": failed})
+
+
+def power_law(constant, order=1.0):
+    return lambda step_tol: constant * step_tol ** order
+
+
+def test_two_runs_when_the_first_pair_meets_tol_and_the_tighter_one_is_reported():
+    runs = FakeRuns(power_law(1.0))  # error = step_tol
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    assert [c[0] for c in runs.calls] == [5e-4, 5e-4 / checked.TIGHTENING]
+    assert result.ok and result.stats["tolerance_met"] and result.stats["ok"]
+    reported = result.stats["estimated_error"]["nrms_v"]
+    true_error = power_law(1.0)(result.stats["step_tol"])  # of the reported (tighter) run
+    # the difference over r^p - 1 at the slowest order allowed for (r = 4, p = MIN_ORDER)
+    difference = checked.window_difference(FakeRuns(power_law(1.0))(5e-4), result)
+    assert reported == pytest.approx(difference / (4.0 ** checked.MIN_ORDER - 1.0), rel=1e-12)
+    assert true_error <= reported <= 10 * true_error
+    assert result.stats["tol"] == 1e-3 and result.stats["step_tol"] == 5e-4 / checked.TIGHTENING
+    assert [r["step_tol"] for r in result.stats["check"]["runs"]] == [c[0] for c in runs.calls]
+
+
+def test_a_run_far_from_tol_tightens_until_a_pair_meets_it_each_step_at_most_max_tightening():
+    runs = FakeRuns(power_law(300.0))  # error = 300 step_tol: the first runs are far off
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    tols = [c[0] for c in runs.calls]
+    ratios = [a / b for a, b in zip(tols, tols[1:])]
+    assert all(checked.TIGHTENING <= r <= checked.MAX_TIGHTENING * (1 + 1e-12) for r in ratios), ratios
+    assert result.ok and result.stats["estimated_error"]["nrms_v"] <= 1e-3
+    assert len(tols) >= 3
+
+
+def test_slow_convergence_is_not_underreported():
+    # error ~ tol^0.3: the pair's plain difference would be 0.52x the tighter run's error
+    runs = FakeRuns(power_law(0.02, order=0.3))
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    exact = FakeRuns(lambda step_tol: 0.0)(1.0)
+    true_error = checked.window_difference(result, exact)
+    assert 0.99 * true_error <= result.stats["estimated_error"]["nrms_v"] <= 10 * true_error
+
+
+def test_a_missed_event_in_the_looser_run_is_not_reported_as_met():
+    # the looser run is qualitatively wrong (an event missed: error 0.6), the tighter right
+    runs = FakeRuns(lambda tol: 0.6 if tol >= 5e-4 else 1e-5)
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    assert len(runs.calls) == 3  # the 0.6 pair fails; the next pair agrees
+    assert result.ok and result.stats["estimated_error"]["nrms_v"] < 1e-4
+
+
+def test_out_of_budget_keeps_the_result_but_is_not_ok():
+    runs = FakeRuns(power_law(300.0), fail_at=2)  # the check run runs out of time
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=100.0)
+    assert not result.ok and result.stats["completed"] and not result.stats["tolerance_met"]
+    assert result.stats["estimated_error"]["nrms_v"] is None
+    assert "not checked" in result.message and "--max-wall" in result.message
+    assert result.stats["warnings"] == [result.message]
+
+
+def test_a_pair_past_tol_at_the_end_of_the_budget_reports_its_difference(monkeypatch):
+    monkeypatch.setattr(checked, "MAX_RUNS", 2)  # one pair only
+    runs = FakeRuns(power_law(300.0))
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    assert len(runs.calls) == 2 and not result.ok and result.stats["completed"]
+    assert result.stats["estimated_error"]["nrms_v"] > 1e-3
+    assert "not met" in result.message
+
+
+def test_a_failed_first_run_is_returned_as_failed():
+    runs = FakeRuns(power_law(1.0), fail_at=1)
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=100.0)
+    assert not result.ok and result.stats["completed"] is False and len(runs.calls) == 1
+
+
+def test_each_run_gets_what_is_left_of_the_budget():
+    runs = FakeRuns(power_law(1.0))
+    checked.checked_simulation(runs, tol=1e-3, max_wall=50.0)
+    budgets = [c[1] for c in runs.calls]
+    assert budgets[0] <= 50.0 and budgets[1] <= budgets[0]
+
+
+def test_only_the_reported_run_reaches_the_sink_whole_and_once():
+    received = []
+    runs = FakeRuns(power_law(300.0))
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None,
+                                        sink=lambda start, signals: received.append((start, signals)))
+    assert [start for start, _ in received] == [0, 100]
+    v = np.concatenate([signals["v"] for _, signals in received])
+    assert np.array_equal(v, result.v)
+
+
+def test_the_window_difference_is_nrms_over_the_window_relative_to_max_v():
+    t = np.linspace(0.0, 2.0, 201)
+    a = FakeResult(t, np.where(t >= 1.0, 2.0, 0.0))
+    b = FakeResult(t, np.where(t >= 1.0, 2.1, 0.0))
+    assert checked.window_difference(a, b) == pytest.approx(0.1 / 2.1)
+    short = FakeResult(t[:150], a.v[:150])  # did not reach the window's end
+    assert math.isnan(checked.window_difference(short, b))
