@@ -134,3 +134,15 @@ def test_drive_is_harmonic():
     X, V, acc = drive(0.1, 2e-3, 30.0)
     assert (X, V, acc) == pytest.approx((2e-3 * math.cos(3.0), -2e-3 * 30 * math.sin(3.0),
                                          -2e-3 * 900 * math.cos(3.0)))
+
+
+def test_the_melt_margin_changes_sign_where_the_elastic_term_switches_off():
+    """mu/mu_bar - f: > 0 while eq. (19)'s shear modulus acts, <= 0 once it is floored at 0;
+    laws without a lubricant report 1 (nothing melts)."""
+    law = FrictionLaw(regime=BOUNDARY)
+    lub = law.lubricant
+    melt = lub.mu_shear / lub.mu_shear_bar
+    for f in (0.0, 0.5 * melt, 0.999 * melt, 1.001 * melt, 2.0 * melt):
+        assert (law.melt_margin(f) > 0) == (law.mu_eff(f) > 0), f
+    assert law.melt_margin(melt) == pytest.approx(0.0, abs=1e-12)
+    assert FrictionLaw(regime=DRY).melt_margin(5.0) == 1.0 == FrictionLaw(regime=FLUID).melt_margin(5.0)

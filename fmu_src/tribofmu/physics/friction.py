@@ -125,6 +125,15 @@ class FrictionLaw:
         lub = self.lubricant
         return max(0.0, lub.mu_shear - lub.mu_shear_bar * f)
 
+    def melt_margin(self, f: float) -> float:
+        """mu/mu_bar - f [1]: > 0 while the lubricant is solid-like (its elastic stress acts,
+        eq. 19), <= 0 once molten; 1 for a law without a lubricant (or mu_bar = 0, when no f
+        melts it): a phase change is a sign change, for a master to locate."""
+        lub = self.lubricant
+        if self.regime != BOUNDARY or not lub.mu_shear_bar > 0.0:
+            return 1.0
+        return lub.mu_shear / lub.mu_shear_bar - f
+
     def shear_strain(self, dv: float) -> float:
         """Stationary elastic shear strain eps [1], eq. (22)."""
         return dv * self.lubricant.tau_e / self.lubricant.h

@@ -25,6 +25,11 @@ class Friction(Fmi2Slave):
         self.declare("F", 0.0, OUTPUT, "N", "friction force on the lower block", depends_on=("dv", "n"),
                      getter=lambda: self.law().force(self.dv, self.n, self.f))
         self.declare("f", 0.0, OUTPUT, "1", "excess volume of the lubricant (0 = solid-like)")
+        self.declare("melt_margin", 1.0, OUTPUT, "1",
+                     "boundary friction: mu/mu_bar - f, > 0 while the lubricant is solid-like (its "
+                     "elastic stress acts), <= 0 once molten; a sign change inside a step is a phase "
+                     "change for a master to locate; 1 for laws without a lubricant",
+                     getter=lambda: self.law().melt_margin(self.f))
         self.declare("F_mean", 0.0, OUTPUT, "N",
                      "mean friction force over the last step, dv moving linearly from the previous "
                      "step's input to this one (a force peaking inside the step shows here)")
