@@ -175,7 +175,7 @@ def test_a_failed_run_does_not_leave_older_results_beside_its_stats(tmp_path, fm
     assert {p.name for p in out.iterdir()} == {"stats.json", "result.csv", "columns.json", "time.png", "phase.png"}
     good = _short_result(fmu_dir)
     failed = dataclasses.replace(good, ok=False, message="stopped at t = 0.1 s: friction: fmi2DoStep")
-    failed.stats = dict(good.stats, ok=False, message=failed.message)
+    failed.stats = dict(good.stats, ok=False, completed=False, message=failed.message)
     monkeypatch.setattr(api, "simulate", lambda *a, **k: failed)
     assert cli.main(argv) == cli.EXIT_FAILED
     assert {p.name for p in out.iterdir()} == {"stats.json"}

@@ -144,3 +144,10 @@ def test_the_window_difference_is_nrms_over_the_window_relative_to_max_v():
     assert checked.window_difference(a, b) == pytest.approx(0.1 / 2.1)
     short = FakeResult(t[:150], a.v[:150])  # did not reach the window's end
     assert math.isnan(checked.window_difference(short, b))
+
+
+def test_a_block_at_rest_in_both_runs_agrees_exactly():
+    t = np.linspace(0.0, 2.0, 201)
+    rest = FakeResult(t, np.zeros_like(t))
+    assert checked.window_difference(rest, rest) == 0.0
+    assert checked.window_difference(FakeResult(t, np.full_like(t, 1e-9)), rest) == math.inf
