@@ -351,10 +351,14 @@ def cmd_scenes(args) -> int:
 
 def cmd_export_ssp(args) -> int:
     from . import api
-    from .scene.ssp import export_ssp
+    from .scene.ssp import check_replaceable_archive, export_ssp
     from .scene.wiring import instances
     scenario = api.load(args.scenario, args.overrides)  # a shipped scene's name or a path
     out = check_out_file(Path(args.out))
+    try:  # never replaces a file it did not write (exit 2, before any build)
+        check_replaceable_archive(out)
+    except FileExistsError as exc:
+        raise UsageError(f"--out {exc}") from None
     names = [inst.fmu.name for inst in instances(scenario, args.pair)]  # a scene the pair cannot take: exit 2
     preflight_folder(out.parent, SSP_BYTES)
     fmu_dir = resolve_fmu_dir(args.fmu_dir, names)
