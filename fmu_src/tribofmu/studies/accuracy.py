@@ -171,10 +171,7 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
     summary = {"reference_wall_time_s": ref_wall, "total_wall_time_s": time.perf_counter() - begin}
     chosen = next((r for r in rows if r["default"]), None)
     if chosen is not None:
-        better = [r for r in rows if r is not chosen and r["family"] == "coupling" and r["nrms_v"] < chosen["nrms_v"]
-                  and 2.0 * r["wall_time_s"] <= chosen["wall_time_s"]]
-        beaten = [r for r in rows if r["family"] == "monolithic" and r["ok"] and np.isfinite(r["nrms_v"])
-                  and r["nrms_v"] < chosen["nrms_v"] and 2.0 * r["wall_time_s"] <= chosen["wall_time_s"]]
+        better, beaten = dominating(rows, chosen)
         keys = ("algorithm", "step", "tol", "nrms_v", "wall_time_s")
         summary["default"] = {k: chosen[k] for k in keys}
         summary["dominated_by"] = [{k: r[k] for k in keys} for r in better]  # co-simulation settings
@@ -203,6 +200,16 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
     summary["regularisation"] = REGULARISATION
     summary["regime"] = "dry" if "Friction" in scenario.fmus and scenario.friction.law().regime == DRY else "smooth"
     return rows, summary
+
+
+def dominating(rows: list[dict], chosen: dict) -> tuple[list[dict], list[dict]]:
+    """The runs at least 2x faster than ``chosen`` and more accurate: (co-simulation settings,
+    monolithic anchors). ``chosen`` is on the accuracy-time front only when both are empty."""
+    def beats(r):
+        return (r is not chosen and r["ok"] and np.isfinite(r["nrms_v"]) and r["nrms_v"] < chosen["nrms_v"]
+                and 2.0 * r["wall_time_s"] <= chosen["wall_time_s"])
+    return ([r for r in rows if r["family"] == "coupling" and beats(r)],
+            [r for r in rows if r["family"] == "monolithic" and beats(r)])
 
 
 def matched_anchors(rows: list[dict], chosen: dict) -> dict:
