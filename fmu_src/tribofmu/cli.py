@@ -254,18 +254,13 @@ def cmd_build(args) -> int:
 
 def cmd_simulate(args) -> int:
     from . import api
-    from .atomic import result_set
-    from .columns import SIDECAR_NAME
     from .progress import RunBar
-    from .provenance import overrides_dict, record
-    from .result_csv import ResultCsvWriter, expected_bytes
+    from .result_csv import expected_bytes
     from .scene.library import resolve_scene
-    from .scene.scenario import to_dict
-    from .studies.metrics import result_metrics
 
     scene_file = resolve_scene(args.scenario)
     scenario = api.load(scene_file, args.overrides)
-    algorithm = check_algorithm_options(scenario, args.algorithm, args.step, args.tol, args.max_wall)
+    check_algorithm_options(scenario, args.algorithm, args.step, args.tol, args.max_wall)
     out = Path(args.out) if args.out else output_folder(scenario.name, label_overrides(
         args.overrides, args.algorithm, args.step, args.tol, args.max_wall, args.fmi,
         scenario=scenario, base=api.load(scene_file) if args.overrides else scenario))
@@ -273,30 +268,13 @@ def cmd_simulate(args) -> int:
     preflight(out, expected_bytes(scenario, samples) + (0 if args.no_plots else PLOT_BYTES))
     fmu_dir = resolve_fmu_dir(args.fmu_dir, scenario.fmus, args.quiet, args.fmi)
     quiet = True if args.quiet else None
-    with result_set(out) as tmp:  # swapped in whole when done; untouched on failure or Ctrl-C
-        # rows go to disk as they come: memory does not grow with the run, only the shown
-        # window is kept (for the metrics and the plots)
-        with ResultCsvWriter(tmp / "result.csv", scenario) as csv_rows, \
-                RunBar(scenario.name, scenario.stop_time, enabled=False if quiet else None) as bar:
-            result = api.simulate(scenario, algorithm=args.algorithm, step=args.step, tol=args.tol,
-                                  fmu_dir=fmu_dir, build=False, progress=bar, notice=bar.notice,
-                                  max_wall=-1.0 if args.max_wall is None else args.max_wall,
-                                  sink=csv_rows, keep_window=True)
-        stats = dict(result.stats)
-        if result.ok:
-            # the scene's metrics on its shown window; null where one does not apply (NaN)
-            stats["metrics"] = {k: (v if v == v else None) for k, v in result_metrics(result).items()}
-        settings = {"algorithm": algorithm, "step": stats.get("step"), "tol": stats.get("tol"),
-                    "requested": {"algorithm": args.algorithm, "step": args.step, "tol": args.tol}}
-        stats["provenance"] = record(scene_file, overrides_dict(args.overrides), settings, stats.get("fmus"))
-        stats["scenario"] = to_dict(scenario)  # what was simulated, for 'tribofmu plot'
-        (tmp / "stats.json").write_text(json.dumps(stats, indent=2) + "\n")
-        if not result.ok:  # a failed run leaves its stats (with the message), never a partial result
-            (tmp / "result.csv").unlink()
-            (tmp / SIDECAR_NAME).unlink(missing_ok=True)
-        elif not args.no_plots:  # drawn once the rows and stats are on disk, swapped in with them
-            from .plots import plot_result
-            plot_result(result, tmp)
+    # the API's own call writes the set (swapped in whole when done; untouched on failure or
+    # Ctrl-C); it enters the bar (Ctrl-C deferred to the next communication point) around the run
+    bar = RunBar(scenario.name, scenario.stop_time, enabled=False if quiet else None)
+    result = api.simulate_and_save(
+        scene_file, out, args.overrides, algorithm=args.algorithm, step=args.step, tol=args.tol,
+        fmu_dir=fmu_dir, build=False, plots=not args.no_plots, progress=bar, notice=bar.notice,
+        max_wall=-1.0 if args.max_wall is None else args.max_wall, command=["tribofmu", *sys.argv[1:]])
     estimate = result.stats["estimated_error"]["nrms_v"]
     accuracy = f", estimated nRMS(v) {estimate:.2g}" if estimate is not None else ""
     print(f"{scenario.name}: {result.message}; {result.stats['communication_steps']} steps, "
