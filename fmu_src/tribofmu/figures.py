@@ -263,8 +263,15 @@ def draw_fig5(runs, path: Path) -> Path:
         ax.set_ylabel(f"V, v [{prefix}m/s]")
         ax.set_title(f"{name}, γ = {r.scenario.friction.gamma:.3g}".replace("-", "−"), fontsize=9, loc="left")
     r = runs[-1]
-    # between the drive's troughs, below v: the inset hides no curve
-    inset = axes[-1].inset_axes([0.36, 0.05, 0.34, 0.32])
+    # in data coordinates, inside the drive's longest positive half-wave and below v: the
+    # inset hides no curve, whatever room the legend takes above them
+    positive = np.flatnonzero(np.diff(np.concatenate(([0], (r.V > 0).astype(int), [0]))))
+    starts, ends = positive[::2], positive[1::2] - 1
+    longest = int(np.argmax(ends - starts))
+    t0, t1 = r.time[starts[longest]], r.time[ends[longest]]
+    v_max = float(np.max(np.abs(r.V))) * k
+    inset = axes[-1].inset_axes([t0 + 0.05 * (t1 - t0), -0.97 * v_max, 0.9 * (t1 - t0), 0.62 * v_max],
+                                transform=axes[-1].transData)
     inset.plot(r.time, r.v * k, color="C3", lw=1.0)
     inset.set_title(f"v enlarged [{prefix}m/s]", fontsize=8, pad=2)
     inset.tick_params(labelsize=8, pad=1)
