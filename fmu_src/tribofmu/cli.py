@@ -1,6 +1,6 @@
 """The ``tribofmu`` command: a thin layer over :mod:`tribofmu.api`.
 
-The synopsis of every command is its ``--help`` (the README's "The CLI" section is checked
+The synopsis of every command is its ``--help`` (the "Synopsis" of docs/cli.md is checked
 against this parser by tests/integration/test_user_sees.py).
 
 FMUs: ``--fmu-dir DIR`` uses the FMUs in DIR (they must exist); without it the FMUs built
@@ -188,7 +188,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def synopsis() -> list[str]:
-    """One line per command, every option it takes: the README's "The CLI" block is this."""
+    """One line per command, every option it takes: docs/cli.md's "Synopsis" block is this."""
     import argparse as ap
     parser = _parser()
     sub = next(a for a in parser._actions if isinstance(a, ap._SubParsersAction))
