@@ -32,3 +32,8 @@ def test_the_log_says_what_each_column_means():
     for column in ("nRMS(v)", "max", "s =", "steps", "calls", "rhs evaluations", "step est/true"):
         assert column in text, column
     assert "not the run's estimate of its nRMS(v)" in text
+
+
+def test_summary_json_says_what_every_csv_column_means():
+    from tribofmu.studies.accuracy import COLUMN_MEANINGS, COLUMNS
+    assert set(COLUMNS) <= set(COLUMN_MEANINGS)

@@ -59,6 +59,25 @@ QUICK_ANCHORS = {"smooth": [(m, None, tol) for m in ("LSODA", "Radau") for tol i
                  "dry": ([(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-5, 1e-7)]
                          + [("event-driven", None, tol) for tol in (1e-3, 1e-5)])}
 MONOLITHIC = ("LSODA", "Radau", "event-driven")
+# What each column of accuracy.csv means (also in summary.json, "columns")
+COLUMN_MEANINGS = {
+    "algorithm": "coupling algorithm, or the monolithic solver (LSODA, Radau, event-driven)",
+    "family": "coupling (co-simulation) or monolithic (an anchor)",
+    "step": "fixed communication step [s] (fixed-step algorithms)",
+    "tol": "adaptive: per-step tolerance; LSODA/Radau: rtol; event-driven: event location / drive period",
+    "default": "the scene's default setting",
+    "nrms_v": "the run's error: RMS of v - v_ref on the shown window over max |v_ref| (v_ref: the reference)",
+    "max_err_v": "the largest |v - v_ref| on the window over max |v_ref|",
+    "wall_time_s": "wall time of the whole run [s] (median of 3 under 0.5 s)",
+    "steps": "communication steps (monolithic: event-driven segments)",
+    "fmu_calls": "FMU calls", "rhs_evals": "right-hand-side evaluations of a monolithic solver",
+    "rollbacks": "rejected (rolled back) steps", "ok": "the run completed",
+    "est_true_ratio_median": "adaptive: median over accepted step pairs of the step's local error estimate over "
+                             "its true local error (per step; not the run's nRMS estimate)",
+    "est_true_ratio_p10": "adaptive: 10th percentile of that ratio",
+    "est_true_ratio_p90": "adaptive: 90th percentile of that ratio",
+    "est_underestimated_frac": "adaptive: share of step pairs whose estimate is below the true local error",
+}
 # What the study's log lines say (printed once, before the runs)
 LEGEND = (
     "columns: nRMS(v) = the run's error: RMS of v - v_ref on the shown window over max |v_ref|",
@@ -168,7 +187,8 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
                f" {row['rhs_evals'] or 0:8d} rhs evaluations")
             + (f"  step est/true {row.get('est_true_ratio_median', math.nan):.3g}"
                if algorithm == "adaptive" else ""))
-    summary = {"reference_wall_time_s": ref_wall, "total_wall_time_s": time.perf_counter() - begin}
+    summary = {"reference_wall_time_s": ref_wall, "total_wall_time_s": time.perf_counter() - begin,
+               "columns": COLUMN_MEANINGS}
     chosen = next((r for r in rows if r["default"]), None)
     if chosen is not None:
         better, beaten = dominating(rows, chosen)
