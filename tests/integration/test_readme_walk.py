@@ -102,4 +102,11 @@ def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
         "fig2.png", "fig3.png", "fig4.png", "fig5.png", "fig6.png"]
     assert (work / "docs" / "figures" / "boundary_heating" / "time.png").is_file()
     assert (work / "fig2_dry.ssp").is_file()  # the archive the README's OMSimulator line runs
+    # the README's Python blocks, in the same folder (the tour's save calls, fmpy on that archive)
+    for block in re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(), re.S):
+        proc = subprocess.run([str(python), "-c", block], cwd=work, env=env, capture_output=True, text=True,
+                              timeout=900)
+        assert proc.returncode == 0, f"{block}\n{proc.stderr[-2000:]}"
+    assert sorted(p.name for p in (work / "out" / "omega80").iterdir()) == [
+        "columns.json", "phase.png", "result.csv", "stats.json", "time.png"]
     assert any((home / ".cache" / "tribofmu" / "fmus").glob("*/Friction.fmu"))  # the default cache, made
