@@ -271,10 +271,13 @@ def cmd_simulate(args) -> int:
     # the API's own call writes the set (swapped in whole when done; untouched on failure or
     # Ctrl-C); it enters the bar (Ctrl-C deferred to the next communication point) around the run
     bar = RunBar(scenario.name, scenario.stop_time, enabled=False if quiet else None)
-    result = api.simulate_and_save(
-        scene_file, out, args.overrides, algorithm=args.algorithm, step=args.step, tol=args.tol,
-        fmu_dir=fmu_dir, build=False, plots=not args.no_plots, progress=bar, notice=bar.notice,
-        max_wall=-1.0 if args.max_wall is None else args.max_wall, command=["tribofmu", *sys.argv[1:]])
+    try:
+        result = api.simulate_and_save(
+            scene_file, out, args.overrides, algorithm=args.algorithm, step=args.step, tol=args.tol,
+            fmu_dir=fmu_dir, build=False, plots=not args.no_plots, progress=bar, notice=bar.notice,
+            max_wall=-1.0 if args.max_wall is None else args.max_wall, command=["tribofmu", *sys.argv[1:]])
+    finally:
+        bar.close()  # also when the call failed before the run began
     estimate = result.stats["estimated_error"]["nrms_v"]
     accuracy = f", estimated nRMS(v) {estimate:.2g}" if estimate is not None else ""
     print(f"{scenario.name}: {result.message}; {result.stats['communication_steps']} steps, "
