@@ -174,8 +174,9 @@ def simulate_and_save(scenario: Scenario | str | Path, out: str | Path,
     The set is written in a folder beside ``out`` and swapped in whole
     (:func:`tribofmu.atomic.result_set`): on an error or Ctrl-C ``out`` is as it was. ``out``
     must be new, empty or an earlier result set (a folder holding other files raises
-    :class:`FileExistsError`). A run that fails numerically (``result.ok`` False) leaves
-    ``stats.json`` alone, with its message. The arguments are :func:`simulate`'s; scenario is
+    :class:`FileExistsError`). A run that did not complete (``stats["completed"]``, where
+    the run reports it, else ``result.ok``, False) leaves ``stats.json`` alone, with its
+    message. The arguments are :func:`simulate`'s; scenario is
     a shipped scene's name, a .toml path (recorded in the provenance with its sha256) or a
     :class:`Scenario`. progress: as :func:`simulate`'s; one that is a context manager (the
     CLI's :class:`tribofmu.progress.RunBar`) is entered around the run alone, not the
@@ -216,14 +217,15 @@ def save(result: SimulationResult, out: str | Path, plots: bool = True,
     from .atomic import result_set
     from .provenance import overrides_dict
 
-    if result.ok and (len(result.time) == 0 or result.time[0] != 0.0):
+    completed = result.stats.get("completed", result.ok)
+    if completed and (len(result.time) == 0 or result.time[0] != 0.0):
         raise ValueError("the result holds the shown window only (keep_window=True): save needs the whole "
                          "run; use simulate_and_save, which streams result.csv as the run goes")
     stats = result.stats
     requested = {"algorithm": stats.get("algorithm"), "step": stats.get("step"), "tol": stats.get("tol")}
     out = Path(out)
     with result_set(out) as tmp:
-        if result.ok:
+        if completed:
             from .result_csv import write_result_csv
             write_result_csv(result, tmp / "result.csv")
         _write_result_set(tmp, result, None if scene_file is None else Path(scene_file),
@@ -243,7 +245,8 @@ def _write_result_set(folder: Path, result: SimulationResult, scene_file: Path |
     from .studies.metrics import result_metrics
 
     stats = dict(result.stats)
-    if result.ok:
+    completed = stats.get("completed", result.ok)  # ran to the end (a run may complete short of a target)
+    if completed:
         # the scene's metrics on its shown window; null where one does not apply (NaN)
         stats["metrics"] = {k: (v if v == v else None) for k, v in result_metrics(result).items()}
     settings = {"algorithm": stats.get("algorithm"), "step": stats.get("step"), "tol": stats.get("tol"),
@@ -251,7 +254,7 @@ def _write_result_set(folder: Path, result: SimulationResult, scene_file: Path |
     stats["provenance"] = record(scene_file, overrides, settings, stats.get("fmus"), command=command)
     stats["scenario"] = to_dict(result.scenario)  # what was simulated, for 'tribofmu plot'
     (folder / "stats.json").write_text(json.dumps(stats, indent=2) + "\n")
-    if not result.ok:  # a failed run leaves its stats (with the message), never a partial result
+    if not completed:  # a failed run leaves its stats (with the message), never a partial result
         (folder / "result.csv").unlink(missing_ok=True)
         (folder / SIDECAR_NAME).unlink(missing_ok=True)
     elif plots:  # drawn once the rows and stats are on disk, swapped in with them

@@ -74,3 +74,17 @@ def test_save_is_whole_or_nothing_and_never_takes_a_users_files(tmp_path, fmu_di
     window_only = api.simulate(FIG2, fmu_dir=fmu_dir, build=False, keep_window=True)
     with pytest.raises(ValueError, match="window"):
         api.save(window_only, tmp_path / "w", plots=False)
+
+
+def test_a_run_that_did_not_complete_is_saved_as_its_stats_alone(tmp_path, fmu_dir):
+    import dataclasses
+
+    whole = api.simulate(FIG2, fmu_dir=fmu_dir, build=False)
+    failed = dataclasses.replace(whole, ok=False, message="diverged", stats={**whole.stats, "ok": False})
+    api.save(failed, tmp_path / "failed")
+    assert names(tmp_path / "failed") == ["stats.json"]
+    assert json.loads((tmp_path / "failed" / "stats.json").read_text())["message"] == whole.stats["message"]
+    # a run that completed but missed a target (stats "completed": true, ok false) keeps its whole set
+    short = dataclasses.replace(whole, ok=False, stats={**whole.stats, "ok": False, "completed": True})
+    api.save(short, tmp_path / "short", plots=False)
+    assert names(tmp_path / "short") == ["columns.json", "result.csv", "stats.json"]
