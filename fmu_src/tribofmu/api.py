@@ -1,10 +1,13 @@
-"""The Python API: load a scenario, override parameters, simulate, get arrays back.
+"""The Python API: load a scenario, override parameters, simulate, get arrays back, save.
 
-    from tribofmu.api import simulate
+    from tribofmu.api import simulate, simulate_and_save, save
     result = simulate("fig2_dry", {"drive.omega": 80})   # a shipped scene, or a .toml path
     result.time, result.v, result.stats
+    save(result, "out/omega80")                        # the folder `tribofmu simulate` writes
+    simulate_and_save("fig2_dry", "out/fig2_dry")      # what `tribofmu simulate fig2_dry` does
 
-The CLI is a thin layer over these functions.
+The CLI is a thin layer over these functions: ``tribofmu simulate`` is
+:func:`simulate_and_save`.
 """
 from __future__ import annotations
 
@@ -183,6 +186,108 @@ def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float
     return SimulationResult(scenario, grid, *(signals[k] for k in COLUMNS), outcome.ok, outcome.message,
                             stats, outcome.points if keep_points else [],
                             {k: signals[k] for k in INPUT_SIGNALS if k in signals})
+
+
+def simulate_and_save(scenario: Scenario | str | Path, out: str | Path,
+                      overrides: dict[str, Any] | list[str] | None = None, *,
+                      algorithm: str | None = None, step: float | None = None, tol: float | None = None,
+                      fmu_dir: str | Path | None = None, build: bool | None = None, plots: bool = True,
+                      max_wall: float | None = -1.0, progress=None, notice=None,
+                      command: list[str] | None = None) -> SimulationResult:
+    """Simulate and write the result set ``tribofmu simulate`` writes, into the folder ``out``:
+    ``result.csv`` (streamed to disk as the run goes: memory does not grow with the run),
+    ``columns.json``, ``stats.json`` (the run's stats, the scene's metrics, the scenario and
+    the provenance) and, with ``plots``, ``time.png`` and ``phase.png``.
+
+    The set is written in a folder beside ``out`` and swapped in whole
+    (:func:`tribofmu.atomic.result_set`): on an error or Ctrl-C ``out`` is as it was. ``out``
+    must be new, empty or an earlier result set (a folder holding other files raises
+    :class:`FileExistsError`). A run that did not complete (``stats["completed"]``, where
+    the run reports it, else ``result.ok``, False) leaves ``stats.json`` alone, with its
+    message. The arguments are :func:`simulate`'s; scenario is
+    a shipped scene's name, a .toml path (recorded in the provenance with its sha256) or a
+    :class:`Scenario`. progress: as :func:`simulate`'s; one that is a context manager (the
+    CLI's :class:`tribofmu.progress.RunBar`) is entered around the run alone, not the
+    writing. command: the command line recorded in the provenance (the CLI's; None from
+    Python). Returns the result, holding the shown window only (the rest is in
+    ``result.csv``)."""
+    import contextlib
+
+    from .atomic import result_set
+    from .provenance import overrides_dict
+    from .result_csv import ResultCsvWriter
+
+    scene_file = None
+    if not isinstance(scenario, Scenario):
+        scene_file = resolve_scene(scenario)
+        scenario = load_scenario(scene_file, overrides)
+    elif overrides:
+        scenario = scenario.with_overrides(overrides)
+    requested = {"algorithm": algorithm, "step": step, "tol": tol}
+    with result_set(Path(out)) as tmp:  # swapped in whole when done; untouched on failure or Ctrl-C
+        # rows go to disk as they come; only the shown window is kept (metrics, plots)
+        around_run = progress if hasattr(progress, "__enter__") else contextlib.nullcontext()
+        with ResultCsvWriter(tmp / "result.csv", scenario) as rows, around_run:
+            result = simulate(scenario, algorithm=algorithm, step=step, tol=tol, fmu_dir=fmu_dir, build=build,
+                              progress=progress, notice=notice, max_wall=max_wall, sink=rows, keep_window=True)
+        _write_result_set(tmp, result, scene_file, overrides_dict(overrides), requested, plots, command)
+    return result
+
+
+def save(result: SimulationResult, out: str | Path, plots: bool = True,
+         scene_file: str | Path | None = None, overrides: dict[str, Any] | list[str] | None = None) -> Path:
+    """Write a :func:`simulate` result as the result set ``tribofmu simulate`` writes (see
+    :func:`simulate_and_save`), atomically, into the folder ``out``; returns ``out``.
+
+    The result must hold the whole run (a :func:`simulate` result without ``keep_window``);
+    a window-only result raises ValueError. scene_file, overrides: recorded in the
+    provenance (the scene's file and its sha256; default: none, a scene from Python)."""
+    from .atomic import result_set
+    from .provenance import overrides_dict
+
+    completed = result.stats.get("completed", result.ok)
+    if completed and (len(result.time) == 0 or result.time[0] != 0.0):
+        raise ValueError("the result holds the shown window only (keep_window=True): save needs the whole "
+                         "run; use simulate_and_save, which streams result.csv as the run goes")
+    stats = result.stats
+    requested = {"algorithm": stats.get("algorithm"), "step": stats.get("step"), "tol": stats.get("tol")}
+    out = Path(out)
+    with result_set(out) as tmp:
+        if completed:
+            from .result_csv import write_result_csv
+            write_result_csv(result, tmp / "result.csv")
+        _write_result_set(tmp, result, None if scene_file is None else Path(scene_file),
+                          overrides_dict(overrides), requested, plots, None)
+    return out
+
+
+def _write_result_set(folder: Path, result: SimulationResult, scene_file: Path | None, overrides: dict[str, str],
+                      requested: dict[str, Any], plots: bool, command: list[str] | None) -> None:
+    """stats.json (and the plots) of a result set whose result.csv and columns.json are in
+    ``folder``; a failed run's set is its stats.json alone."""
+    import json
+
+    from .columns import SIDECAR_NAME
+    from .provenance import record
+    from .scene.scenario import to_dict
+    from .studies.metrics import result_metrics
+
+    stats = dict(result.stats)
+    completed = stats.get("completed", result.ok)  # ran to the end (a run may complete short of a target)
+    if completed:
+        # the scene's metrics on its shown window; null where one does not apply (NaN)
+        stats["metrics"] = {k: (v if v == v else None) for k, v in result_metrics(result).items()}
+    settings = {"algorithm": stats.get("algorithm"), "step": stats.get("step"), "tol": stats.get("tol"),
+                "requested": requested}
+    stats["provenance"] = record(scene_file, overrides, settings, stats.get("fmus"), command=command)
+    stats["scenario"] = to_dict(result.scenario)  # what was simulated, for 'tribofmu plot'
+    (folder / "stats.json").write_text(json.dumps(stats, indent=2) + "\n")
+    if not completed:  # a failed run leaves its stats (with the message), never a partial result
+        (folder / "result.csv").unlink(missing_ok=True)
+        (folder / SIDECAR_NAME).unlink(missing_ok=True)
+    elif plots:  # drawn once the rows and stats are on disk, swapped in with them
+        from .plots import plot_result
+        plot_result(result, folder)
 
 
 def estimated_error(coupling, audit: WindowError) -> dict[str, Any]:

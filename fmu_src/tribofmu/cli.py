@@ -1,6 +1,6 @@
 """The ``tribofmu`` command: a thin layer over :mod:`tribofmu.api`.
 
-The synopsis of every command is its ``--help`` (the README's "The CLI" section is checked
+The synopsis of every command is its ``--help`` (the "Synopsis" of docs/cli.md is checked
 against this parser by tests/integration/test_user_sees.py).
 
 FMUs: ``--fmu-dir DIR`` uses the FMUs in DIR (they must exist); without it the FMUs built
@@ -189,7 +189,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def synopsis() -> list[str]:
-    """One line per command, every option it takes: the README's "The CLI" block is this."""
+    """One line per command, every option it takes: docs/cli.md's "Synopsis" block is this."""
     import argparse as ap
     parser = _parser()
     sub = next(a for a in parser._actions if isinstance(a, ap._SubParsersAction))
@@ -255,18 +255,13 @@ def cmd_build(args) -> int:
 
 def cmd_simulate(args) -> int:
     from . import api
-    from .atomic import result_set
-    from .columns import SIDECAR_NAME
     from .progress import RunBar
-    from .provenance import overrides_dict, record
-    from .result_csv import ResultCsvWriter, expected_bytes
+    from .result_csv import expected_bytes
     from .scene.library import resolve_scene
-    from .scene.scenario import to_dict
-    from .studies.metrics import result_metrics
 
     scene_file = resolve_scene(args.scenario)
     scenario = api.load(scene_file, args.overrides)
-    algorithm = check_algorithm_options(scenario, args.algorithm, args.step, args.tol, args.max_wall)
+    check_algorithm_options(scenario, args.algorithm, args.step, args.tol, args.max_wall)
     out = Path(args.out) if args.out else output_folder(scenario.name, label_overrides(
         args.overrides, args.algorithm, args.step, args.tol, args.max_wall, args.fmi,
         scenario=scenario, base=api.load(scene_file) if args.overrides else scenario))
@@ -274,31 +269,16 @@ def cmd_simulate(args) -> int:
     preflight(out, expected_bytes(scenario, samples) + (0 if args.no_plots else PLOT_BYTES))
     fmu_dir = resolve_fmu_dir(args.fmu_dir, scenario.fmus, args.quiet, args.fmi)
     quiet = True if args.quiet else None
-    with result_set(out) as tmp:  # swapped in whole when done; untouched on failure or Ctrl-C
-        # rows go to disk as they come: memory does not grow with the run, only the shown
-        # window is kept (for the metrics and the plots)
-        with ResultCsvWriter(tmp / "result.csv", scenario) as csv_rows, \
-                RunBar(scenario.name, scenario.stop_time, enabled=False if quiet else None) as bar:
-            result = api.simulate(scenario, algorithm=args.algorithm, step=args.step, tol=args.tol,
-                                  fmu_dir=fmu_dir, build=False, progress=bar, notice=bar.notice,
-                                  max_wall=-1.0 if args.max_wall is None else args.max_wall,
-                                  sink=csv_rows, keep_window=True)
-        stats = dict(result.stats)
-        completed = stats.get("completed", result.ok)  # ran to the end (maybe short of its tol)
-        if completed:
-            # the scene's metrics on its shown window; null where one does not apply (NaN)
-            stats["metrics"] = {k: (v if v == v else None) for k, v in result_metrics(result).items()}
-        settings = {"algorithm": algorithm, "step": stats.get("step"), "tol": stats.get("tol"),
-                    "requested": {"algorithm": args.algorithm, "step": args.step, "tol": args.tol}}
-        stats["provenance"] = record(scene_file, overrides_dict(args.overrides), settings, stats.get("fmus"))
-        stats["scenario"] = to_dict(scenario)  # what was simulated, for 'tribofmu plot'
-        (tmp / "stats.json").write_text(json.dumps(stats, indent=2) + "\n")
-        if not completed:  # a failed run leaves its stats (with the message), never a partial result
-            (tmp / "result.csv").unlink()
-            (tmp / SIDECAR_NAME).unlink(missing_ok=True)
-        elif not args.no_plots:  # drawn once the rows and stats are on disk, swapped in with them
-            from .plots import plot_result
-            plot_result(result, tmp)
+    # the API's own call writes the set (swapped in whole when done; untouched on failure or
+    # Ctrl-C); it enters the bar (Ctrl-C deferred to the next communication point) around the run
+    bar = RunBar(scenario.name, scenario.stop_time, enabled=False if quiet else None)
+    try:
+        result = api.simulate_and_save(
+            scene_file, out, args.overrides, algorithm=args.algorithm, step=args.step, tol=args.tol,
+            fmu_dir=fmu_dir, build=False, plots=not args.no_plots, progress=bar, notice=bar.notice,
+            max_wall=-1.0 if args.max_wall is None else args.max_wall, command=["tribofmu", *sys.argv[1:]])
+    finally:
+        bar.close()  # also when the call failed before the run began
     estimate = result.stats["estimated_error"]["nrms_v"]
     checked = result.stats["estimated_error"].get("method", "").startswith("checked")
     accuracy = (f", {'checked' if checked else 'estimated'} nRMS(v) {estimate:.2g}"
@@ -356,10 +336,14 @@ def cmd_scenes(args) -> int:
 
 def cmd_export_ssp(args) -> int:
     from . import api
-    from .scene.ssp import export_ssp
+    from .scene.ssp import check_replaceable_archive, export_ssp
     from .scene.wiring import instances
     scenario = api.load(args.scenario, args.overrides)  # a shipped scene's name or a path
     out = check_out_file(Path(args.out))
+    try:  # never replaces a file it did not write (exit 2, before any build)
+        check_replaceable_archive(out)
+    except FileExistsError as exc:
+        raise UsageError(f"--out {exc}") from None
     names = [inst.fmu.name for inst in instances(scenario, args.pair)]  # a scene the pair cannot take: exit 2
     preflight_folder(out.parent, SSP_BYTES)
     fmu_dir = resolve_fmu_dir(args.fmu_dir, names)

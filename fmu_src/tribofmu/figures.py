@@ -193,11 +193,13 @@ def _time_pair(axes, r: Signals, first: str, second: str) -> None:
 
 
 def draw_fig2(runs, path: Path) -> Path:
-    from .plots import finish_axes, scene_label, title
+    from .plots import finish_axes, scene_label, shade_stuck, title
     plt = _plt()
     (r,) = runs
     fig, axes = plt.subplots(2, 1, figsize=(7.5, 6), sharex=True)
     _time_pair(axes, r, "X, x", "V, v")
+    shade_stuck(axes[0], r.time, r.stuck, None)  # where the blocks stick, labelled once
+    shade_stuck(axes[1], r.time, r.stuck, "stuck (x follows X)")
     axes[-1].set_xlabel("t [s]")
     finish_axes(axes)
     title(fig, "Fig. 2 — " + scene_label(r.scenario))
@@ -230,7 +232,11 @@ def draw_fig4(runs, path: Path) -> Path:
     fig, axes = plt.subplots(2, 3, figsize=(11, 7))
     k, prefix = length_scale(runs[0].scenario)  # one unit for all six panels
     for ax, r, letter in zip(axes.ravel(), runs, "abcdef"):
-        ax.plot(r.x * k, r.v * k, color="C0", lw=1.2)
+        ax.plot(r.x * k, r.v * k, color="C0", lw=1.2, label="slipping")
+        stuck = np.asarray(r.stuck) > 0.5
+        if stuck.any():  # stuck: the block moves with the drive, drawn over the curve
+            ax.plot(np.where(stuck, r.x, np.nan) * k, np.where(stuck, r.v, np.nan) * k, color="C1", lw=3.0,
+                    alpha=0.8, solid_capstyle="butt", label="stuck")
         ax.set_title(f"({letter}) ω = {r.scenario.drive.omega:g} rad/s", fontsize=10)
         ax.set_xlabel(f"x [{prefix}m]")
         ax.set_ylabel(f"v [{prefix}m/s]")
@@ -240,7 +246,9 @@ def draw_fig4(runs, path: Path) -> Path:
     title(fig, f"Fig. 4 — phase portraits v(x), dry friction; A = {quantity(sc.drive.A, 'm')}, "
                f"L = {quantity(sc.load, 'N')}, M = {sc.block.M:g} kg, K = {sc.block.K:g} N/m, "
                f"μ = {sc.friction.mu_friction:g}", 130, 10)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.035, 1, 1))  # a strip below the panels for the legend: it covers no curve
+    fig.legend(*axes.ravel()[0].get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=9,
+               frameon=False)
     return _save(fig, path)
 
 
@@ -255,8 +263,15 @@ def draw_fig5(runs, path: Path) -> Path:
         ax.set_ylabel(f"V, v [{prefix}m/s]")
         ax.set_title(f"{name}, γ = {r.scenario.friction.gamma:.3g}".replace("-", "−"), fontsize=9, loc="left")
     r = runs[-1]
-    # between the drive's troughs, below v: the inset hides no curve
-    inset = axes[-1].inset_axes([0.36, 0.05, 0.34, 0.32])
+    # in data coordinates, inside the drive's longest positive half-wave and below v: the
+    # inset hides no curve, whatever room the legend takes above them
+    positive = np.flatnonzero(np.diff(np.concatenate(([0], (r.V > 0).astype(int), [0]))))
+    starts, ends = positive[::2], positive[1::2] - 1
+    longest = int(np.argmax(ends - starts))
+    t0, t1 = r.time[starts[longest]], r.time[ends[longest]]
+    v_max = float(np.max(np.abs(r.V))) * k
+    inset = axes[-1].inset_axes([t0 + 0.05 * (t1 - t0), -0.97 * v_max, 0.9 * (t1 - t0), 0.62 * v_max],
+                                transform=axes[-1].transData)
     inset.plot(r.time, r.v * k, color="C3", lw=1.0)
     inset.set_title(f"v enlarged [{prefix}m/s]", fontsize=8, pad=2)
     inset.tick_params(labelsize=8, pad=1)

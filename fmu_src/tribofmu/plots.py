@@ -172,10 +172,24 @@ def draw_pair(ax, t, drive, block, factor: float, drive_label: str, block_label:
 
 
 def finish_axes(axes) -> None:
+    """Grid, and each panel's legend in one row in a strip of headroom above its curves (so
+    that it covers none of them, wherever they run)."""
     for ax in np.ravel(axes):
         ax.grid(alpha=0.3)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(loc="best", fontsize=8, framealpha=0.85)
+        handles = ax.get_legend_handles_labels()[0]
+        if handles:
+            low, high = ax.get_ylim()
+            ax.set_ylim(low, high + 0.3 * (high - low))
+            ax.legend(loc="upper left", ncol=len(handles), fontsize=8, framealpha=0.85, handlelength=1.8,
+                      columnspacing=1.2, borderaxespad=0.3)
+
+
+def shade_stuck(ax, t, stuck, label: str | None = "stuck") -> None:
+    """Shade the intervals where the coupling held the blocks together (``stuck`` > 0.5)."""
+    stuck = np.asarray(stuck) > 0.5
+    if stuck.any() and not stuck.all():
+        ax.fill_between(t, 0, 1, where=stuck, transform=ax.get_xaxis_transform(), color="C1", alpha=0.15,
+                        lw=0, label=label)
 
 
 def fixed_layout(fig, title_lines: int = 0, left: float = 0.95, right: float = 0.2, bottom: float = 0.55,
@@ -230,10 +244,9 @@ def plot_signals(signals: dict, sc, out_dir: Path) -> list[Path]:
     axes[0].set_ylabel(f"position [{prefix}m]")
     draw_pair(axes[1], t, s["V"], s["v"], k, "V (drive)", "v (block)", "C3", drive)
     axes[1].set_ylabel(f"velocity [{prefix}m/s]")
-    stuck = np.asarray(s.get("stuck", np.zeros(len(t)))) > 0.5
-    if stuck.any() and not stuck.all():
-        axes[1].fill_between(t, 0, 1, where=stuck, transform=axes[1].get_xaxis_transform(),
-                             color="C1", alpha=0.15, lw=0, label="stuck")
+    stuck = s.get("stuck", np.zeros(len(t)))
+    shade_stuck(axes[0], t, stuck, None)  # the same intervals above, labelled once
+    shade_stuck(axes[1], t, stuck)
     for ax, name in zip(axes[2:], extra):
         if name == "f":
             lub = sc.friction.lubricant

@@ -67,16 +67,26 @@ def default_out_dir(name: str, overrides: dict[str, str], suffix: str = "", root
     return Path(root) / f"{run_label(name, overrides)}{suffix}"
 
 
-def record(scene_file: str | Path, overrides: dict[str, str], settings: dict[str, Any],
-           fmus: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The provenance block written into stats.json."""
-    scene_file = Path(scene_file)
+_FROM_ARGV = object()
+
+
+def record(scene_file: str | Path | None, overrides: dict[str, str], settings: dict[str, Any],
+           fmus: dict[str, Any] | None = None, command: list[str] | None = _FROM_ARGV) -> dict[str, Any]:
+    """The provenance block written into stats.json. scene_file None: a scenario built in
+    Python, from no file. command: the command line that asked for the run (default: this
+    process's, as ``tribofmu ...``; None for a call from Python)."""
+    if command is _FROM_ARGV:
+        command = ["tribofmu", *sys.argv[1:]] if sys.argv and sys.argv[0] else []
+    scene = {"file": None, "sha256": None}
+    if scene_file is not None:
+        scene_file = Path(scene_file)
+        scene = {"file": str(scene_file.resolve()), "sha256": file_sha256(scene_file)}
     return {
-        "scene": {"file": str(scene_file.resolve()), "sha256": file_sha256(scene_file)},
+        "scene": scene,
         "overrides": overrides,
         "settings": settings,
         "versions": versions(),
         "fmus": fmus or {},
-        "command": ["tribofmu", *sys.argv[1:]] if sys.argv and sys.argv[0] else [],
+        "command": command,
         "finished_at": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }

@@ -360,7 +360,8 @@ def test_failed_write_keeps_the_previous_archive(fmu_dir, tmp_path, monkeypatch)
     from tribofmu.scene.ssp import export_ssp
 
     out = tmp_path / "scene.ssp"
-    out.write_bytes(b"previous archive")
+    export_ssp(load("fig2_dry"), out, fmu_dir, pair=True)  # the previous archive
+    previous = out.read_bytes()
 
     def broken_write(self, *args, **kwargs):
         raise OSError("disk full")
@@ -368,7 +369,7 @@ def test_failed_write_keeps_the_previous_archive(fmu_dir, tmp_path, monkeypatch)
     monkeypatch.setattr(zipfile.ZipFile, "writestr", broken_write)  # every member is written so
     with pytest.raises(OSError, match="disk full"):
         export_ssp(load("fig2_dry"), out, fmu_dir)
-    assert out.read_bytes() == b"previous archive"
+    assert out.read_bytes() == previous
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.ssp"]
 
 
@@ -376,14 +377,25 @@ def test_export_replaces_an_existing_archive(fmu_dir, tmp_path):
     from tribofmu.scene.ssp import export_ssp
 
     out = tmp_path / "scene.ssp"
-    out.write_bytes(b"old")
-    assert export_ssp(load("fig2_dry"), out, fmu_dir) == out
-    assert zipfile.is_zipfile(out)
+    export_ssp(load("fig2_dry"), out, fmu_dir, pair=True)
+    assert export_ssp(load("fig2_dry"), out, fmu_dir) == out  # an archive it wrote: replaced
+    assert zipfile.is_zipfile(out) and b"resources/BlockSpring.fmu" in zipfile.ZipFile(out).read(
+        "SystemStructure.ssd")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.ssp"]
     # Permissions as for any file written here (not the 0600 of a mkstemp file).
     plain = tmp_path / "plain"
     plain.write_bytes(b"")
     assert out.stat().st_mode & 0o777 == plain.stat().st_mode & 0o777
+
+
+def test_export_never_replaces_a_file_it_did_not_write(fmu_dir, tmp_path):
+    from tribofmu.scene.ssp import export_ssp
+
+    out = tmp_path / "notes.txt"
+    out.write_bytes(b"old")
+    with pytest.raises(FileExistsError, match="not an archive written by tribofmu export-ssp"):
+        export_ssp(load("fig2_dry"), out, fmu_dir)
+    assert out.read_bytes() == b"old" and sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
 
 
 # -- the masters --------------------------------------------------------------------------------

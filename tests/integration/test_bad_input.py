@@ -247,3 +247,30 @@ def test_simulate_killed_at_the_swap_leaves_the_previous_set_and_the_next_run_cl
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".run.partial-")]  # the killed run's
     assert cli.main(argv) == 0
     assert [p.name for p in tmp_path.iterdir()] == ["run"]
+
+
+def test_export_ssp_never_replaces_a_file_it_did_not_write(tmp_path, capsys, fmu_dir):
+    """A user's file, a zip that is no archive of ours, a link or a folder at --out: one line
+    naming it, exit 2, the file as it was; an archive export-ssp wrote is replaced."""
+    import zipfile
+
+    notes = tmp_path / "notes.txt"
+    notes.write_text("my notes\n")
+    foreign = tmp_path / "foreign.ssp"
+    with zipfile.ZipFile(foreign, "w") as archive:
+        archive.writestr("SystemStructure.ssd", '<ssd:SystemStructureDescription xmlns:ssd='
+                         '"http://ssp-standard.org/SSP1/SystemStructureDescription" name="x" version="1.0"/>')
+    link = tmp_path / "link.ssp"
+    link.symlink_to(notes)
+    for target in (notes, foreign, link):
+        before = target.read_bytes()
+        code, err, _ = run(["export-ssp", str(FIG2), "--out", str(target), "--fmu-dir", str(fmu_dir)], capsys)
+        assert code == 2 and len(err.splitlines()) == 1 and str(target) in err, err
+        assert ("symbolic link" if target == link else "not replaced") in err, err
+        assert target.read_bytes() == before
+    assert notes.read_text() == "my notes\n"
+    ours = tmp_path / "ours.ssp"
+    for _ in range(2):  # written, then replaced by the same command
+        code, err, _ = run(["export-ssp", str(FIG2), "--out", str(ours), "--fmu-dir", str(fmu_dir)], capsys)
+        assert code == 0, err
+    assert zipfile.ZipFile(ours).read("SystemStructure.ssd").count(b'generationTool="tribofmu ') == 1

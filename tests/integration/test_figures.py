@@ -185,3 +185,39 @@ def test_accuracy_chart_labels_neither_overprint_nor_clip(tmp_path, monkeypatch)
             assert not a.overlaps(b), (notes[i].get_text(), other.get_text())
     import matplotlib.pyplot as plt
     plt.close(fig)
+
+
+def test_figs_2_and_4_mark_stick_and_no_legend_covers_a_curve(monkeypatch):
+    """Stick shaded in both panels of Fig. 2 and drawn over the portraits of Fig. 4 (as in
+    time.png); a legend sits where no curve runs (headroom above the curves, or below the
+    panels)."""
+    kept = {}
+    monkeypatch.setattr(figures, "_save", lambda fig, path: kept.setdefault(Path(path).stem, fig))
+
+    def sticking(scene, overrides=None):
+        r = fake_run(scene, overrides)
+        r.stuck = (np.abs(r.V - r.v) < 1e-12).astype(float)  # where v follows V (not clipped)
+        assert 0 < r.stuck.mean() < 1
+        return r
+    figures.DRAW["fig2"]([sticking("fig2_dry.toml")], Path("fig2.png"))
+    figures.DRAW["fig4"]([sticking("fig2_dry.toml", {"drive.omega": w}) for w in figures.FIG4_OMEGAS],
+                         Path("fig4.png"))
+    fig2, fig4 = kept["fig2"], kept["fig4"]
+    assert all(ax.collections for ax in fig2.axes)  # the stuck intervals, shaded in both panels
+    assert "stuck (x follows X)" in [t.get_text() for t in fig2.axes[1].get_legend().get_texts()]
+    assert all("stuck" in [line.get_label() for line in ax.get_lines()] for ax in fig4.axes)
+    assert [t.get_text() for t in fig4.legends[0].get_texts()] == ["slipping", "stuck"]
+    for fig in (fig2, fig4):
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        legends = [ax.get_legend() for ax in fig.axes if ax.get_legend()] + list(fig.legends)
+        for legend in legends:
+            box = legend.get_window_extent(renderer)
+            for ax in fig.axes:
+                for line in ax.get_lines():
+                    xy = ax.transData.transform(np.column_stack(line.get_data()))
+                    xy = xy[np.isfinite(xy).all(axis=1)]
+                    inside = (xy[:, 0] > box.x0) & (xy[:,0] < box.x1) & (xy[:, 1] > box.y0) & (xy[:, 1] < box.y1)
+                    assert not inside.any(), (line.get_label(), "under the legend")
+    import matplotlib.pyplot as plt
+    plt.close("all")

@@ -1,6 +1,7 @@
 """A newcomer's walk through the README: a fresh virtual environment, a plain (not editable)
 ``pip install`` of this checkout, then every ``tribofmu`` command of the README's ``bash``
-blocks, in order, from a folder outside the checkout.
+blocks and then of the docs pages it links (``docs/*.md``, in the README's order), in order,
+from a folder outside the checkout, with an empty ``HOME``.
 
 The venv sees the system's site-packages (numpy, fmpy, matplotlib... are not downloaded
 again) and the package is installed with ``--no-deps`` from a copy of the checkout (no build
@@ -23,16 +24,26 @@ SKIP = ("bash .ci/run",)  # the test command itself
 # The native-host section's set-up of a target machine (another Python for the FMU to load):
 # checked by tests/native, not by a walk through this install.
 TARGET_MACHINE = ("export TRIBOFMU_LIBPYTHON=", "python3 -m pip install pythonfmu")
+# Another tool's command line on an archive the walk exported: run by tests/external/test_omsimulator.py
+OTHER_TOOLS = ("OMSimulator ",)
+
+
+def walked_pages() -> list:
+    """The README, then each docs page it links, in the order of its first link."""
+    readme = (ROOT / "README.md").read_text()
+    pages = dict.fromkeys(re.findall(r"\]\((docs/[\w.-]+\.md)\)", readme))
+    return [ROOT / "README.md", *(ROOT / page for page in pages)]
 
 
 def readme_commands() -> list[str]:
-    """Every tribofmu command in the README's bash blocks, in order (``a && b`` split)."""
-    text = (ROOT / "README.md").read_text()
+    """Every tribofmu command in the bash blocks of the README and the docs pages it links,
+    in order (``a && b`` split)."""
+    text = "\n".join(page.read_text() for page in walked_pages())
     out = []
     for block in re.findall(r"```bash\n(.*?)```", text, re.S):
         for line in block.splitlines():
             line = line.split("  #")[0].strip()
-            if not line or line in SKIP or line.startswith(TARGET_MACHINE):
+            if not line or line in SKIP or line.startswith(TARGET_MACHINE + OTHER_TOOLS):
                 continue
             for part in line.split(" && "):
                 part = part.strip()
@@ -45,9 +56,11 @@ def readme_commands() -> list[str]:
 
 def test_the_readme_names_the_plain_install_and_the_scenes_by_name():
     text = (ROOT / "README.md").read_text()
-    assert "python -m pip install . && tribofmu simulate fig2_dry" in text
+    assert "python -m pip install . && tribofmu simulate fig2_dry" in text and "bash .ci/run" in text
+    assert [p.name for p in walked_pages()][:1] == ["README.md"] and len(walked_pages()) >= 6
     commands = readme_commands()
     assert "tribofmu simulate fig2_dry" in commands and "tribofmu figures" in commands
+    assert "tribofmu export-ssp fig2_dry --pair --out fig2_dry.ssp" in commands
 
 
 def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
@@ -88,4 +101,12 @@ def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
     assert sorted(p.name for p in (work / "out" / "figures").glob("*.png")) == [
         "fig2.png", "fig3.png", "fig4.png", "fig5.png", "fig6.png"]
     assert (work / "docs" / "figures" / "boundary_heating" / "time.png").is_file()
+    assert (work / "fig2_dry.ssp").is_file()  # the archive the README's OMSimulator line runs
+    # the README's Python blocks, in the same folder (the tour's save calls, fmpy on that archive)
+    for block in re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(), re.S):
+        proc = subprocess.run([str(python), "-c", block], cwd=work, env=env, capture_output=True, text=True,
+                              timeout=900)
+        assert proc.returncode == 0, f"{block}\n{proc.stderr[-2000:]}"
+    assert sorted(p.name for p in (work / "out" / "omega80").iterdir()) == [
+        "columns.json", "phase.png", "result.csv", "stats.json", "time.png"]
     assert any((home / ".cache" / "tribofmu" / "fmus").glob("*/Friction.fmu"))  # the default cache, made

@@ -1,6 +1,6 @@
 """What a user sees: every coupled signal in result.csv with its unit, the saved result redrawn,
 scenes by name, options that cannot apply refused with the reason, one folder per run, and
-the README's CLI synopsis equal to the parser's."""
+the CLI synopsis of docs/cli.md equal to the parser's."""
 import json
 import os
 import re
@@ -132,10 +132,13 @@ def test_scenes_ship_in_the_package_and_are_listed(tmp_path, env):
     assert proc.returncode == 2 and proc.stderr.startswith("tribofmu: no scene named 'fig9'")
 
 
-# -- README synopsis == parser; --help plain with examples --------------------------------------------
+# -- docs/cli.md synopsis == parser; --help plain with examples ----------------------------------------
+CLI_PAGE = ROOT / "docs" / "cli.md"  # the CLI reference the README links to
+
+
 def readme_cli_block() -> list[str]:
-    text = (ROOT / "README.md").read_text()
-    section = text.split("\n## The CLI\n", 1)[1]
+    text = CLI_PAGE.read_text()
+    section = text.split("\n## Synopsis\n", 1)[1]
     block = re.search(r"```\n(.*?)```", section, re.S).group(1)
     return [line.split("  #")[0].rstrip() for line in block.strip().splitlines()]
 
@@ -143,11 +146,11 @@ def readme_cli_block() -> list[str]:
 def test_the_readme_synopsis_is_the_parser():
     lines = readme_cli_block()
     assert [line for line in lines if not line.startswith("tribofmu --version")] == cli.synopsis(), (
-        "README 'The CLI' block drifted from the parser; it should read:\n" + "\n".join(cli.synopsis()))
+        "docs/cli.md 'Synopsis' block drifted from the parser; it should read:\n" + "\n".join(cli.synopsis()))
 
 
 def test_every_option_help_lists_is_named_in_the_readme():
-    readme = (ROOT / "README.md").read_text()
+    readme = CLI_PAGE.read_text()
     parser = cli._parser()
     sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
     for name, p in sub.choices.items():

@@ -1,5 +1,5 @@
 """The scene's wiring: one description that the master's inputs, the SSP export, the
-scenario's validation and the README all follow, so that a new FMU is added in one place."""
+scenario's validation and docs/hosts.md all follow, so that a new FMU is added in one place."""
 from __future__ import annotations
 
 import dataclasses
@@ -79,6 +79,6 @@ def test_a_fourth_fmu_is_added_in_one_place(monkeypatch):
 
 
 def test_the_readme_lists_the_wiring():
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    readme = (ROOT / "docs" / "hosts.md").read_text(encoding="utf-8")  # the page on archives and hosts
     for c in wiring.CONNECTIONS:
         assert str(c).replace(" -> ", " → ") in readme

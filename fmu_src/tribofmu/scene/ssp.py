@@ -22,8 +22,11 @@ SSP master writes every declared input connector before each step, from its conn
 when unconnected, which would overwrite the bound value. For the same reason an input is only
 declared as a connector when something is connected to it.
 
-Only the standard ``ssd:``, ``ssc:`` and ``ssv:`` prefixes are used: libcosim and Ecos look the
-elements up by their prefixed names.
+Only the standard ``ssd:``, ``ssc:`` and ``ssv:`` prefixes are used for the standard's elements:
+libcosim and Ecos look the elements up by their prefixed names. Tool-specific information is in
+SSP vendor annotations, which other tools ignore: libcosim's step (``osp:``, on the
+``DefaultExperiment``) and OMSimulator's fixed-step master with that step (``oms:``, the last
+child of the root system; without it OMSimulator's command line aborts on import).
 """
 from __future__ import annotations
 
@@ -42,7 +45,10 @@ SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"
 SSC = "http://ssp-standard.org/SSP1/SystemStructureCommon"
 SSV = "http://ssp-standard.org/SSP1/SystemStructureParameterValues"
 OSP = "http://opensimulationplatform.com/SSP/OSPAnnotations"  # libcosim's DefaultExperiment step
+# OMSimulator's vendor annotation (its schema's namespace): the root system's master and step
+OMS = "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"
 FMU_MIME = "application/x-fmu-sharedlibrary"
+GENERATION_TOOL = "tribofmu"  # the SSD's generationTool starts with it: an archive we wrote
 # Communication steps per period of the fastest motion the host's steps must resolve. The pair
 # resolves the block and its friction inside its doStep and follows the drive linearly within
 # a host step: the host step need only resolve the drive (Fig. 2 at T/2000 = 1e-4 s: nRMS(v)
@@ -86,8 +92,11 @@ def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None, pair:
     ``fmu_dir`` holds the built FMUs (``<Name>.fmu``; default: the per-user cache of FMUs
     built from this source, see :func:`tribofmu.build.default_fmu_dir`). A missing FMU raises
     :class:`FileNotFoundError` naming the file, before anything is written. The archive is
-    written aside and renamed into place, so ``out`` appears whole or not at all.
+    written aside and renamed into place, so ``out`` appears whole or not at all. An existing
+    ``out`` is replaced only when it is an archive this function wrote; anything else raises
+    :class:`FileExistsError` before anything is built or written (:func:`check_replaceable_archive`).
     """
+    check_replaceable_archive(Path(out))
     from ..fmu_cache import find_fmus  # the cache's FMUs, checked (or built); a given folder's, required
     fmu_dir = find_fmus([inst.fmu.name for inst in instances(scenario, pair)], fmu_dir,
                         build=None if fmu_dir is None else False)
@@ -119,6 +128,28 @@ def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None, pair:
         tmp.unlink(missing_ok=True)
         raise
     return out
+
+
+def check_replaceable_archive(out: Path) -> None:
+    """Raise :class:`FileExistsError` unless ``out`` is missing or a regular file that is an
+    SSP archive tribofmu wrote (a zip whose ``SystemStructure.ssd`` names tribofmu as its
+    ``generationTool``): an export never replaces a user's file, a link or a folder."""
+    out = Path(out)
+    if not out.exists() and not out.is_symlink():
+        return
+    if out.is_symlink() or not out.is_file():
+        kind = "a symbolic link" if out.is_symlink() else "a folder" if out.is_dir() else "not a regular file"
+        raise FileExistsError(f"{out} is {kind}; give a new file or an archive written by tribofmu export-ssp")
+    try:
+        with zipfile.ZipFile(out) as archive:
+            root = ET.fromstring(archive.read("SystemStructure.ssd"))
+        ours = (root.tag == f"{{{SSD}}}SystemStructureDescription"
+                and root.get("generationTool", "").split(" ")[0] == GENERATION_TOOL)
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile, ET.ParseError):
+        ours = False
+    if not ours:
+        raise FileExistsError(f"{out} exists and is not an archive written by tribofmu export-ssp; "
+                              "it is not replaced (remove it or give another file)")
 
 
 def fmu_with_start_values(path: Path, values: dict[str, Any],
@@ -157,14 +188,16 @@ def fmu_with_start_values(path: Path, values: dict[str, Any],
 def system_structure(scenario: Scenario, pair: bool = False) -> bytes:
     """The ``SystemStructure.ssd`` document of the scenario (UTF-8 XML); pair: as
     :func:`export_ssp`."""
-    for prefix, uri in (("ssd", SSD), ("ssc", SSC), ("ssv", SSV), ("osp", OSP)):
+    for prefix, uri in (("ssd", SSD), ("ssc", SSC), ("ssv", SSV), ("osp", OSP), ("oms", OMS)):
         ET.register_namespace(prefix, uri)
     links = connections(scenario, pair)
     connected_inputs = {(c.end, c.input) for c in links}
     values = parameter_values(scenario, pair)
     set_name = scenario.name
 
-    root = ET.Element(f"{{{SSD}}}SystemStructureDescription", {"name": scenario.name, "version": "1.0"})
+    from .. import __version__
+    root = ET.Element(f"{{{SSD}}}SystemStructureDescription", {
+        "name": scenario.name, "version": "1.0", "generationTool": f"{GENERATION_TOOL} {__version__}"})
     system_attrs = {"name": scenario.name}
     if scenario.title:
         system_attrs["description"] = scenario.title
@@ -196,6 +229,7 @@ def system_structure(scenario: Scenario, pair: bool = False) -> bytes:
             ET.SubElement(conns, f"{{{SSD}}}Connection", {
                 "startElement": c.start, "startConnector": c.output,
                 "endElement": c.end, "endConnector": c.input})
+    _openmodelica_annotation(system, archive_step(scenario, pair))
     default = ET.SubElement(root, f"{{{SSD}}}DefaultExperiment",
                             {"startTime": "0.0", "stopTime": repr(float(scenario.stop_time))})
     # SSP 1.0 has no step size: libcosim reads it from its own annotation
@@ -205,6 +239,21 @@ def system_structure(scenario: Scenario, pair: bool = False) -> bytes:
                   {"baseStepSize": repr(archive_step(scenario, pair))})
     ET.indent(root)
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+def _openmodelica_annotation(system: ET.Element, step: float) -> None:
+    """OMSimulator's annotation of the root system, as its own SSP export writes it: a
+    fixed-step master (``oms-ma``) at the archive's step. OMSimulator's importer
+    (``oms_importFile``, its command line) takes the root system's type from this annotation
+    and aborts without it; it must be the system's last child (after ``ssd:Connections``) and
+    its ``description`` must not be empty. Other tools ignore annotations of a type they do
+    not know, as SSP provides. The stop time is the ``DefaultExperiment``'s (OMSimulator's
+    command line takes it from ``--stopTime``, see docs/hosts.md)."""
+    annotation = ET.SubElement(ET.SubElement(system, f"{{{SSD}}}Annotations"), f"{{{SSC}}}Annotation",
+                               {"type": "org.openmodelica"})
+    info = ET.SubElement(ET.SubElement(annotation, f"{{{OMS}}}Annotations"), f"{{{OMS}}}SimulationInformation")
+    ET.SubElement(info, f"{{{OMS}}}FixedStepMaster",
+                  {"description": "oms-ma", "stepSize": repr(float(step)), "relativeTolerance": "0.0001"})
 
 
 def _connector(parent: ET.Element, name: str, kind: str) -> None:

@@ -59,6 +59,35 @@ QUICK_ANCHORS = {"smooth": [(m, None, tol) for m in ("LSODA", "Radau") for tol i
                  "dry": ([(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-5, 1e-7)]
                          + [("event-driven", None, tol) for tol in (1e-3, 1e-5)])}
 MONOLITHIC = ("LSODA", "Radau", "event-driven")
+# What each column of accuracy.csv means (also in summary.json, "columns")
+COLUMN_MEANINGS = {
+    "algorithm": "coupling algorithm, or the monolithic solver (LSODA, Radau, event-driven)",
+    "family": "coupling (co-simulation) or monolithic (an anchor)",
+    "step": "fixed communication step [s] (fixed-step algorithms)",
+    "tol": "adaptive: per-step tolerance; LSODA/Radau: rtol; event-driven: event location / drive period",
+    "default": "the scene's default setting",
+    "nrms_v": "the run's error: RMS of v - v_ref on the shown window over max |v_ref| (v_ref: the reference)",
+    "max_err_v": "the largest |v - v_ref| on the window over max |v_ref|",
+    "wall_time_s": "wall time of the whole run [s] (median of 3 under 0.5 s)",
+    "steps": "communication steps (monolithic: event-driven segments)",
+    "fmu_calls": "FMU calls", "rhs_evals": "right-hand-side evaluations of a monolithic solver",
+    "rollbacks": "rejected (rolled back) steps", "ok": "the run completed",
+    "est_true_ratio_median": "adaptive: median over accepted step pairs of the step's local error estimate over "
+                             "its true local error (per step; not the run's nRMS estimate)",
+    "est_true_ratio_p10": "adaptive: 10th percentile of that ratio",
+    "est_true_ratio_p90": "adaptive: 90th percentile of that ratio",
+    "est_underestimated_frac": "adaptive: share of step pairs whose estimate is below the true local error",
+}
+# What the study's log lines say (printed once, before the runs)
+LEGEND = (
+    "columns: nRMS(v) = the run's error: RMS of v - v_ref on the shown window over max |v_ref|",
+    "           (v_ref: the reference solver); max = the largest |v - v_ref| there, same scale",
+    "         s = wall time of the whole run (median of 3 under 0.5 s); steps, calls = communication",
+    "           steps and FMU calls; rhs evaluations = a monolithic solver's right-hand-side calls",
+    "         step est/true (adaptive only) = median, over the accepted step pairs, of each step's",
+    "           own local error estimate over its true local error (1 exact, < 1 underestimated):",
+    "           not the run's estimate of its nRMS(v) (stats.json estimated_error), not a ratio of nRMS",
+)
 REPEAT_BELOW_S = 0.5  # runs shorter than this are timed 3 times (median): timer and scheduler noise
 
 
@@ -108,8 +137,10 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
     row); the summary says whether it is on the accuracy-time front: ``dominated_by`` lists
     the rungs at least 2x faster and more accurate than it (none: on the front), and
     ``anchors`` the default's wall time over each monolithic solver's at matched accuracy
-    (its fastest run at least as accurate as the default). progress: passed to every
-    simulate call."""
+    (its fastest run at least as accurate as the default). ``beaten_by_anchors`` lists the
+    monolithic runs at least 2x faster and more accurate than the default; ``on_front`` is
+    True only when neither list has an entry (a run an anchor beats is never called on the
+    front). progress: passed to every simulate call."""
     from ..coupling.algorithms import make_algorithm
 
     ladder = list(ladder if ladder is not None else (QUICK_LADDER if quick else LADDER))
@@ -126,6 +157,8 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
     if not ref.ok:
         raise NumericalError(f"reference solution failed: {ref.message}")
     log(f"reference: {ref_wall:.2f} s ({ref.message or 'ok'})")
+    for line in LEGEND:
+        log(line)
     window = scenario.window
     inside = (ref.time >= window[0] - 1e-12) & (ref.time <= window[1] + 1e-12)
     v_scale = float(np.max(np.abs(ref.v[inside])))
@@ -152,27 +185,51 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
             f"{row['wall_time_s']:6.2f} s"
             + (f" {row['steps']:7d} steps {row['fmu_calls']:8d} calls" if row["family"] == "coupling" else
                f" {row['rhs_evals'] or 0:8d} rhs evaluations")
-            + (f"  est/true median {row.get('est_true_ratio_median', math.nan):.3g}"
+            + (f"  step est/true {row.get('est_true_ratio_median', math.nan):.3g}"
                if algorithm == "adaptive" else ""))
-    summary = {"reference_wall_time_s": ref_wall, "total_wall_time_s": time.perf_counter() - begin}
+    summary = {"reference_wall_time_s": ref_wall, "total_wall_time_s": time.perf_counter() - begin,
+               "columns": COLUMN_MEANINGS}
     chosen = next((r for r in rows if r["default"]), None)
     if chosen is not None:
-        better = [r for r in rows if r is not chosen and r["family"] == "coupling" and r["nrms_v"] < chosen["nrms_v"]
-                  and 2.0 * r["wall_time_s"] <= chosen["wall_time_s"]]
-        summary["default"] = {k: chosen[k] for k in ("algorithm", "step", "tol", "nrms_v", "wall_time_s")}
-        summary["dominated_by"] = [{k: r[k] for k in ("algorithm", "step", "tol", "nrms_v", "wall_time_s")}
-                                   for r in better]
-        log(f"default ({chosen['algorithm']} {'h=%g' % chosen['step'] if chosen['step'] else 'tol=%g' % chosen['tol']}): "
-            + ("on the accuracy-time front" if not better else
-               f"NOT on the front: {len(better)} setting(s) at least 2x faster and more accurate"))
+        better, beaten = dominating(rows, chosen)
+        keys = ("algorithm", "step", "tol", "nrms_v", "wall_time_s")
+        summary["default"] = {k: chosen[k] for k in keys}
+        summary["dominated_by"] = [{k: r[k] for k in keys} for r in better]  # co-simulation settings
+        summary["beaten_by_anchors"] = [{k: r[k] for k in keys} for r in beaten]  # monolithic solvers
+        summary["on_front"] = not better and not beaten
+        name = f"default ({chosen['algorithm']} {'h=%g' % chosen['step'] if chosen['step'] else 'tol=%g' % chosen['tol']})"
+        log(f"{name} among the co-simulation settings: " + (
+            "none is at least 2x faster and more accurate" if not better else
+            f"{len(better)} setting(s) at least 2x faster and more accurate"))
+        if beaten:
+            best = min(beaten, key=lambda r: r["wall_time_s"])
+            log(f"{name} is NOT on the accuracy-time front: {len(beaten)} monolithic run(s) at least 2x faster "
+                f"and more accurate, e.g. {best['algorithm']} at tol {best['tol']:g}: nRMS(v) {best['nrms_v']:.3g} "
+                f"in {best['wall_time_s']:.3g} s, {chosen['wall_time_s'] / best['wall_time_s']:.3g}x faster "
+                "(a co-simulation pays for swappable FMUs)")
+        else:
+            log(f"{name}: " + ("on the accuracy-time front (nothing in the study, co-simulation or monolithic, "
+                               "is at least 2x faster and more accurate)" if not better else
+                               "NOT on the accuracy-time front"))
         summary["anchors"] = matched_anchors(rows, chosen)
         for name, anchor in summary["anchors"].items():
-            log(f"default vs {name}: " + (f"{anchor['ratio']:.3g}x its time at tol {anchor['tol']:g} "
-                                          f"(nRMS(v) {anchor['nrms_v']:.3g})" if anchor["tol"] is not None
-                                          else "no run of it as accurate as the default"))
+            log(f"default vs {name}: " + (
+                f"the default takes {anchor['ratio']:.3g}x the time of {name}'s fastest run at least as "
+                f"accurate (tol {anchor['tol']:g}: nRMS(v) {anchor['nrms_v']:.3g})" if anchor["tol"] is not None
+                else f"no run of {name} in the study is as accurate as the default"))
     summary["regularisation"] = REGULARISATION
     summary["regime"] = "dry" if "Friction" in scenario.fmus and scenario.friction.law().regime == DRY else "smooth"
     return rows, summary
+
+
+def dominating(rows: list[dict], chosen: dict) -> tuple[list[dict], list[dict]]:
+    """The runs at least 2x faster than ``chosen`` and more accurate: (co-simulation settings,
+    monolithic anchors). ``chosen`` is on the accuracy-time front only when both are empty."""
+    def beats(r):
+        return (r is not chosen and r["ok"] and np.isfinite(r["nrms_v"]) and r["nrms_v"] < chosen["nrms_v"]
+                and 2.0 * r["wall_time_s"] <= chosen["wall_time_s"])
+    return ([r for r in rows if r["family"] == "coupling" and beats(r)],
+            [r for r in rows if r["family"] == "monolithic" and beats(r)])
 
 
 def matched_anchors(rows: list[dict], chosen: dict) -> dict:
@@ -327,7 +384,7 @@ def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> No
     from ..plots import pyplot, save_png, wrap_items
     plt = pyplot()
 
-    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    fig, ax = plt.subplots(figsize=(7.5, 6.2))
     styles = [("o", "-"), ("s", "--"), ("^", "-."), ("D", ":")]
     labels: list[list] = []  # [t, err, text, color]
     times = []
@@ -337,7 +394,7 @@ def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> No
         if not sel:
             continue
         anchor = sel[0].get("family") == "monolithic"
-        sel.sort(key=lambda r: r["wall_time_s"])
+        sel.sort(key=lambda r: r["step"] or r["tol"])  # the line follows the ladder, not the timings
         marker, line = ("s", "--") if anchor else styles[k % len(styles)]
         ax.loglog([r["wall_time_s"] for r in sel], [r["nrms_v"] for r in sel], marker=marker, ls=line,
                   color=f"C{k}", label=_legend(name, summary), ms=5 if k % 2 else 4,
@@ -369,30 +426,40 @@ def plot_accuracy(rows: list[dict], summary: dict, title: str, path: Path) -> No
     ax.set_ylabel("nRMS error of v on the window [1]")
     ax.set_title(wrap_items(title, 95), fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, loc="best")
+    # below the axes, so that it covers no point and no label
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2, frameon=False)
     fig.tight_layout()
     _place_labels(fig, ax, labels, fontsize=7)
     save_png(fig, path, dpi=120)
 
 
 def _place_labels(fig, ax, labels, fontsize: float) -> None:
-    """Annotate each (t, err, text, color) at the first offset whose box overlaps no
-    earlier label's box (display coordinates; the last candidate if all overlap)."""
-    px = fontsize * fig.dpi / 72.0  # a character's height in pixels
-    offsets = [(5, 4), (5, -11), (5, 12), (5, -19), (-5, 4), (-5, -11)]  # points; -5: right-aligned
-    taken: list[tuple[float, float, float, float]] = []
+    """Annotate each (t, err, text, color) at the first of a few offsets around its point
+    where the label's drawn box overlaps no earlier label, no point of the chart and stays in
+    the axes (measured with the renderer, not estimated); the first offset if none is free."""
+    offsets = [(5, 4), (5, -11), (-5, 4), (-5, -11), (5, 12), (5, -19), (-5, 12), (-5, -19), (0, 14), (0, -22)]
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    inside = ax.get_window_extent(renderer)
+    pad = 4.5 * fig.dpi / 72.0  # a marker's half size, in pixels
+    points = [ax.transData.transform((t, err)) for t, err, _, _ in labels]
+    taken = [(x - pad, y - pad, x + pad, y + pad) for x, y in points]
+
+    def free(box) -> bool:
+        return (box[0] >= inside.x0 and box[2] <= inside.x1 and box[1] >= inside.y0 and box[3] <= inside.y1
+                and not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in taken))
+
     for t, err, text, color in labels:
-        x, y = ax.transData.transform((t, err))
-        width, height = 0.7 * px * len(text) + 3, px + 2
-        for dx, dy in offsets:
-            ox, oy = dx * fig.dpi / 72.0, dy * fig.dpi / 72.0
-            x0 = x + ox if dx > 0 else x + ox - width
-            box = (x0, y + oy, x0 + width, y + oy + height)
-            if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in taken):
+        for k, (dx, dy) in enumerate(offsets + [offsets[0]]):
+            note = ax.annotate(text, (t, err), fontsize=fontsize, color=color, xytext=(dx, dy),
+                               textcoords="offset points",
+                               ha="left" if dx > 0 else "right" if dx < 0 else "center")
+            extent = note.get_window_extent(renderer)
+            box = (extent.x0 - 1, extent.y0 - 1, extent.x1 + 1, extent.y1 + 1)
+            if k == len(offsets) or free(box):
+                taken.append(box)
                 break
-        taken.append(box)
-        ax.annotate(text, (t, err), fontsize=fontsize, color=color, xytext=(dx, dy), textcoords="offset points",
-                    ha="left" if dx > 0 else "right")
+            note.remove()
 
 
 def _legend(name: str, summary: dict) -> str:

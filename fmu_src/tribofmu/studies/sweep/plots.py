@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ...scene.scenario import Scenario, key_label
+from ...scene.scenario import UNITS, Scenario, key_label
 from ..metrics import METRICS
 from .grid import format_value, is_numeric, same_setting
 from .worker import STATUS_OK
@@ -19,6 +19,8 @@ METRIC_LABELS = {"stick_fraction": "stick fraction", "stick_episodes_per_period"
                  "creep_fraction": "creep fraction", "creep_episodes_per_period": "creep episodes / period",
                  "harmonics": "harmonics of x", "amplitude_ratio": "max|x| / A",
                  "dissipated_per_cycle": "dissipated per cycle [J]", "melt_fraction": "melt fraction"}
+# Metrics that count (whole numbers): points only, no line between them, integer ticks
+INTEGER_METRICS = frozenset({"stick_episodes_per_period", "creep_episodes_per_period", "harmonics"})
 
 
 def plot_sweep(rows: list[dict[str, Any]], keys: list[str], portraits: dict[str, np.ndarray], out_dir: Path,
@@ -43,7 +45,12 @@ def plot_sweep(rows: list[dict[str, Any]], keys: list[str], portraits: dict[str,
         failed = np.array([r["status"] != STATUS_OK for r in rows])
         for ax, m in zip(axes.flat, metrics):
             y = np.array([r[m] for r in rows], dtype=float)
-            ax.plot(pos, y, "o-", color="C0")
+            if m in INTEGER_METRICS:  # a count has no value between two points
+                from matplotlib.ticker import MaxNLocator
+                ax.plot(pos, y, "o", color="C0")
+                ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+            else:
+                ax.plot(pos, y, "o-", color="C0")
             for p in pos[failed]:
                 ax.axvline(p, color="C3", ls=":", lw=1)
             ax.set_ylabel(METRIC_LABELS.get(m, m))
@@ -96,6 +103,13 @@ def plot_sweep(rows: list[dict[str, Any]], keys: list[str], portraits: dict[str,
     return paths
 
 
+def panel_label(name: str, value, unit: str | None) -> str:
+    """``omega = 20 rad/s``: a swept value with its unit (none for a dimensionless or
+    non-numeric value)."""
+    text = f"{name} = {format_value(value)}"
+    return f"{text} {unit}" if unit and unit != "1" and is_numeric([value]) else text
+
+
 def _plot_portraits(rows, keys, portraits, shape, path: Path, title: str, plt, base=None) -> Path:
     n0, n1 = shape
     if len(keys) == 1:  # one row of panels, wrapped at 6
@@ -116,7 +130,7 @@ def _plot_portraits(rows, keys, portraits, shape, path: Path, title: str, plt, b
     for k, (row, (r, c)) in enumerate(zip(rows, cells)):
         ax = axes[r, c]
         ax.axis("on")
-        label = ", ".join(f"{short[key]}={format_value(row[key])}" for key in keys)
+        label = ", ".join(panel_label(short[key], row[key], UNITS.get(key)) for key in keys)
         x, v = portraits["x"][k], portraits["v"][k]
         if row["status"] == STATUS_OK and np.isfinite(x).all():
             ax.plot(x * scale, v * scale, lw=0.9, color="C0")

@@ -1,0 +1,42 @@
+"""The sweep's pictures: counts (stick episodes, harmonics) drawn as points, never as lines
+between points; each portrait's title gives the swept value with its unit."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def test_counts_are_points_and_portraits_name_their_units(tmp_path, monkeypatch):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tribofmu import api
+    from tribofmu.studies.metrics import METRICS
+    from tribofmu.studies.sweep import plots
+    from tribofmu.studies.sweep.worker import STATUS_OK
+
+    figures = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: figures.append(fig))
+    rows = []
+    from tribofmu.studies.sweep import parse_grid
+    for k, omega in enumerate(parse_grid(["drive.omega=10,30,130"])["drive.omega"]):  # as a sweep reads them
+        row = {"drive.omega": omega, "status": STATUS_OK, "message": ""}
+        row.update({m: math.nan for m in METRICS})
+        row.update(stick_fraction=0.5 - 0.1 * k, stick_episodes_per_period=6 - 2 * k, harmonics=9 - 4 * k,
+                   amplitude_ratio=0.4 + 0.3 * k, dissipated_per_cycle=0.05)
+        rows.append(row)
+    t = np.linspace(0, 2 * np.pi, 400)
+    portraits = {"x": np.array([np.cos(t) * 1e-3] * 3), "v": np.array([np.sin(t) * 1e-2] * 3)}
+    paths = plots.plot_sweep(rows, ["drive.omega"], portraits, tmp_path, base=api.load("fig2_dry"))
+    assert [p.name for p in paths] == ["sweep.png", "portraits.png"]
+    sweep_fig, portraits_fig = figures
+    styles = {ax.get_ylabel(): ax.get_lines()[0].get_linestyle() for ax in sweep_fig.axes if ax.get_lines()}
+    assert styles["stick episodes / period"] == styles["harmonics of x"] == "None"
+    assert styles["stick fraction"] == styles["max|x| / A"] == "-"
+    titles = [ax.get_title() for ax in portraits_fig.axes if ax.get_title()]
+    assert titles == ["omega = 10 rad/s", "omega = 30 rad/s", "omega = 130 rad/s"]
+    monkeypatch.undo()
+    for fig in figures:
+        plt.close(fig)
