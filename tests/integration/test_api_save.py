@@ -80,7 +80,8 @@ def test_a_run_that_did_not_complete_is_saved_as_its_stats_alone(tmp_path, fmu_d
     import dataclasses
 
     whole = api.simulate(FIG2, fmu_dir=fmu_dir, build=False)
-    failed = dataclasses.replace(whole, ok=False, message="diverged", stats={**whole.stats, "ok": False})
+    failed = dataclasses.replace(whole, ok=False, message="diverged",
+                                 stats={**whole.stats, "ok": False, "completed": False})
     api.save(failed, tmp_path / "failed")
     assert names(tmp_path / "failed") == ["stats.json"]
     assert json.loads((tmp_path / "failed" / "stats.json").read_text())["message"] == whole.stats["message"]
