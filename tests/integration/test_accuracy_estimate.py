@@ -95,3 +95,22 @@ def test_fixed_step_runs_say_they_estimate_nothing(fmu_dir):
                       algorithm="implicit", step=1e-4, fmu_dir=fmu_dir, build=False)
     assert result.stats["estimated_error"]["nrms_v"] is None
     assert result.stats["estimated_error"]["method"].startswith("none")
+
+
+def test_the_accuracy_study_shows_the_error_asked_reported_and_true(fmu_dir):
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.studies.accuracy import COLUMN_MEANINGS, accuracy_study, rows_csv
+
+    scenario = load_scenario(scene("fig2_dry"), {"time.periods": 2.0, "time.window": [1.0, 2.0]})
+    lines = []
+    rows, summary = accuracy_study(scenario, fmu_dir=fmu_dir, ladder=[("adaptive", None, 1e-4)],
+                                   anchors=False, log=lines.append)
+    asked = {r["tol"]: r for r in rows}
+    assert set(asked) == {1e-4, 1e-3}  # the ladder's rung and the scene's default (1e-3)
+    for tol, row in asked.items():
+        assert row["ok"] and row["reported_nrms_v"] <= tol
+        assert 0.5 * row["nrms_v"] <= row["reported_nrms_v"] or row["reported_nrms_v"] < tol / 10
+    assert asked[1e-3]["default"] and summary["default"]["tol"] == 1e-3
+    header = rows_csv(rows).splitlines()[0].split(",")
+    assert header[3:7] == ["tol", "default", "reported_nrms_v", "nrms_v"]
+    assert "reported" in COLUMN_MEANINGS["reported_nrms_v"] and any("reported" in line for line in lines)
