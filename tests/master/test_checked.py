@@ -55,17 +55,18 @@ def power_law(constant, order=1.0):
 
 
 def test_two_runs_when_the_first_pair_meets_tol_and_the_tighter_one_is_reported():
-    runs = FakeRuns(power_law(1.0))  # error = step_tol
+    runs = FakeRuns(power_law(0.3))  # error = 0.3 step_tol
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
-    assert [c[0] for c in runs.calls] == [5e-4, 5e-4 / checked.TIGHTENING]
+    first = checked.FIRST_STEP_TOL * 1e-3
+    assert [c[0] for c in runs.calls] == [first, first / checked.TIGHTENING]
     assert result.ok and result.stats["tolerance_met"] and result.stats["ok"]
     reported = result.stats["estimated_error"]["nrms_v"]
-    true_error = power_law(1.0)(result.stats["step_tol"])  # of the reported (tighter) run
+    true_error = power_law(0.3)(result.stats["step_tol"])  # of the reported (tighter) run
     # the difference over r^p - 1 at the slowest order allowed for (r = 4, p = MIN_ORDER)
-    difference = checked.window_difference(FakeRuns(power_law(1.0))(5e-4), result)
+    difference = checked.window_difference(FakeRuns(power_law(0.3))(first), result)
     assert reported == pytest.approx(difference / (4.0 ** checked.MIN_ORDER - 1.0), rel=1e-12)
     assert true_error <= reported <= 10 * true_error
-    assert result.stats["tol"] == 1e-3 and result.stats["step_tol"] == 5e-4 / checked.TIGHTENING
+    assert result.stats["tol"] == 1e-3 and result.stats["step_tol"] == first / checked.TIGHTENING
     assert [r["step_tol"] for r in result.stats["check"]["runs"]] == [c[0] for c in runs.calls]
 
 
@@ -90,7 +91,7 @@ def test_slow_convergence_is_not_underreported():
 
 def test_a_missed_event_in_the_looser_run_is_not_reported_as_met():
     # the looser run is qualitatively wrong (an event missed: error 0.6), the tighter right
-    runs = FakeRuns(lambda tol: 0.6 if tol >= 5e-4 else 1e-5)
+    runs = FakeRuns(lambda tol: 0.6 if tol >= checked.FIRST_STEP_TOL * 1e-3 else 1e-5)
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
     assert len(runs.calls) == 3  # the 0.6 pair fails; the next pair agrees
     assert result.ok and result.stats["estimated_error"]["nrms_v"] < 1e-4
