@@ -4,15 +4,16 @@
 window, relative to the largest |v| there. A per-step tolerance cannot promise that: events
 (stick, breakaway, the lubricant melting and re-solidifying) that a step passes over, or
 shifts, move the whole rest of the run, and a linearised estimate of the error carried from
-step to step cannot see them. So the run is repeated at a tighter per-step tolerance and
-the two are compared on the window, as Shampine advises for assessing the global error of
-an ODE code. The tighter run is the one reported; its reported error is the difference
-over r^p - 1 (r the ratio of the two per-step tolerances) at the slowest convergence order
-allowed for, MIN_ORDER. When the difference
-is past tol, the next pair is the tighter run and one tighter still, until it meets tol or
-the time budget (``--max-wall``) is spent; then the result is kept but not ``ok``.
+step to step cannot see them. So a run is repeated at a per-step tolerance CHECK_RATIO times
+tighter and the two are compared on the window, as Shampine advises for assessing the global
+error of an ODE code. The tighter run is the one reported; its error is the pair's difference
+over r^p - 1 (r = CHECK_RATIO) at the slowest convergence order allowed for, MIN_ORDER.
 
-Every run of the sequence counts in the reported ``wall_time``.
+When that checked error is past tol, the next pair follows: the tighter run and its own
+partner when the checked error says that one more factor will do, or else a new pair planned
+at the per-step tolerance the checked error asks for. The sequence ends when a pair meets tol,
+or the time budget (``--max-wall``), MAX_RUNS or MIN_STEP_TOL is reached; then the result is
+kept but not ``ok``. Every run of the sequence counts in the reported ``wall_time``.
 """
 from __future__ import annotations
 
@@ -26,50 +27,46 @@ from typing import Any, Callable
 
 import numpy as np
 
-# The per-step tolerance of each run is this many times tighter than its predecessor's:
-# the pair's difference is then mostly the looser run's error (it falls like tol^0.7-1 on
-# every law measured: 2.6-4x a ratio of 4), and the tighter run costs 1.6x the looser
-# (steps grow like tol^-1/3 for a second-order step).
-TIGHTENING = 4.0
+# The per-step tolerances of a check pair are this far apart. With errors e ~ tol^p, the
+# pair differs by e_tight (r^p - 1), so the reported (difference over r^MIN_ORDER - 1) is
+# (r^p - 1)/(r^MIN_ORDER - 1) times the true error: 1 at p = MIN_ORDER, 4.3 at p = 1 and 7.9
+# at p = 1.5 (a light dry block converges that fast: at r = 4 it was reported 12.6x). The
+# tighter run costs r^(1/3) = 1.26x the looser (steps grow like tol^-1/3, second order).
+CHECK_RATIO = 2.0
+# The slowest convergence the reported error allows for. Boundary friction near gamma = -0.3
+# converged that slowly between per-step tolerances 5e-4 and 1.25e-4 (the plain difference
+# was 0.54x the tighter run's true error).
+MIN_ORDER = 0.3
 # The first run's per-step tolerance, as a multiple of the global tol asked for: the reported
-# run is then 4x tighter, and its true nRMS(v) lands at 0.05-0.25 tol on fig2, fig6 and an
-# off-scene dry point (0.026 at 0.5: more accuracy than asked, paid in steps).
+# run's true nRMS(v) then lands at 0.05-0.25 tol on fig2, fig6 and an off-scene dry point
+# (0.026 at 0.5: more accuracy than asked, paid in steps).
 FIRST_STEP_TOL = 1.0
+# How the error falls with the per-step tolerance, assumed when the next pair is planned: the
+# slowest order measured over a wide range (boundary friction, tol^0.7), so a plan errs toward
+# the tighter run; the plan aims at SAFETY x tol, so that the pair's check passes.
+ASSUMED_ORDER = 0.7
+SAFETY = 0.3
+# A planned pair starts at most this much tighter than the last run (a plan is a guess).
+MAX_JUMP = 16.0
 # No per-step tolerance below this: past it the steps reach the coupling's round-off.
 MIN_STEP_TOL = 1e-9
-# At most this many runs in one sequence (from FIRST_STEP_TOL x tol, each at least
-# TIGHTENING tighter: the last at 3e-5 x tol or below): a sequence always ends.
+# At most this many runs in one sequence: a sequence always ends.
 MAX_RUNS = 8
 # A run whose budget is this small is not started (it could not reach the window).
 MIN_BUDGET = 1e-3  # s
 
 
-# At most this much tighter in one go: a pair further apart reports the looser run's error
-# for the tighter one, which is then overstated by ratio^p - 1 (4-9x at 10; measured 73x
-# after a 75x jump on a light dry block).
-MAX_TIGHTENING = 8.0
-# The slowest convergence the reported error allows for: with errors e ~ tol^p, two runs r
-# apart differ by e_tight (r^p - 1), so the tighter run's error is the difference over
-# r^p - 1, at most that at p = MIN_ORDER. Boundary friction near gamma = -0.3 converges that
-# slowly between per-step tolerances 5e-4 and 1.25e-4 (the difference was 0.54x the tighter
-# run's true error); at p = 1 the report is then 3/(4^0.3 - 1) = 5.8x the true error.
-MIN_ORDER = 0.3
-# How the error falls with the per-step tolerance, assumed when the next run is planned: the
-# slowest order measured (boundary friction, tol^0.7), so a plan errs toward the tighter run.
-ASSUMED_ORDER = 0.7
-# The next run aims at this fraction of tol, so that it and its check both pass.
-SAFETY = 0.5
+def checked_error(difference: float) -> float:
+    """The tighter run's error from its pair's difference on the window (see CHECK_RATIO)."""
+    return difference / (CHECK_RATIO ** MIN_ORDER - 1.0)
 
 
-def next_tightening(last_error: float, tol: float) -> float:
-    """How much tighter the next run's per-step tolerance is than the last one's, whose error
-    was checked as ``last_error``: at least TIGHTENING; more when that error is still far
-    from tol, so that the next run lands near SAFETY x tol instead of creeping there one
-    factor at a time; at most MAX_TIGHTENING."""
-    if not math.isfinite(last_error):  # the first run: nothing checked yet
-        return TIGHTENING
-    wanted = (last_error / (SAFETY * tol)) ** (1.0 / ASSUMED_ORDER)
-    return min(MAX_TIGHTENING, max(TIGHTENING, wanted))
+def next_tightening(error: float, tol: float) -> float:
+    """How much tighter than the last run (whose error was checked as ``error``) the next run
+    is: CHECK_RATIO when one more factor is expected to meet tol (the last run and the next
+    form the next pair), else the factor planned for a new pair (at most MAX_JUMP)."""
+    wanted = (error / (SAFETY * tol)) ** (1.0 / ASSUMED_ORDER)
+    return CHECK_RATIO if wanted <= CHECK_RATIO else min(MAX_JUMP, wanted)
 
 
 def window_difference(a, b) -> float:
@@ -143,22 +140,29 @@ class RunRecord:
 def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float | None,
                        sink: Callable[[int, dict], None] | None = None,
                        step_tol: float | None = None):
-    """Run ``run_once(step_tol=..., max_wall=..., sink=...)`` at per-step tolerances from
-    ``step_tol`` (default FIRST_STEP_TOL x tol) down, each TIGHTENING to MAX_TIGHTENING times
-    the last, until the tighter run of the last two is checked to meet ``tol`` on the window,
-    or the budget ``max_wall`` [s] (None: none) is spent; returns that run's result with its
-    stats rewritten: ``tol`` the global tol, ``step_tol`` the run's own, ``estimated_error``
-    the checked error, ``ok`` only when it met tol, ``wall_time`` the whole sequence's,
-    ``check`` every run.
+    """Run ``run_once(step_tol=..., max_wall=..., sink=...)`` in check pairs from per-step
+    tolerance ``step_tol`` (default FIRST_STEP_TOL x tol) down, until the tighter run of a
+    pair is checked to meet ``tol`` on the window, or the budget ``max_wall`` [s] (None:
+    none), MAX_RUNS or MIN_STEP_TOL ends the sequence; returns the last checked run's result
+    with its stats rewritten: ``tol`` the global tol, ``step_tol`` the run's own,
+    ``estimated_error`` the checked error, ``ok`` only when it met tol, ``wall_time`` the
+    whole sequence's, ``check`` every run.
 
     A run that fails (an FMU error, a non-finite state) ends the sequence with that run's
     result, as unchecked runs did before."""
     begin = time.perf_counter()
     step_tol = max(step_tol if step_tol is not None else FIRST_STEP_TOL * tol, MIN_STEP_TOL)
     records: list[RunRecord] = []
-    previous = previous_spool = None
-    difference = math.nan
+    base = None  # the looser run of the pair being formed (None: a new pair starts)
+    best = None  # the last run checked (before any check: the first run)
+    best_error = math.nan
+    held: dict[int, Spool] = {}  # the spooled samples of base and best
     limit = "the time budget ran out; raise --max-wall"  # why a sequence short of tol ended
+
+    def release_unheld() -> None:
+        for key in [k for k in held if k not in (id(base), id(best))]:
+            held.pop(key).close()
+
     try:
         while True:
             remaining = None if max_wall is None else max_wall - (time.perf_counter() - begin)
@@ -167,38 +171,41 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
             spool = Spool() if sink is not None else None
             try:
                 result = run_once(step_tol=step_tol, max_wall=remaining, sink=spool)
-            except BaseException:
+            finally:
                 if spool is not None:
-                    spool.close()
-                raise
+                    held[id(spool)] = spool  # closed with the rest unless the run is kept
+            if spool is not None:
+                held[id(result)] = held.pop(id(spool))
             records.append(RunRecord(step_tol, result.stats["wall_time"], result.stats["communication_steps"],
                                      result.ok, result.stats.get("fmu_calls_total", 0)))
             if not result.ok:
-                if spool is not None:
-                    spool.close()
-                if previous is None or not result.stats.get("out_of_time"):
+                if best is None or not result.stats.get("out_of_time"):
                     return _finish(result, None, records, tol, begin, sink, None, failed=True)
-                break  # the tighter run ran out of budget: report the looser one, unchecked
-            if previous is not None:
-                ratio = records[-2].step_tol / step_tol
-                difference = window_difference(previous, result) / (ratio ** MIN_ORDER - 1.0)
-            if previous_spool is not None:
-                previous_spool.close()
-            previous, previous_spool = result, spool
-            if difference <= tol:
+                break  # out of budget: report what was checked (or the first run, unchecked)
+            error = math.nan
+            if base is not None:
+                best, best_error = result, checked_error(window_difference(base, result))
+                error = best_error
+            elif best is None:
+                best = result
+            if error <= tol:
                 break
             if step_tol <= MIN_STEP_TOL or len(records) >= MAX_RUNS:
                 limit = (f"the per-step tolerance reached its floor {MIN_STEP_TOL:g}" if step_tol <= MIN_STEP_TOL
                          else f"{MAX_RUNS} runs, the most one sequence makes")
                 break
-            step_tol = max(step_tol / next_tightening(difference, tol), MIN_STEP_TOL)
-        if previous is None:  # not even one run fitted the budget
+            factor = CHECK_RATIO if math.isnan(error) else next_tightening(error, tol)
+            base = result if factor == CHECK_RATIO else None  # else a new pair, planned tighter
+            step_tol = max(step_tol / factor, MIN_STEP_TOL)
+            release_unheld()
+        if best is None:  # not even one run fitted the budget
             from .errors import ScenarioError
             raise ScenarioError(f"max_wall {max_wall:g} s leaves no time for a run (at least {MIN_BUDGET:g} s)")
-        return _finish(previous, difference, records, tol, begin, sink, previous_spool, limit)
+        checked = best_error if math.isfinite(best_error) else None
+        return _finish(best, checked, records, tol, begin, sink, held.get(id(best)), limit)
     finally:
-        if previous_spool is not None:
-            previous_spool.close()
+        for spool in held.values():
+            spool.close()
 
 
 def _finish(result, difference: float | None, records: list[RunRecord], tol: float, begin: float,
@@ -208,21 +215,21 @@ def _finish(result, difference: float | None, records: list[RunRecord], tol: flo
     checked = difference is not None and math.isfinite(difference)
     met = checked and difference <= tol
     stats["tol"] = tol
-    stats["step_tol"] = records[-1].step_tol if failed else _reported_step_tol(result, records)
+    # (the run's own per-step tolerance, as _run_once recorded it, stays in stats["step_tol"])
     stats["wall_time"] = time.perf_counter() - begin
-    stats["check"] = {"runs": [r.as_dict() for r in records], "tightening": TIGHTENING}
+    stats["check"] = {"runs": [r.as_dict() for r in records], "check_ratio": CHECK_RATIO,
+                      "min_order": MIN_ORDER}
     if failed:
         stats["tolerance_met"] = False
         stats["completed"] = False
         return result
     stats["estimated_error"] = {
         "nrms_v": difference if checked else None,
-        "method": ("checked: the run was repeated at a tighter per-step tolerance and the two "
-                   "compared on the window (Shampine's rule); the tighter run is reported, with their "
-                   f"difference over r^p - 1 as its error (r the tolerances' ratio, p = {MIN_ORDER:g} the "
-                   "slowest convergence allowed for)") if checked else
-                  ("not checked: the time budget ran out before the run could be repeated at a "
-                   "tighter tolerance; raise --max-wall"),
+        "method": ("checked: the run was repeated at a per-step tolerance "
+                   f"{CHECK_RATIO:g}x tighter and the two compared on the window (Shampine's rule); the "
+                   f"tighter run is reported, with their difference over {CHECK_RATIO:g}^p - 1 as its error "
+                   f"(p = {MIN_ORDER:g}, the slowest convergence allowed for)") if checked else
+                  f"not checked: {limit} before the run could be repeated at a tighter tolerance",
         "propagated": own.get("nrms_v"),  # the run's own linearised estimate, for comparison
     }
     stats["tolerance_met"] = bool(met)
@@ -236,12 +243,6 @@ def _finish(result, difference: float | None, records: list[RunRecord], tol: flo
     if sink is not None and spool is not None:
         spool.replay(sink)
     return result
-
-
-def _reported_step_tol(result, records: list[RunRecord]) -> float:
-    # the reported run is the last completed one
-    completed = [r for r in records if r.completed]
-    return completed[-1].step_tol if completed else records[-1].step_tol
 
 
 def _advice(difference: float | None, tol: float, records: list[RunRecord], limit: str) -> str:
