@@ -16,6 +16,7 @@ import logging
 import math
 import os
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Callable
@@ -86,14 +87,21 @@ def run_plain(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, setting
 
 
 def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings: tuple, record: Record,
-             progress: bool, desc: str, scheduler: str | None, workers: int | None, log) -> None:
+             progress: bool, desc: str, scheduler: str | None, workers: int | None, log,
+             worker_log: Path | None = None) -> None:
     """Run the points on Dask, longest expected first; record each as it finishes.
 
     settings: (algorithm, step, tol, portrait_points, timeout), as :func:`run_point` takes them.
+    worker_log: where a local cluster's workers and Dask's own messages go (default: a file
+    in the temp folder); removed at the end when empty.
     """
     from distributed import Client, LocalCluster, as_completed
 
-    cluster = None
+    cluster = client = None
+    worker_log = Path(worker_log) if worker_log else Path(tempfile.gettempdir()) / f"tribofmu-dask-{os.getpid()}.log"
+    with contextlib.suppress(OSError):
+        worker_log.unlink()  # this run's messages only
+    dask_messages = _dask_logs_to(worker_log)
     # Spawned workers inherit sys.path: an FMU loaded earlier in this process would leave its
     # trimmed tribofmu there, shadowing the installed package in the workers.
     clean = NoUnzippedFMUsOnSysPath().__enter__()
@@ -109,9 +117,10 @@ def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings
             n = max(1, min(n, len(todo)))
             log(f"starting a local Dask cluster: {n} worker process{'es' if n > 1 else ''}, 1 thread each")
             # everything on the loopback interface: no port (scheduler, dashboard) open to the network
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   dashboard_address="127.0.0.1:0",  # no clash on :8787
-                                   silence_logs=logging.ERROR)
+            with _workers_write_to(worker_log):
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                       dashboard_address="127.0.0.1:0",  # no clash on :8787
+                                       silence_logs=logging.ERROR)
             client = Client(cluster)
             try:  # a worker that cannot start (import error) would otherwise leave us waiting forever
                 client.wait_for_workers(n, timeout=WORKER_START_TIMEOUT)
@@ -119,9 +128,19 @@ def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings
                 client.close()
                 cluster.close()
                 raise SweepError(f"the local Dask cluster's {n} workers did not start within "
-                                 f"{WORKER_START_TIMEOUT:g} s") from None
+                                 f"{WORKER_START_TIMEOUT:g} s (their output: {worker_log})") from None
     except BaseException:
-        clean.__exit__(None, None, None)
+        # interrupted while the cluster started, or it could not: shut down what is up,
+        # a further Ctrl-C meanwhile only requested (no half-closed cluster at exit)
+        with _interrupts_held():
+            with contextlib.suppress(Exception):
+                if client is not None:
+                    client.close()
+            with contextlib.suppress(Exception):
+                if cluster is not None:
+                    cluster.close()
+            clean.__exit__(None, None, None)
+            dask_messages.close()
         raise
     futures = {}
     try:
@@ -145,13 +164,81 @@ def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings
                 done(futures[fut], out)
                 fut.release()
     finally:
-        for fut in futures:
-            if not fut.done():
-                fut.cancel()
-        client.close()
-        if cluster is not None:
-            cluster.close()
-        clean.__exit__(None, None, None)
+        with _interrupts_held():  # closing the cluster is not cut short by a second Ctrl-C
+            for fut in futures:
+                if not fut.done():
+                    fut.cancel()
+            client.close()
+            if cluster is not None:
+                cluster.close()
+            clean.__exit__(None, None, None)
+            dask_messages.close()
+
+
+class _dask_logs_to:
+    """Dask's log messages in this process (the scheduler's, the nannies') go to ``path``
+    instead of stderr until :meth:`close`, which removes the file if nothing was written:
+    when the terminal's Ctrl-C stops the workers before this process closes the cluster, the
+    scheduler logs lost workers and data, which say nothing the one line does not."""
+
+    def __init__(self, path: Path):
+        self.path, self.logger = path, logging.getLogger("distributed")
+        self.saved = list(self.logger.handlers)
+        try:
+            self.handler = logging.FileHandler(path, delay=True)
+        except OSError:
+            self.handler = None
+            return
+        self.handler.setFormatter(logging.Formatter("%(asctime)s - %(name)s - %(levelname)s - %(message)s"))
+        self.logger.handlers = [self.handler]
+
+    def close(self) -> None:
+        if self.handler is None:
+            return
+        self.logger.handlers = self.saved
+        self.handler.close()
+        self.handler = None
+        with contextlib.suppress(OSError):
+            if self.path.stat().st_size == 0:
+                self.path.unlink()
+
+
+@contextlib.contextmanager
+def _workers_write_to(path: Path):
+    """While the local cluster starts, this process's stderr (file descriptor 2, which the
+    worker processes it spawns inherit) is ``path``: a Ctrl-C at the terminal signals the
+    whole process group, and each worker would print its KeyboardInterrupt traceback, and
+    Dask its shutdown errors, under the one line that says what happened. This process
+    shuts the cluster down itself. The workers' output stays in ``path``."""
+    sys.stderr.flush()
+    try:
+        target = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | os.O_CLOEXEC, 0o600)
+    except OSError:
+        yield
+        return
+    saved = os.dup(2)
+    try:
+        os.dup2(target, 2)
+        yield
+    finally:
+        sys.stderr.flush()
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(target)
+
+
+@contextlib.contextmanager
+def _interrupts_held():
+    """Inside, Ctrl-C and SIGTERM are held (blocked) in this thread and taken afterwards."""
+    import signal
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 def cores() -> int:
