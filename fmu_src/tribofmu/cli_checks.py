@@ -7,6 +7,7 @@ exit 2) or an OSError (one line, exit 1), raised before the run.
 """
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import math
 import re
@@ -127,9 +128,13 @@ def lock_out(out: Path, option: str = "--out") -> None:
         return  # no temp dir to lock in: the run goes on unlocked, as before
     for _ in range(10):
         try:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
+        except FileNotFoundError:  # another run removed the (empty) lock folder just now
+            with contextlib.suppress(OSError):
+                path.parent.mkdir(mode=0o700, exist_ok=True)
+            continue
         except OSError:
-            return  # a folder that takes no lock file takes no results either: reported there
+            return  # no lock to be had here: the run goes on unlocked, as before
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -173,6 +178,8 @@ def release_out_locks() -> None:
         except OSError:
             pass
         os.close(fd)
+        with contextlib.suppress(OSError):
+            path.parent.rmdir()  # when no other run holds a lock: the temp dir as it was
 
 
 def preflight_folder(out: Path, needed_bytes: int, option: str = "--out") -> None:

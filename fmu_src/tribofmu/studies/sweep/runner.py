@@ -105,6 +105,9 @@ def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings
     # Spawned workers inherit sys.path: an FMU loaded earlier in this process would leave its
     # trimmed tribofmu there, shadowing the installed package in the workers.
     clean = NoUnzippedFMUsOnSysPath().__enter__()
+    children_stderr = _ChildrenStderr(worker_log if not scheduler else None)
+    from distributed.deploy.spec import SpecCluster
+    clusters_before = set(getattr(SpecCluster, "_instances", ()))
     try:
         if scheduler:
             try:
@@ -117,10 +120,9 @@ def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings
             n = max(1, min(n, len(todo)))
             log(f"starting a local Dask cluster: {n} worker process{'es' if n > 1 else ''}, 1 thread each")
             # everything on the loopback interface: no port (scheduler, dashboard) open to the network
-            with _workers_write_to(worker_log):
-                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                       dashboard_address="127.0.0.1:0",  # no clash on :8787
-                                       silence_logs=logging.ERROR)
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                   dashboard_address="127.0.0.1:0",  # no clash on :8787
+                                   silence_logs=logging.ERROR)
             client = Client(cluster)
             try:  # a worker that cannot start (import error) would otherwise leave us waiting forever
                 client.wait_for_workers(n, timeout=WORKER_START_TIMEOUT)
@@ -136,11 +138,14 @@ def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings
             with contextlib.suppress(Exception):
                 if client is not None:
                     client.close()
-            with contextlib.suppress(Exception):
-                if cluster is not None:
-                    cluster.close()
+            # a cluster interrupted in its constructor is not ours yet, but Dask knows it
+            started = set(getattr(SpecCluster, "_instances", ())) - clusters_before
+            for each in ([cluster] if cluster is not None else []) + [c for c in started if c is not cluster]:
+                with contextlib.suppress(Exception):
+                    each.close()
             clean.__exit__(None, None, None)
             dask_messages.close()
+            children_stderr.close()
         raise
     futures = {}
     try:
@@ -173,6 +178,7 @@ def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings
                 cluster.close()
             clean.__exit__(None, None, None)
             dask_messages.close()
+            children_stderr.close()
 
 
 class _dask_logs_to:
@@ -203,28 +209,42 @@ class _dask_logs_to:
                 self.path.unlink()
 
 
-@contextlib.contextmanager
-def _workers_write_to(path: Path):
-    """While the local cluster starts, this process's stderr (file descriptor 2, which the
-    worker processes it spawns inherit) is ``path``: a Ctrl-C at the terminal signals the
-    whole process group, and each worker would print its KeyboardInterrupt traceback, and
-    Dask its shutdown errors, under the one line that says what happened. This process
-    shuts the cluster down itself. The workers' output stays in ``path``."""
-    sys.stderr.flush()
-    try:
-        target = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | os.O_CLOEXEC, 0o600)
-    except OSError:
-        yield
-        return
-    saved = os.dup(2)
-    try:
-        os.dup2(target, 2)
-        yield
-    finally:
+class _ChildrenStderr:
+    """Until :meth:`close`, the processes this one starts (a local cluster's workers) write
+    their stderr to ``path``, while this process's own messages (sys.stderr: the progress
+    bar, the lines of the sweep) still reach the terminal: file descriptor 2 is ``path``
+    and sys.stderr a copy of the original one. A Ctrl-C at the terminal signals the whole
+    process group, and each worker would print its KeyboardInterrupt traceback under the
+    one line that says what happened; this process shuts the cluster down itself, and the
+    workers' output stays in ``path`` (removed when empty). path None: nothing changes."""
+
+    def __init__(self, path: Path | None):
+        self.saved = self.stream = None
+        if path is None:
+            return
         sys.stderr.flush()
-        os.dup2(saved, 2)
-        os.close(saved)
+        try:
+            target = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | os.O_CLOEXEC, 0o644)
+        except OSError:
+            return
+        self.original, self.saved = sys.stderr, os.dup(2)
+        os.set_inheritable(self.saved, False)
+        self.stream = open(self.saved, "w", buffering=1, encoding=getattr(self.original, "encoding", None)
+                           or "utf-8", errors="backslashreplace", closefd=False)
+        os.dup2(target, 2)
         os.close(target)
+        sys.stderr = self.stream
+
+    def close(self) -> None:
+        if self.saved is None:
+            return
+        with contextlib.suppress(Exception):
+            self.stream.flush()
+        os.dup2(self.saved, 2)
+        os.close(self.saved)
+        if sys.stderr is self.stream:
+            sys.stderr = self.original
+        self.saved = self.stream = None
 
 
 @contextlib.contextmanager
