@@ -213,8 +213,8 @@ def check_algorithm_options(scenario, algorithm: str | None, step: float | None,
         raise UsageError(f"--max-wall must be >= 0 s (0: no limit), got {max_wall}")
     least = min_max_wall()
     if max_wall is not None and 0 < max_wall < least:
-        raise UsageError(f"--max-wall must be 0 (no limit) or at least {least:g} s (a run's pace is "
-                         f"judged after {least:g} s of running), got {max_wall:g}")
+        raise UsageError(f"--max-wall must be 0 (no limit) or at least {least:g} s (a run's projected "
+                         f"wall time is judged after its first seconds), got {max_wall:g}")
     name = algorithm or scenario.simulation.algorithm
     if name not in ALGORITHMS:
         raise UsageError(f"unknown algorithm {name!r} (known: {', '.join(ALGORITHMS)})")
@@ -236,14 +236,15 @@ GRID_NS = 2  # the smallest step of the integer-nanosecond time grid
 LONGEST_RUN = 2.0 ** 62 / 1e9  # s (~146 years): the time grid is int64 nanoseconds
 
 
+MIN_MAX_WALL = 1.0  # s
+
+
 def min_max_wall() -> float:
-    """The smallest --max-wall that means what it says: the master judges a run's pace (and
-    so the limit) only once it has run this long [s]."""
-    try:
-        from .master.run import RunLimits
-        return float(RunLimits().judge_after)
-    except Exception:  # the master's limits are its own; 3 s when they cannot be read
-        return 3.0
+    """The smallest --max-wall but 0 (no limit) [s]. The limit is on a run's projected wall
+    time, which the master judges once the run has gone for a few seconds (3 s): a smaller
+    positive limit (1e-100) could only ever mean "stop at the first judgement", and reads
+    like a promise the run cannot keep, so it is refused rather than accepted and ignored."""
+    return MIN_MAX_WALL
 
 
 def check_resolution(scenario, algorithm: str, step: float | None) -> None:

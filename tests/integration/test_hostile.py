@@ -44,7 +44,7 @@ def one_line(done, code: int, *words: str) -> str:
     (["--algorithm", "jacobi", "--step", "1e3"], ["--step 1000 s", "at least 10"]),
     (["--algorithm", "jacobi", "--step", "0.2"], ["--step 0.2 s gives 1.05", "at least 10"]),
     (["--algorithm", "gauss-seidel", "--set", "drive.omega=1e6"], ["default step 0.0001 s", "at least 10"]),
-    (["--max-wall", "1e-100"], ["--max-wall", "at least 3 s"]),
+    (["--max-wall", "1e-100"], ["--max-wall", "at least 1 s"]),
 ], ids=["omega-1e-100", "omega-1e12", "omega-1e10", "jacobi-step-1e3", "jacobi-step-0.2",
         "default-step-omega-1e6", "max-wall-1e-100"])
 def test_unresolvable_drive_is_refused_before_the_run(tmp_path, env, fmu_dir, args, words):

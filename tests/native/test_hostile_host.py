@@ -168,6 +168,18 @@ def test_instantiate_free_cycles_grow_rss_by_less_than_1_kB_each(programs, unzip
     assert per_cycle < 1024
 
 
+def test_fmi3_instantiate_free_cycles_grow_rss_by_less_than_1_kB_each(programs, unzipped3):
+    """pythonfmu3 finds the model class without executing the script again: ~0.2 kB a cycle."""
+    folder, description = unzipped3("Drive")
+    cycles = 2000
+    done = run_clean([programs["fmi3_hostile"], folder, "Drive", description.get("instantiationToken"),
+                      "OWN", "OWN", "OWN", cycles], timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    before, after = (int(x) for x in done.stdout.split()[1:3])
+    print(f"\nFMI 3.0 Drive instantiate/free: {(after - before) / cycles:.0f} B per cycle over {cycles}")
+    assert (after - before) / cycles < 1024
+
+
 # -- misuse of a type, a damaged state: fmi2Error, the instance stays usable ------------------
 def statuses(stdout: str) -> list[tuple[str, int]]:
     return [(call, int(status)) for call, status in (line.split() for line in stdout.splitlines()
