@@ -55,6 +55,14 @@ def test_unresolvable_drive_is_refused_before_the_run(tmp_path, env, fmu_dir, ar
     assert not out.exists()
 
 
+def test_sweep_point_that_cannot_resolve_its_drive_is_refused_before_any_run(tmp_path, env, fmu_dir):
+    out = tmp_path / "sweep"
+    done = tribofmu("sweep", "fig2_dry", "--grid", "drive.omega=30,1e12", "--workers", "0", "--fmu-dir", fmu_dir,
+                    "--out", out, "-q", cwd=tmp_path, env=env, timeout=120)
+    one_line(done, 2, "--grid point drive.omega=1000000000000.0", "must be <= 1.57e+08")
+    assert not out.exists()
+
+
 # -- plot: a stats.json that is no record ----------------------------------------------------
 @pytest.mark.parametrize("stats", [{"scenario": 5}, {"scenario": {"drive": 5}}, {"scenario": [1, 2]},
                                    [1], {"scenario": {"drive": {"omega": "x"}}},
