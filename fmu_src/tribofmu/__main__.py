@@ -1,6 +1,15 @@
 """``python -m tribofmu``: the same as the ``tribofmu`` command."""
 import sys
 
-from .cli import main
+# Ctrl-C and SIGTERM handled before the command's own imports: one line and exit 130 even
+# in the first instants (the handlers raise KeyboardInterrupt, caught here or in main())
+from .progress import install_signal_handlers
+
+install_signal_handlers()
+try:
+    from .cli import main
+except KeyboardInterrupt:
+    print("tribofmu: interrupted; no result was written (earlier results are as they were)", file=sys.stderr)
+    sys.exit(130)
 
 sys.exit(main())

@@ -29,17 +29,20 @@ EXIT_TOL_NOT_MET = 3  # the run completed and its result is kept, but its checke
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = _parser()
-    args = parser.parse_args(argv)
-    from .master.instance import remove_orphan_extractions
+    # first of all (before the parser and the imports of the first half second): Ctrl-C and
+    # SIGTERM stop between steps, write nothing half, and say so in one line
     from .progress import install_signal_handlers
-    install_signal_handlers()  # Ctrl-C and SIGTERM: stop between steps, write nothing half
-    atexit.register(remove_orphan_extractions)  # unzipped FMUs of finished (Dask) workers
+    install_signal_handlers()
     from .atomic import forget_published
     forget_published()  # what this command writes, for the Ctrl-C message
     try:
+        parser = _parser()
+        args = parser.parse_args(argv)
+        from .master.instance import remove_orphan_extractions
+        atexit.register(remove_orphan_extractions)  # unzipped FMUs of finished (Dask) workers
         return args.run(args)
     except KeyboardInterrupt:
+        _quiet_from_now_on()
         from .atomic import published
         done = published()
         if done:
@@ -58,6 +61,28 @@ def main(argv: list[str] | None = None) -> int:
             print(f"tribofmu: {one_line(exc)}; earlier results are as they were", file=sys.stderr)
             return EXIT_FAILED
         raise
+    finally:
+        from .cli_checks import release_out_locks
+        release_out_locks()
+
+
+def _quiet_from_now_on() -> None:
+    """After the one line of an interruption: a second Ctrl-C or SIGTERM while the process
+    shuts down (Dask's cluster, atexit handlers) ends it silently, and what libraries still
+    log or fail to clean up at exit (Dask: CommClosedError, 'Nanny failed to start') is not
+    printed: the line said what happened."""
+    import logging
+    import signal
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            signal.signal(sig, signal.SIG_IGN)
+        except (ValueError, OSError):  # not the main thread
+            pass
+    logging.disable(logging.CRITICAL)
+    sys.unraisablehook = lambda unraisable: None  # "Exception ignored in atexit callback"
+    sys.excepthook = lambda *exc: None  # a late exception at shutdown
+    import threading
+    threading.excepthook = lambda args: None  # one in a thread (Dask's event loop)
 
 
 DESCRIPTION = """tribofmu: dry, fluid and boundary friction as FMI co-simulation FMUs.
@@ -297,6 +322,7 @@ def cmd_simulate(args) -> int:
 def cmd_plot(args) -> int:
     """Redraw a saved result from its result.csv and the scenario recorded in stats.json."""
     from .columns import read_result_csv
+    from .errors import TriboFMUError
     from .plots import plot_signals
     from .scene.scenario import from_dict
     folder = Path(args.result_dir)
@@ -310,7 +336,17 @@ def cmd_plot(args) -> int:
     except (ValueError, KeyError, TypeError):
         raise UsageError(f"{stats_file}: no scenario recorded (written by an older tribofmu: "
                          "simulate again)") from None
-    scenario = from_dict(data, stats_file.name)
+    except OSError as exc:
+        raise UsageError(f"{stats_file}: cannot be read ({exc.strerror or exc})") from None
+    if not (isinstance(data, dict) and all(isinstance(v, dict) for v in data.values())):
+        raise UsageError(f"{stats_file}: its \"scenario\" is not a recorded scenario (a table of "
+                         f"tables), got {json.dumps(data)[:60]}")
+    try:
+        scenario = from_dict(data, stats_file.name)
+    except TriboFMUError:
+        raise
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise UsageError(f"{stats_file}: its \"scenario\" cannot be read ({one_line(exc)})") from None
     try:
         signals = read_result_csv(csv)
     except ValueError as exc:
@@ -376,8 +412,15 @@ def cmd_sweep(args) -> int:
                      plots=not args.no_plots,
                      progress=not args.quiet and sys.stderr.isatty())
     except KeyboardInterrupt:
-        print(f"tribofmu: sweep interrupted; finished points are in {out}/sweep.csv, "
-              "rerun the same command to resume", file=sys.stderr)
+        _quiet_from_now_on()
+        from .studies.sweep.store import STAGING_NAME
+        if args.recompute and (out / STAGING_NAME).is_dir():
+            print(f"tribofmu: sweep interrupted; the earlier sweep in {out}/ is as it was, the "
+                  f"recompute's finished points are kept aside: rerun the same command to resume it",
+                  file=sys.stderr)
+        else:
+            print(f"tribofmu: sweep interrupted; finished points are in {out}/sweep.csv, "
+                  "rerun the same command to resume", file=sys.stderr)
         return 130
     print(f"{len(rows)} points: {len(rows) - rows.failed} ok, {rows.failed} failed "
           f"({rows.computed} run, {rows.skipped} already done), {rows.elapsed:.1f} s -> {out}/")

@@ -7,6 +7,7 @@ exit 2) or an OSError (one line, exit 1), raised before the run.
 """
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import math
 import re
@@ -63,11 +64,122 @@ def preflight(out: Path, needed_bytes: int, option: str = "--out") -> None:
     need (OSError, one line, exit 1, otherwise); ``out`` holds nothing but results (exit 2)."""
     from .atomic import check_replaceable
     check_out_dir(out, option)
+    check_swappable(out, option)
     try:
         check_replaceable(out)
     except FileExistsError as exc:
         raise UsageError(f"{option} {exc}") from None
     _writable_folder(out.absolute().parent, needed_bytes, f"{option}'s parent")
+    lock_out(out, option)
+
+
+def check_swappable(out: Path, option: str = "--out") -> None:
+    """A result set replaces ``out`` as a whole (a sibling folder renamed in its place): the
+    current folder, one of its parents or a mount point cannot be, so they are refused
+    before the run rather than at its end (``--out .``: "Device or resource busy")."""
+    import os
+    absolute = Path(os.path.abspath(out))
+    if out.name in ("", ".", "..") or absolute == Path(absolute.anchor):
+        raise UsageError(f"{option} {out}: a result set replaces its folder as a whole, and "
+                         f"{out} cannot be replaced; give a folder inside it, e.g. {option} {out / 'run'}")
+    if out.is_symlink() or not out.is_dir():
+        return  # check_replaceable refuses links and files; a new folder can always be swapped
+    resolved, cwd = out.resolve(), Path.cwd().resolve()
+    if resolved == cwd or resolved in cwd.parents:
+        raise UsageError(f"{option} {out} is the current folder or holds it: a result set replaces "
+                         f"its folder as a whole, which cannot be done to the folder a process runs "
+                         f"in; give another folder")
+    if os.path.ismount(resolved):
+        raise UsageError(f"{option} {out} is a mount point: a result set replaces its folder as a "
+                         f"whole, which cannot be done to a mount point; give a folder inside it")
+
+
+# -- one run per output folder -------------------------------------------------------------------
+_held: list[tuple[Path, int]] = []  # (lock file, fd) this process holds
+
+
+def lock_path(out: Path) -> Path:
+    """The lock of the folder ``out`` names: a file in this user's private lock folder in the
+    temp dir, named by a hash of the folder's real path (not beside it: the preflight makes no
+    folder, and the folder itself is swapped out by the run)."""
+    import hashlib
+    import os
+    import tempfile
+    real = os.path.realpath(out)
+    uid = os.getuid() if hasattr(os, "getuid") else 0
+    name = hashlib.sha256(os.fsencode(real)).hexdigest()[:24]
+    return Path(tempfile.gettempdir()) / f"tribofmu-{uid}-locks" / f"{name}.lock"
+
+
+def lock_out(out: Path, option: str = "--out") -> None:
+    """Hold ``out``'s lock until :func:`release_out_locks` (the end of the command) or the
+    process's end: a second run writing into the same folder meanwhile is refused with one
+    line (UsageError) before it simulates, instead of silently replacing the other's set."""
+    import fcntl
+    import os
+    path = lock_path(out)
+    if any(held == path for held, _ in _held):
+        return
+    try:
+        path.parent.mkdir(mode=0o700, exist_ok=True)
+        if path.parent.is_symlink() or path.parent.stat().st_uid != os.getuid():
+            return  # not this user's: no lock rather than one someone else controls
+    except OSError:
+        return  # no temp dir to lock in: the run goes on unlocked, as before
+    for _ in range(10):
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
+        except FileNotFoundError:  # another run removed the (empty) lock folder just now
+            with contextlib.suppress(OSError):
+                path.parent.mkdir(mode=0o700, exist_ok=True)
+            continue
+        except OSError:
+            return  # no lock to be had here: the run goes on unlocked, as before
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            holder = _lock_holder(path)
+            raise UsageError(f"{option} {out}: another tribofmu run{holder} is writing into this "
+                             f"folder; wait for it to end or give another {option}") from None
+        except OSError:  # a file system without locks: nothing to hold
+            os.close(fd)
+            return
+        # the holder before us may have removed the file after we opened it: lock the file
+        # that is there now, or we and a third run would each hold a lock of our own
+        try:
+            same = os.stat(path).st_ino == os.fstat(fd).st_ino
+        except OSError:
+            same = False
+        if same:
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
+            _held.append((path, fd))
+            return
+        os.close(fd)
+
+
+def _lock_holder(path: Path) -> str:
+    try:
+        pid = path.read_text().strip()
+    except OSError:
+        return ""
+    return f" (process {pid})" if pid.isdigit() else ""
+
+
+def release_out_locks() -> None:
+    """Give up the locks :func:`lock_out` took (the lock file removed, then unlocked)."""
+    import os
+    while _held:
+        path, fd = _held.pop()
+        try:
+            if os.stat(path).st_ino == os.fstat(fd).st_ino:
+                os.unlink(path)
+        except OSError:
+            pass
+        os.close(fd)
+        with contextlib.suppress(OSError):
+            path.parent.rmdir()  # when no other run holds a lock: the temp dir as it was
 
 
 def preflight_folder(out: Path, needed_bytes: int, option: str = "--out") -> None:
@@ -99,12 +211,77 @@ def check_algorithm_options(scenario, algorithm: str | None, step: float | None,
         check_number(name, value)
     if max_wall is not None and not (math.isfinite(max_wall) and max_wall >= 0):
         raise UsageError(f"--max-wall must be >= 0 s (0: no limit), got {max_wall}")
+    least = min_max_wall()
+    if max_wall is not None and 0 < max_wall < least:
+        raise UsageError(f"--max-wall must be 0 (no limit) or at least {least:g} s (a run's projected "
+                         f"wall time is judged after its first seconds), got {max_wall:g}")
     name = algorithm or scenario.simulation.algorithm
     if name not in ALGORITHMS:
         raise UsageError(f"unknown algorithm {name!r} (known: {', '.join(ALGORITHMS)})")
     if tol is not None and name != "adaptive":
         raise UsageError(f"--tol applies to the adaptive algorithm only, not {name} (use --step)")
+    check_resolution(scenario, name, step)
     return name
+
+
+# -- a run that can resolve its drive ------------------------------------------------------------
+# The coupling's time grid counts integer nanoseconds (coupling.interpolation.NS) in int64, with
+# steps of at least 2 ns; the adaptive algorithm's largest step is a twentieth of the drive
+# period. A fixed-step run needs a handful of communication points per drive period: with
+# fewer, the drive's motion is sampled below its Nyquist rate and the result is garbage (the
+# jacobi run at --step 0.2 on Fig. 2: one step, V ten times A*omega, x = v = 0).
+MIN_POINTS_PER_PERIOD = 10  # fixed-step algorithms: communication points per drive period
+ADAPTIVE_POINTS_PER_PERIOD = 20  # the adaptive algorithm's largest step is period/20
+GRID_NS = 2  # the smallest step of the integer-nanosecond time grid
+LONGEST_RUN = 2.0 ** 62 / 1e9  # s (~146 years): the time grid is int64 nanoseconds
+
+
+MIN_MAX_WALL = 1.0  # s
+
+
+def min_max_wall() -> float:
+    """The smallest --max-wall but 0 (no limit) [s]. The limit is on a run's projected wall
+    time, which the master judges once the run has gone for a few seconds (3 s): a smaller
+    positive limit (1e-100) could only ever mean "stop at the first judgement", and reads
+    like a promise the run cannot keep, so it is refused rather than accepted and ignored."""
+    return MIN_MAX_WALL
+
+
+def check_resolution(scenario, algorithm: str, step: float | None) -> None:
+    """Refuse, before the run, a drive or a communication step the run cannot resolve: one
+    line naming the limit (UsageError, exit 2)."""
+    from .coupling.algorithms import ALGORITHMS
+    omega, period = scenario.drive.omega, scenario.drive.period
+    stop = scenario.stop_time
+    if not (math.isfinite(stop) and stop <= LONGEST_RUN):
+        raise UsageError(f"drive.omega = {omega:g} rad/s and time.periods = {scenario.time.periods:g} "
+                         f"make a run of {stop:.3g} s, longer than the time grid holds "
+                         f"({LONGEST_RUN:.3g} s in integer nanoseconds): raise drive.omega or lower "
+                         f"time.periods")
+    points = ADAPTIVE_POINTS_PER_PERIOD if algorithm == "adaptive" else MIN_POINTS_PER_PERIOD
+    fastest = 2 * math.pi / (points * GRID_NS * 1e-9)
+    if omega > fastest:
+        raise UsageError(f"drive.omega = {omega:g} rad/s: its period {period:.3g} s is shorter than "
+                         f"the {algorithm} coupling can resolve ({points} steps per period of at "
+                         f"least {GRID_NS} ns); drive.omega must be <= {fastest:.3g} rad/s")
+    if algorithm == "adaptive":
+        return  # its steps are at most period/20, whatever the first try
+    if step is not None:
+        source, h = "--step", step
+    elif scenario.simulation.step is not None:
+        source, h = "simulation.step", scenario.simulation.step
+    else:
+        try:
+            default = float(ALGORITHMS[algorithm]().default_step)
+        except Exception:  # the coupling's own default; 1e-4 s when it cannot be read
+            default = 1e-4
+        source, h = f"the {algorithm} default step", default
+    h = max(GRID_NS, round(h * 1e9)) / 1e9  # the step the run takes, on the grid
+    if period / h < MIN_POINTS_PER_PERIOD:
+        raise UsageError(f"{source} {h:g} s gives {period / h:.3g} communication points per drive "
+                         f"period ({period:.3g} s at drive.omega = {omega:g} rad/s); the {algorithm} "
+                         f"coupling needs at least {MIN_POINTS_PER_PERIOD}: use a step <= "
+                         f"{period / MIN_POINTS_PER_PERIOD:.3g} s")
 
 
 def require(module: str, install: str, purpose: str) -> None:

@@ -29,7 +29,7 @@ def compiler() -> str:
 def programs(compiler, tmp_path_factory) -> dict[str, Path]:
     out = tmp_path_factory.mktemp("native_hosts")
     built = {}
-    for name in ("fmi2_host", "fmi2_misuse", "fmi3_host"):
+    for name in ("fmi2_host", "fmi2_misuse", "fmi2_hostile", "fmi3_host", "fmi3_hostile"):
         built[name] = _compile(compiler, [HERE / f"{name}.c"], out / name, ["-ldl"])
     return built
 

@@ -51,7 +51,8 @@ def sample(points, grid: np.ndarray, inputs: bool = False) -> dict[str, np.ndarr
     """
     import numpy as np
 
-    t = np.array([p.t_ns for p in points], dtype=np.int64) / NS
+    # float64, not int64: exact below 2**53 ns (104 days), and no OverflowError beyond
+    t = np.array([p.t_ns for p in points], dtype=np.float64) / NS
     get = lambda name: np.array([getattr(p, name) for p in points])
     X, V, aX, x, v, a = (get(k) for k in ("X", "V", "aX", "x", "v", "a"))
     slopes = np.array([velocity_slopes(p0, p1) for p0, p1 in zip(points, points[1:])])

@@ -8,12 +8,14 @@ from .fmi_version import FMI_VERSION
 if FMI_VERSION == 3:
     from pythonfmu3 import Boolean, Fmi3Causality as Causality, Fmi3Slave as _PythonFMUSlave
     from pythonfmu3 import Fmi3Variability as Variability, Float64 as Real, Int32 as Integer
+    from pythonfmu3 import String, UInt64
     from pythonfmu3.default_experiment import DefaultExperiment
     from pythonfmu3.enums import Fmi3Initial as Initial, Fmi3Status as Status
     from pythonfmu3.fmi3slave import Fmi3StepResult
 else:
     from pythonfmu import Boolean, Fmi2Causality as Causality, Fmi2Slave as _PythonFMUSlave
-    from pythonfmu import Fmi2Variability as Variability, Integer, Real
+    from pythonfmu import Fmi2Variability as Variability, Integer, Real, String
+    UInt64 = None  # FMI 2.0 has no such type
     from pythonfmu.default_experiment import DefaultExperiment
     from pythonfmu.enums import Fmi2Initial as Initial, Fmi2Status as Status
 
@@ -27,7 +29,8 @@ _KINDS = {float: Real, int: Integer, bool: Boolean}
 _PREFIX = f"fmi{FMI_VERSION}"
 # The FMI names of the typed calls, for messages: Python type of the variable -> suffix.
 _TYPE_NAMES = {Real: "Float64" if FMI_VERSION == 3 else "Real",
-               Integer: "Int32" if FMI_VERSION == 3 else "Integer", Boolean: "Boolean"}
+               Integer: "Int32" if FMI_VERSION == 3 else "Integer", Boolean: "Boolean",
+               String: "String", UInt64: "UInt64"}
 _STATE = "FMUState" if FMI_VERSION == 3 else "FMUstate"
 
 # The log category of a refusal: the FMUs' native loader (tribofmu.native, between the host and

@@ -9,7 +9,8 @@ import json
 import uuid
 from typing import Any
 
-from .fmi import _STATE, Causality
+from .fmi import (_STATE, INITIALIZATION, INSTANTIATED, STEP, TERMINATED, Boolean, Causality, Integer,
+                  Real)
 
 
 class FMUStateMixin:
@@ -40,8 +41,58 @@ class FMUStateMixin:
             self._refuse(f"Set{_STATE}", f"{what}, not of this model and build ({self._model_id}); "
                                          f"not restored", enter_error=True)
             return
+        why = self._state_problem(state)
+        if why is None:
+            before = self._get_fmu_state()
+            try:
+                self._apply_fmu_state(state)
+            except Exception as exc:  # a value the model cannot take: back to where it was
+                why = f"{type(exc).__name__}: {exc}"
+                try:
+                    self._apply_fmu_state(before, every_value=True)
+                except Exception as again:  # cannot happen for a state just taken; say so if it does
+                    why += f"; restoring the previous state failed too ({type(again).__name__}: {again})"
+        if why is not None:
+            self._refuse(f"Set{_STATE}", f"a damaged FMU state of this model ({why}); not restored",
+                         enter_error=True)
+
+    def _state_problem(self, state: dict[str, Any]) -> str | None:
+        """Why a state that names this model cannot be one this model made (keys, types)."""
+        expected = set(self._scalar_names()) | set(self.internal_state_names) | set(self._BOOKKEEPING)
+        missing, unknown = expected - state.keys(), state.keys() - expected
+        if missing or unknown:
+            parts = [f"lacks {', '.join(sorted(missing))}" if missing else "",
+                     f"has unknown {', '.join(sorted(map(str, unknown)))}" if unknown else ""]
+            return " and ".join(p for p in parts if p)
+        if not isinstance(state["_bad"], dict) or not isinstance(state["_initialized"], bool):
+            return "its bookkeeping is not of the right types"
+        if state["_mode"] not in (INSTANTIATED, INITIALIZATION, STEP, TERMINATED):
+            return f"unknown mode {state['_mode']!r}"
+        if not (state["_error"] is None or isinstance(state["_error"], str)):
+            return "its error entry is not text"
+        if not isinstance(state["_parameter_token"], str):
+            return "its parameter token is not text"
+        for var in self.vars.values():
+            value = state.get(var.name)
+            if var.name in state and not self._state_value_ok(var, value):
+                return f"{var.name} = {value!r} is not a value of its type"
+        if not isinstance(state["time"], (int, float)) or isinstance(state["time"], bool):
+            return f"time = {state['time']!r} is not a number"
+        return None
+
+    @staticmethod
+    def _state_value_ok(var, value: Any) -> bool:
+        if isinstance(var, Real):  # JSON keeps NaN and inf; ints are whole floats
+            return isinstance(value, (int, float)) and not isinstance(value, bool)
+        if isinstance(var, Boolean):
+            return isinstance(value, bool)
+        if isinstance(var, Integer):
+            return isinstance(value, int) and not isinstance(value, bool)
+        return True
+
+    def _apply_fmu_state(self, state: dict[str, Any], every_value: bool = False) -> None:
         token = state.get("_parameter_token")
-        same_parameters = token == self._parameter_token
+        same_parameters = token == self._parameter_token and not every_value
         self._bad = dict(state["_bad"])
         self._initialized = bool(state["_initialized"])
         self._mode = state["_mode"]
@@ -51,7 +102,7 @@ class FMUStateMixin:
                 continue
             elif not (same_parameters and name in self._parameter_set):
                 setattr(self, name, value)
-        if not same_parameters:  # a state of another instance (deserialized): its parameters
+        if token != self._parameter_token:  # a state of another instance (deserialized): its parameters
             self._new_parameters(token or f"{uuid.uuid4()}:0")
 
     def _scalar_names(self) -> list[str]:

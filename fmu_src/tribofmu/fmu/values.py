@@ -7,7 +7,7 @@ import math
 from typing import Any, Callable
 
 from .fmi import (_PREFIX, _TYPE_NAMES, FMI_VERSION, INSTANTIATED, STEP, TERMINATED, Boolean, Causality,
-                  Integer, Real, Variability)
+                  Integer, Real, String, UInt64, Variability)
 
 
 class ValueAccessMixin:
@@ -50,7 +50,7 @@ class ValueAccessMixin:
             if var is None or not isinstance(var, kind):
                 what = (f"unknown value reference {vr}" if var is None else
                         f"{var.name} (value reference {vr}) is not a {_TYPE_NAMES[kind]} variable")
-                self._refuse(call, f"{what}; reads as {missing}")
+                self._refuse(call, f"{what}; reads as {missing!r}")
                 values.append(missing)
             else:
                 values.append(cast(var.getter()))
@@ -74,6 +74,20 @@ class ValueAccessMixin:
 
         def set_boolean(self, vrs, values):
             self._set(Boolean, vrs, values)
+
+        # The models declare no String or UInt64 variable: pythonfmu3's own versions raise on
+        # any other type, which is fmi3Fatal (the instance lost); these refuse by name.
+        def get_uint64(self, vrs):
+            return self._get(UInt64, vrs, int, 0)
+
+        def set_uint64(self, vrs, values):
+            self._set(UInt64, vrs, values)
+
+        def get_string(self, vrs):
+            return self._get(String, vrs, str, "")
+
+        def set_string(self, vrs, values):
+            self._set(String, vrs, values)
     else:
         def get_real(self, vrs):
             return self._get(Real, vrs, float, math.nan)
@@ -92,3 +106,11 @@ class ValueAccessMixin:
 
         def set_boolean(self, vrs, values):
             self._set(Boolean, vrs, values)
+
+        # The models declare no String variable: pythonfmu's own get_string/set_string raise
+        # on any other type, which is fmi2Fatal (the instance lost); these refuse by name.
+        def get_string(self, vrs):
+            return self._get(String, vrs, str, "")
+
+        def set_string(self, vrs, values):
+            self._set(String, vrs, values)

@@ -155,6 +155,17 @@ static fmi2Status tf_leave(tf_instance *I, fmi2Status status, const char *call)
 TF_EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
 TF_EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
 
+/* One message naming what is wrong (the host's logger, else stderr), and no instance. */
+static void tf_refuse_instantiate(tf_instance *I, const char *problem)
+{
+    if (I->host.logger)
+        tf_log(I, fmi2Error, "fmi2Instantiate failed: %s", problem);
+    else
+        fprintf(stderr, "tribofmu: fmi2Instantiate of %s failed: %s\n", I->name, problem);
+    free(I->name);
+    free(I);
+}
+
 TF_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
                                         fmi2String fmuResourceLocation,
                                         const fmi2CallbackFunctions *functions,
@@ -171,10 +182,22 @@ TF_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuTyp
     I->to_wrapper.componentEnvironment = I;
 
     const char *problem = NULL;
-    pthread_mutex_lock(&tf_lock);
-    if (fmuType != fmi2CoSimulation)
+    char checked[TF_MSG], resources[PATH_MAX];
+    if (!instanceName)
+        problem = "instanceName is NULL";
+    else if (!functions || !functions->logger)
+        problem = "the callback functions (or their logger) are NULL, as FMI 2.0 does not allow";
+    else if (fmuType != fmi2CoSimulation)
         problem = "this FMU supports co-simulation only (fmuType must be fmi2CoSimulation)";
-    else if (!tf_ensure_python())
+    else if (!(problem = tf_check_resources("fmuResourceLocation", fmuResourceLocation, resources,
+                                            sizeof resources, checked, sizeof checked)))
+        problem = tf_check_token("fmuGUID", "guid", fmuGUID, resources, checked, sizeof checked);
+    if (problem) {
+        tf_refuse_instantiate(I, problem);
+        return NULL;
+    }
+    pthread_mutex_lock(&tf_lock);
+    if (!tf_ensure_python())
         problem = tf_python_problem;
     else if (!tf_open_wrapper())
         problem = tf_wrapper_problem;
@@ -187,15 +210,14 @@ TF_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuTyp
     if (!problem) {
         tf_current = I;
         /* pythonfmu always logs to us; we filter for the host */
-        I->inner = instantiate(instanceName, fmuType, fmuGUID, fmuResourceLocation, &I->to_wrapper,
+        /* the checked folder: pythonfmu only cuts "file://" and decodes "%20" */
+        I->inner = instantiate(instanceName, fmuType, fmuGUID, resources, &I->to_wrapper,
                                visible, fmi2True);
         tf_current = NULL;
         if (!I->inner) problem = "pythonfmu could not create the instance (see the message before)";
     }
     if (problem) {
-        tf_log(I, fmi2Error, "fmi2Instantiate failed: %s", problem);
-        free(I->name);
-        free(I);
+        tf_refuse_instantiate(I, problem);
         return NULL;
     }
     pthread_mutex_lock(&tf_lock);

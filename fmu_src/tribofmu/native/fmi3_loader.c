@@ -161,6 +161,16 @@ static fmi3Status tf_unsupported(fmi3Instance instance, const char *call)
 
 TF_EXPORT const char *fmi3GetVersion(void) { return "3.0"; }
 
+/* One message naming what is wrong (the host's logger, else stderr), and no instance. */
+static void tf_refuse_instantiate(tf_instance *I, const char *problem)
+{
+    if (I->host_log)
+        tf_log(I, fmi3Error, "fmi3InstantiateCoSimulation failed: %s", problem);
+    else
+        fprintf(stderr, "tribofmu: fmi3InstantiateCoSimulation failed: %s\n", problem);
+    free(I);
+}
+
 TF_EXPORT fmi3Instance fmi3InstantiateCoSimulation(
     fmi3String instanceName, fmi3String instantiationToken, fmi3String resourcePath,
     fmi3Boolean visible, fmi3Boolean loggingOn, fmi3Boolean eventModeUsed,
@@ -173,9 +183,20 @@ TF_EXPORT fmi3Instance fmi3InstantiateCoSimulation(
     I->host_env = instanceEnvironment;
     I->host_log = logMessage;
     I->logging_on = loggingOn;
-    (void)instanceName;
 
     const char *problem = NULL;
+    char checked[TF_MSG], resources[PATH_MAX];
+    if (!instanceName)
+        problem = "instanceName is NULL";
+    else if (!(problem = tf_check_resources("resourcePath", resourcePath, resources,
+                                            sizeof resources - 1, checked, sizeof checked)))
+        problem = tf_check_token("instantiationToken", "instantiationToken", instantiationToken,
+                                 resources, checked, sizeof checked);
+    if (problem) {
+        tf_refuse_instantiate(I, problem);
+        return NULL;
+    }
+    strcat(resources, "/");  /* FMI 3.0: a folder path ends with its separator */
     pthread_mutex_lock(&tf_lock);
     if (!tf_ensure_python())
         problem = tf_python_problem;
@@ -191,15 +212,14 @@ TF_EXPORT fmi3Instance fmi3InstantiateCoSimulation(
     if (!problem && !instantiate) problem = "fmi3InstantiateCoSimulation is not in the pythonfmu3 binary";
     if (!problem) {
         tf_current = I;
-        I->inner = instantiate(instanceName, instantiationToken, resourcePath, visible, true,
+        I->inner = instantiate(instanceName, instantiationToken, resources, visible, true,
                                eventModeUsed, earlyReturnAllowed, requiredIntermediateVariables,
                                nRequiredIntermediateVariables, I, tf_from_wrapper, intermediateUpdate);
         tf_current = NULL;
         if (!I->inner) problem = "pythonfmu3 could not create the instance";
     }
     if (problem) {
-        tf_log(I, fmi3Error, "fmi3InstantiateCoSimulation failed: %s", problem);
-        free(I);
+        tf_refuse_instantiate(I, problem);
         return NULL;
     }
     pthread_mutex_lock(&tf_lock);

@@ -43,6 +43,9 @@
 #define TRIBOFMU_REQUIRED_MODULES ""
 #endif
 #define TRIBOFMU_WRAPPER_FILE "libpythonfmu-export.so"
+/* In resources/: the FMU's GUID (FMI 3.0: instantiation token), written by tribofmu/build.py,
+ * for hosts that extract only binaries/ and resources/ (fmpy's simulate_fmu) */
+#define TRIBOFMU_TOKEN_FILE "tribofmu-guid.txt"
 #define TRIBOFMU_LIBPYTHON_ENV "TRIBOFMU_LIBPYTHON"
 /* A message the Python side logs with this category sets the status of the call it was
  * logged in to at least the message's status (pythonfmu can only report OK, Discard from
@@ -328,6 +331,244 @@ static void *tf_open_wrapper(void)
 static void *tf_sym(const char *name)
 {
     return tf_wrapper ? dlsym(tf_wrapper, name) : NULL;
+}
+
+/* ---- instantiate's arguments: what pythonfmu's binary would crash on ------------------ */
+/* pythonfmu (and pythonfmu3) build a std::string from the resource location and the instance
+ * name (NULL: std::logic_error out of extern "C", the host aborts), cut "file://" out of the
+ * location wherever it occurs, and then read <resources>/slavemodule.txt and the model's .py
+ * without checking either (a missing folder or file: a crash in its Python calls). So the
+ * loader checks them first; each problem is one message and a NULL instance. */
+
+#include <sys/stat.h>
+#include <ctype.h>
+
+static int tf_hex(int c)
+{
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return -1;
+}
+
+static int tf_is_dir(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+static int tf_is_file(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/* Quote a host-given text for a message: at most 200 bytes, unprintable bytes as '?'. */
+static void tf_quote(const char *text, char *out, size_t size)
+{
+    size_t j = 0;
+    if (size < 8) { if (size) out[0] = '\0'; return; }
+    out[j++] = '"';
+    for (size_t i = 0; text[i] && j + 5 < size; ++i) {
+        if (i >= 200) { out[j++] = '.'; out[j++] = '.'; out[j++] = '.'; break; }
+        unsigned char ch = (unsigned char)text[i];
+        out[j++] = (ch >= 32 && ch < 127) ? (char)ch : '?';
+    }
+    out[j++] = '"';
+    out[j] = '\0';
+}
+
+/* The resources folder the host names, as an absolute, existing path in folder (no trailing
+ * '/'), holding slavemodule.txt and the model's .py; NULL, or what is wrong (in problem).
+ * Accepted: a file: URI of this machine (file:///abs, file://localhost/abs, file:/abs,
+ * %-escapes decoded) and, as pythonfmu accepts it, an absolute path. */
+static const char *tf_check_resources(const char *arg, const char *location, char *folder,
+                                      size_t size, char *problem, size_t psize)
+{
+    char quoted[256];
+    if (!location) {
+        snprintf(problem, psize, "%s is NULL: it must name the FMU's resources folder "
+                 "(file:///<unzipped FMU>/resources)", arg);
+        return problem;
+    }
+    tf_quote(location, quoted, sizeof quoted);
+    if (!location[0]) {
+        snprintf(problem, psize, "%s is empty: it must name the FMU's resources folder "
+                 "(file:///<unzipped FMU>/resources)", arg);
+        return problem;
+    }
+    const char *path = location;
+    if (strncmp(location, "file:", 5) == 0) {
+        path = location + 5;
+        if (strncmp(path, "//", 2) == 0) {  /* an authority: empty or localhost */
+            path += 2;
+            const char *slash = strchr(path, '/');
+            size_t host = slash ? (size_t)(slash - path) : strlen(path);
+            if (!(host == 0 || (host == 9 && strncmp(path, "localhost", 9) == 0))) {
+                snprintf(problem, psize, "%s %s names another host: only a folder on this "
+                         "machine can be used (file:///<unzipped FMU>/resources)", arg, quoted);
+                return problem;
+            }
+            path += host;
+        }
+    } else {
+        const char *colon = strchr(location, ':');
+        const char *slash = strchr(location, '/');
+        if (colon && (!slash || colon < slash)) {
+            snprintf(problem, psize, "%s %s is not a file: URI: the FMU's resources must be a "
+                     "folder on this machine (file:///<unzipped FMU>/resources)", arg, quoted);
+            return problem;
+        }
+    }
+    char decoded[PATH_MAX];
+    size_t j = 0;
+    for (size_t i = 0; path[i]; ++i) {
+        int ch = (unsigned char)path[i];
+        if (ch == '%') {
+            int hi = tf_hex(path[i + 1]), lo = hi < 0 ? -1 : tf_hex(path[i + 2]);
+            if (hi < 0 || lo < 0 || (hi == 0 && lo == 0)) {
+                snprintf(problem, psize, "%s %s has a bad %%-escape", arg, quoted);
+                return problem;
+            }
+            ch = 16 * hi + lo;
+            i += 2;
+        }
+        if (j + 1 >= sizeof decoded) {
+            snprintf(problem, psize, "%s %s is longer than a path can be", arg, quoted);
+            return problem;
+        }
+        decoded[j++] = (char)ch;
+    }
+    decoded[j] = '\0';
+    if (decoded[0] != '/') {
+        snprintf(problem, psize, "%s %s is not an absolute file: URI or path (a relative "
+                 "location has no defined meaning; use file:///<unzipped FMU>/resources)",
+                 arg, quoted);
+        return problem;
+    }
+    char real[PATH_MAX];
+    if (!realpath(decoded, real) || !tf_is_dir(real)) {
+        snprintf(problem, psize, "%s %s: the folder %s does not exist (is the FMU unzipped "
+                 "there, with its resources folder?)", arg, quoted, decoded);
+        return problem;
+    }
+    /* pythonfmu would rewrite these inside the path it is given */
+    if (strstr(real, "%20") || strstr(real, "file://")) {
+        snprintf(problem, psize, "%s %s: the path %s contains \"%%20\" or \"file://\", which "
+                 "pythonfmu's binary would rewrite: unzip the FMU elsewhere", arg, quoted, real);
+        return problem;
+    }
+    char file[PATH_MAX + 64];
+    snprintf(file, sizeof file, "%s/slavemodule.txt", real);
+    FILE *f = tf_is_file(file) ? fopen(file, "r") : NULL;
+    char module[256] = "";
+    if (f) {
+        if (!fgets(module, sizeof module, f)) module[0] = '\0';
+        fclose(f);
+    }
+    module[strcspn(module, "\r\n")] = '\0';
+    int name_ok = module[0] != '\0';
+    for (size_t i = 0; module[i]; ++i)
+        if (!(isalnum((unsigned char)module[i]) || module[i] == '_')) name_ok = 0;
+    if (!f || !name_ok) {
+        snprintf(problem, psize, "the FMU's resources folder %s has no readable slavemodule.txt "
+                 "naming the model's module: the FMU is damaged or %s is not its resources "
+                 "folder", real, arg);
+        return problem;
+    }
+    snprintf(file, sizeof file, "%s/%s.py", real, module);
+    if (!tf_is_file(file) || access(file, R_OK) != 0) {
+        snprintf(problem, psize, "the FMU's resources folder %s lacks the model's file %s.py: "
+                 "the FMU is damaged", real, module);
+        return problem;
+    }
+    snprintf(folder, size, "%s", real);
+    return NULL;
+}
+
+/* The value of attribute (guid, instantiationToken) in the modelDescription.xml at path; 1 if
+ * found. Under tf_lock (one static buffer). */
+static int tf_token_in_description(const char *path, const char *attribute, char *value, size_t size)
+{
+    FILE *f = fopen(path, "r");
+    if (!f) return 0;
+    static char text[1 << 16];  /* the root element's attributes come first */
+    size_t got = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[got] = '\0';
+    char *root = strstr(text, "<fmiModelDescription");
+    char *end = root ? strchr(root, '>') : NULL;
+    if (!root || !end) return 0;
+    *end = '\0';
+    char key[64];
+    snprintf(key, sizeof key, "%s=\"", attribute);
+    char *at = root;
+    while ((at = strstr(at, key)) != NULL && !isspace((unsigned char)at[-1])) at += 1;
+    if (!at) return 0;
+    at += strlen(key);
+    char *close = strchr(at, '"');
+    if (!close || (size_t)(close - at) >= size) return 0;
+    memcpy(value, at, (size_t)(close - at));
+    value[close - at] = '\0';
+    return 1;
+}
+
+/* The FMU's GUID (instantiation token): from the modelDescription.xml of the FMU this binary
+ * belongs to (<FMU>/binaries/<platform>/<model>.so), else from resources/TRIBOFMU_TOKEN_FILE
+ * (written from it at build time), else from resources/../modelDescription.xml; 1 if found. */
+static int tf_read_token(const char *attribute, const char *resources, char *value, size_t size)
+{
+    char path[PATH_MAX + 64];
+    Dl_info info;
+    if (dladdr((void *)&tf_read_token, &info) && info.dli_fname) {
+        char real[PATH_MAX];
+        if (realpath(info.dli_fname, real)) {
+            for (int up = 0; up < 3; ++up) {
+                char *slash = strrchr(real, '/');
+                if (slash) *slash = '\0';
+            }
+            snprintf(path, sizeof path, "%s/modelDescription.xml", real);
+            if (tf_token_in_description(path, attribute, value, size)) return 1;
+        }
+    }
+    snprintf(path, sizeof path, "%s/" TRIBOFMU_TOKEN_FILE, resources);
+    FILE *f = fopen(path, "r");
+    if (f) {
+        int ok = fgets(value, (int)size, f) != NULL;
+        fclose(f);
+        value[ok ? strcspn(value, "\r\n") : 0] = '\0';
+        if (ok && value[0]) return 1;
+    }
+    snprintf(path, sizeof path, "%s/../modelDescription.xml", resources);
+    return tf_token_in_description(path, attribute, value, size);
+}
+
+/* The host's GUID (FMI 3.0: instantiation token) against the FMU's own; NULL if they agree. */
+static const char *tf_check_token(const char *arg, const char *attribute, const char *given,
+                                  const char *resources, char *problem, size_t psize)
+{
+    char own[512], quoted[256];
+    if (!given) {
+        snprintf(problem, psize, "%s is NULL: it must be the %s of the FMU's modelDescription.xml",
+                 arg, attribute);
+        return problem;
+    }
+    pthread_mutex_lock(&tf_lock);
+    int found = tf_read_token(attribute, resources, own, sizeof own);
+    pthread_mutex_unlock(&tf_lock);
+    if (!found) {
+        snprintf(problem, psize, "cannot check %s: the FMU's modelDescription.xml (beside its "
+                 "binaries folder) and resources/" TRIBOFMU_TOKEN_FILE " are missing or name no "
+                 "%s: the FMU is damaged", arg, attribute);
+        return problem;
+    }
+    if (strcmp(given, own) != 0) {
+        tf_quote(given, quoted, sizeof quoted);
+        snprintf(problem, psize, "%s %s is not this FMU's (%s, from its modelDescription.xml): "
+                 "the host read another FMU's description", arg, quoted, own);
+        return problem;
+    }
+    return NULL;
 }
 
 /* ---- live instances and FMU states ---------------------------------------------------- */

@@ -26,7 +26,7 @@ from . import grid as _grid
 from .grid import parse_grid
 from .plots import plot_sweep
 from .runner import run_dask, run_plain
-from .store import SweepStore
+from .store import WORKER_LOG_NAME, SweepStore
 from .worker import PORTRAIT_POINTS, STATUS_OK
 
 __all__ = ["sweep", "parse_grid", "SweepRows", "SweepError"]
@@ -97,8 +97,9 @@ def sweep(scenario_path: str | Path, grid: dict[str, list], out_dir: str | Path,
                     run_plain(plan.scenarios, todo, fmu_dir, settings, store.record, progress, plan.base.name)
                 else:
                     run_dask(plan.scenarios, todo, fmu_dir, settings, store.record, progress, plan.base.name,
-                             scheduler, workers, log)
+                             scheduler, workers, log, worker_log=out_dir / WORKER_LOG_NAME)
         store.write_sorted()
+        store.publish()  # a recompute replaces the earlier sweep only now, every point done
         rows = SweepRows(store.rows())
         rows.keys, rows.computed, rows.skipped, rows.out_dir = (
             tuple(plan.keys), len(todo), len(plan.points) - len(todo), out_dir)

@@ -165,6 +165,14 @@ def plan(scenario_path, grid: dict[str, list], overrides, algorithm, step, tol) 
             make_algorithm(name, step=step if step is not None else sc[1], tol=tol if tol is not None else sc[2])
         except ValueError as exc:
             raise SweepError(f"--algorithm: {exc}") from None
+    # every point must resolve its drive (the CLI checks the base scene alone): one line
+    # naming the point, before any runs, instead of an ok row that does not resolve it
+    from ...cli_checks import UsageError, check_resolution
+    for point, sc in zip(points, scenarios):
+        try:
+            check_resolution(sc, algorithm or sc.simulation.algorithm, step)
+        except UsageError as exc:
+            raise SweepError(f"--grid point {point_label(point)}: {exc}") from None
     meta = {"scenario": str(scenario_path), "base": _fingerprint(base, keys), "overrides":
             {k: format_value(v) for k, v in overrides.items()}, "algorithm": algorithm, "step": step,
             "tol": tol, "keys": keys, "grid": {k: [format_value(v) for v in vs] for k, vs in grid.items()}}

@@ -16,6 +16,7 @@ import logging
 import math
 import os
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Callable
@@ -86,17 +87,27 @@ def run_plain(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, setting
 
 
 def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings: tuple, record: Record,
-             progress: bool, desc: str, scheduler: str | None, workers: int | None, log) -> None:
+             progress: bool, desc: str, scheduler: str | None, workers: int | None, log,
+             worker_log: Path | None = None) -> None:
     """Run the points on Dask, longest expected first; record each as it finishes.
 
     settings: (algorithm, step, tol, portrait_points, timeout), as :func:`run_point` takes them.
+    worker_log: where a local cluster's workers and Dask's own messages go (default: a file
+    in the temp folder); removed at the end when empty.
     """
     from distributed import Client, LocalCluster, as_completed
 
-    cluster = None
+    cluster = client = None
+    worker_log = Path(worker_log) if worker_log else Path(tempfile.gettempdir()) / f"tribofmu-dask-{os.getpid()}.log"
+    with contextlib.suppress(OSError):
+        worker_log.unlink()  # this run's messages only
+    dask_messages = _dask_logs_to(worker_log)
     # Spawned workers inherit sys.path: an FMU loaded earlier in this process would leave its
     # trimmed tribofmu there, shadowing the installed package in the workers.
     clean = NoUnzippedFMUsOnSysPath().__enter__()
+    children_stderr = _ChildrenStderr(worker_log if not scheduler else None)
+    from distributed.deploy.spec import SpecCluster
+    clusters_before = set(getattr(SpecCluster, "_instances", ()))
     try:
         if scheduler:
             try:
@@ -119,9 +130,22 @@ def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings
                 client.close()
                 cluster.close()
                 raise SweepError(f"the local Dask cluster's {n} workers did not start within "
-                                 f"{WORKER_START_TIMEOUT:g} s") from None
+                                 f"{WORKER_START_TIMEOUT:g} s (their output: {worker_log})") from None
     except BaseException:
-        clean.__exit__(None, None, None)
+        # interrupted while the cluster started, or it could not: shut down what is up,
+        # a further Ctrl-C meanwhile only requested (no half-closed cluster at exit)
+        with _interrupts_held():
+            with contextlib.suppress(Exception):
+                if client is not None:
+                    client.close()
+            # a cluster interrupted in its constructor is not ours yet, but Dask knows it
+            started = set(getattr(SpecCluster, "_instances", ())) - clusters_before
+            for each in ([cluster] if cluster is not None else []) + [c for c in started if c is not cluster]:
+                with contextlib.suppress(Exception):
+                    each.close()
+            clean.__exit__(None, None, None)
+            dask_messages.close()
+            children_stderr.close()
         raise
     futures = {}
     try:
@@ -145,13 +169,96 @@ def run_dask(scenarios: list[Scenario], todo: list[int], fmu_dir: Path, settings
                 done(futures[fut], out)
                 fut.release()
     finally:
-        for fut in futures:
-            if not fut.done():
-                fut.cancel()
-        client.close()
-        if cluster is not None:
-            cluster.close()
-        clean.__exit__(None, None, None)
+        with _interrupts_held():  # closing the cluster is not cut short by a second Ctrl-C
+            for fut in futures:
+                if not fut.done():
+                    fut.cancel()
+            client.close()
+            if cluster is not None:
+                cluster.close()
+            clean.__exit__(None, None, None)
+            dask_messages.close()
+            children_stderr.close()
+
+
+class _dask_logs_to:
+    """Dask's log messages in this process (the scheduler's, the nannies') go to ``path``
+    instead of stderr until :meth:`close`, which removes the file if nothing was written:
+    when the terminal's Ctrl-C stops the workers before this process closes the cluster, the
+    scheduler logs lost workers and data, which say nothing the one line does not."""
+
+    def __init__(self, path: Path):
+        self.path, self.logger = path, logging.getLogger("distributed")
+        self.saved = list(self.logger.handlers)
+        try:
+            self.handler = logging.FileHandler(path, delay=True)
+        except OSError:
+            self.handler = None
+            return
+        self.handler.setFormatter(logging.Formatter("%(asctime)s - %(name)s - %(levelname)s - %(message)s"))
+        self.logger.handlers = [self.handler]
+
+    def close(self) -> None:
+        if self.handler is None:
+            return
+        self.logger.handlers = self.saved
+        self.handler.close()
+        self.handler = None
+        with contextlib.suppress(OSError):
+            if self.path.stat().st_size == 0:
+                self.path.unlink()
+
+
+class _ChildrenStderr:
+    """Until :meth:`close`, the processes this one starts (a local cluster's workers) write
+    their stderr to ``path``, while this process's own messages (sys.stderr: the progress
+    bar, the lines of the sweep) still reach the terminal: file descriptor 2 is ``path``
+    and sys.stderr a copy of the original one. A Ctrl-C at the terminal signals the whole
+    process group, and each worker would print its KeyboardInterrupt traceback under the
+    one line that says what happened; this process shuts the cluster down itself, and the
+    workers' output stays in ``path`` (removed when empty). path None: nothing changes."""
+
+    def __init__(self, path: Path | None):
+        self.saved = self.stream = None
+        if path is None:
+            return
+        sys.stderr.flush()
+        try:
+            target = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | os.O_CLOEXEC, 0o644)
+        except OSError:
+            return
+        self.original, self.saved = sys.stderr, os.dup(2)
+        os.set_inheritable(self.saved, False)
+        self.stream = open(self.saved, "w", buffering=1, encoding=getattr(self.original, "encoding", None)
+                           or "utf-8", errors="backslashreplace", closefd=False)
+        os.dup2(target, 2)
+        os.close(target)
+        sys.stderr = self.stream
+
+    def close(self) -> None:
+        if self.saved is None:
+            return
+        with contextlib.suppress(Exception):
+            self.stream.flush()
+        os.dup2(self.saved, 2)
+        os.close(self.saved)
+        if sys.stderr is self.stream:
+            sys.stderr = self.original
+        self.saved = self.stream = None
+
+
+@contextlib.contextmanager
+def _interrupts_held():
+    """Inside, Ctrl-C and SIGTERM are held (blocked) in this thread and taken afterwards."""
+    import signal
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 def cores() -> int:

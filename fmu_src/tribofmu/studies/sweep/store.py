@@ -12,6 +12,12 @@
   together (``labels``, ``status``, ``x``, ``v``: points x portrait points, NaN when failed;
   ``grid:<key>``: the swept values).
 - ``.sweep.lock``: held while a sweep runs, so two sweeps never share a directory.
+- ``.dask.log``: on a local Dask cluster, what its workers and Dask itself printed (kept
+  only when not empty; the terminal shows tribofmu's own lines).
+- ``.recompute/``: a ``--recompute`` of a directory holding a sweep is built here (its own
+  sweep.csv, sweep.json and points/) and replaces the earlier sweep only when every point is
+  done, so an interrupted recompute leaves the earlier sweep whole; rerunning the same
+  command resumes it (its rows were computed with the same FMUs).
 """
 from __future__ import annotations
 
@@ -36,6 +42,8 @@ from .worker import PORTRAIT_POINTS, STATUS_FAILED, STATUS_OK
 EXTRA_COLUMNS = ("wall_time", "finished_at")
 CSV_NAME, META_NAME, PORTRAITS_NAME, POINTS_DIR = "sweep.csv", "sweep.json", "portraits.npz", "points"
 LOCK_NAME = ".sweep.lock"
+STAGING_NAME = ".recompute"
+WORKER_LOG_NAME = ".dask.log"  # a local cluster's workers' and Dask's messages, if any
 
 
 class SweepStore:
@@ -46,7 +54,9 @@ class SweepStore:
 
     def __init__(self, out_dir: Path, plan: Plan):
         self.out_dir, self.plan, self.keys = Path(out_dir), plan, plan.keys
+        self.work_dir = self.out_dir  # where this run writes: out_dir, or the recompute's staging
         self.csv_path, self.meta_path = self.out_dir / CSV_NAME, self.out_dir / META_NAME
+        self.staged = False
         self.done: dict[tuple, dict[str, Any]] = {}
         self._grid_keys = {point_key(p, self.keys) for p in plan.points}
         self._fh = None
@@ -72,23 +82,67 @@ class SweepStore:
         Raises SweepError when the directory holds another sweep, or one computed with other
         FMUs (unless recompute: then every point runs again and the old rows are dropped)."""
         previous = read_sweep_csv(self.csv_path, self.keys) if self.csv_path.is_file() else []
+        staging = self.out_dir / STAGING_NAME
         if previous:
             _check_meta(self.meta_path, self.plan.meta)
             if not recompute:
                 _check_fmus(self.meta_path, self.plan.meta)
-            else:
-                previous = []
+            else:  # built beside the earlier sweep, which stays whole until this one is
+                previous = self._stage(staging)
+        elif staging.exists():  # a recompute's leftovers, with no earlier sweep to keep
+            _remove_tree(staging)
         for row in previous:
             if retry_failed and row["status"] != STATUS_OK:
                 continue
             self.done[point_key(row, self.keys)] = row
         return [i for i, p in enumerate(self.plan.points) if point_key(p, self.keys) not in self.done]
 
+    def _stage(self, staging: Path) -> list[dict[str, Any]]:
+        """Work in ``staging`` from now on; returns the rows an interrupted recompute of this
+        same sweep, with these FMUs, left there (none when it is another's: it is dropped)."""
+        rows = []
+        csv_path, meta_path = staging / CSV_NAME, staging / META_NAME
+        if csv_path.is_file():
+            try:
+                _check_meta(meta_path, self.plan.meta)
+                _check_fmus(meta_path, self.plan.meta)
+                if not _read_meta(meta_path):
+                    raise SweepError("no sweep.json")
+                rows = read_sweep_csv(csv_path, self.keys)
+            except SweepError:
+                rows = []
+        if not rows and staging.exists():
+            _remove_tree(staging)
+        staging.mkdir(exist_ok=True)
+        self.work_dir, self.csv_path, self.meta_path, self.staged = staging, csv_path, meta_path, True
+        return rows
+
     def start(self) -> None:
         """Write sweep.json and sweep.csv whole (dropping a torn last line); ready to record."""
         atomic_write_bytes(self.meta_path, (json.dumps(self.plan.meta, indent=2) + "\n").encode())
         self.write_sorted()
-        (self.out_dir / POINTS_DIR).mkdir(exist_ok=True)
+        (self.work_dir / POINTS_DIR).mkdir(exist_ok=True)
+
+    def publish(self) -> None:
+        """A recompute, every point done: its files replace the earlier sweep's. points/ first
+        (the old one set aside, then removed), sweep.json, and sweep.csv last (one rename), so
+        a reader of sweep.csv sees the earlier table or the new one, whole."""
+        if not self.staged:
+            return
+        staging, final_points = self.work_dir, self.out_dir / POINTS_DIR
+        old_points = self.out_dir / f".{POINTS_DIR}.old"
+        if old_points.exists():
+            _remove_tree(old_points)
+        if final_points.exists():
+            os.replace(final_points, old_points)
+        os.replace(staging / POINTS_DIR, final_points)
+        os.replace(staging / META_NAME, self.out_dir / META_NAME)
+        os.replace(staging / CSV_NAME, self.out_dir / CSV_NAME)
+        _fsync_dir(self.out_dir)
+        _remove_tree(old_points)
+        _remove_tree(staging)
+        self.work_dir, self.staged = self.out_dir, False
+        self.csv_path, self.meta_path = self.out_dir / CSV_NAME, self.out_dir / META_NAME
 
     @contextlib.contextmanager
     def appending(self):
@@ -110,7 +164,7 @@ class SweepStore:
         if out.get("x") is not None:
             buf = io.BytesIO()
             np.savez(buf, x=out["x"], v=out["v"])
-            atomic_write_bytes(self.out_dir / POINTS_DIR / f"{point_id(point)}.npz", buf.getvalue())
+            atomic_write_bytes(self.work_dir / POINTS_DIR / f"{point_id(point)}.npz", buf.getvalue())
         self._fh.write(_csv_line(row, self.keys))
         self._fh.flush()
         os.fsync(self._fh.fileno())
@@ -132,7 +186,7 @@ class SweepStore:
         xs, vs = [], []
         for point, row in zip(self.plan.points, rows):
             data = None
-            path = self.out_dir / POINTS_DIR / f"{point_id(point)}.npz"
+            path = self.work_dir / POINTS_DIR / f"{point_id(point)}.npz"
             if row["status"] == STATUS_OK and path.is_file():
                 with np.load(path) as z:
                     data = (z["x"], z["v"])
@@ -153,6 +207,24 @@ class SweepStore:
         np.savez(buf, **portraits)
         atomic_write_bytes(self.out_dir / PORTRAITS_NAME, buf.getvalue())
         return portraits
+
+
+def _remove_tree(path: Path) -> None:
+    import shutil
+    shutil.rmtree(path, ignore_errors=True)
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
 
 
 # -- sweep.csv ---------------------------------------------------------------------------
