@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import FMUError
+from .errors import FMUError, FMUSetupError  # noqa: F401 (FMUSetupError re-exported)
 from .coupling.algorithms import Scales, make_algorithm
 from .coupling.estimate import WindowError
 from .coupling.interpolation import INPUT_SIGNALS
@@ -32,8 +32,6 @@ from .scene.wiring import constant_inputs, fmu_parameters
 
 
 
-class FMUSetupError(FMUError, RuntimeError):
-    """One or more FMUs could not be loaded or initialized; the message names each instance."""
 SAMPLES_PER_PERIOD = 1000
 # The output grid is held in memory (8 bytes a value): 1e7 samples are 0.6 GB of results.
 MAX_OUTPUT_SAMPLES = 10_000_000
@@ -102,6 +100,10 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
         make_algorithm(name, step=step, tol=tol)
     except ValueError as exc:
         raise ScenarioError(f"{scenario.source}: {exc}") from None
+    # a drive or a communication step the run cannot resolve: refused before any work, as
+    # the CLI refuses it (UsageError, one line)
+    from .cli_checks import check_resolution
+    check_resolution(scenario, name, step)
     n = output_samples(scenario)  # before any FMU is found or built
     if fmu_dir is None or build is not False:  # a given folder as is: every missing FMU in one message
         from .fmu_cache import find_fmus

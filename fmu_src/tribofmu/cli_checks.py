@@ -14,17 +14,14 @@ import re
 import sys
 from pathlib import Path
 
+from .errors import UsageError  # noqa: F401 (re-exported: bad input, exit code 2)
+
 OUTPUT_ROOT = Path("out")  # default output folders: OUTPUT_ROOT/<scene name>[--<overrides>]
 # A scene name that may name a folder: printable, no separators, no "..", not too long.
 FOLDER_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+=,-]{0,99}$")
 PLOT_BYTES = 1_000_000  # the PNGs of a run, generously
 SSP_BYTES = 10_000_000  # an .ssp archive holds up to six FMUs of < 1 MB
 SWEEP_POINT_BYTES = 20_000  # a sweep point: its row, its portrait (.npz)
-
-
-
-class UsageError(Exception):
-    """Bad input from the command line: reported as one line, exit code 2."""
 
 
 # -- checks made before anything runs ----------------------------------------------------------

@@ -1,4 +1,6 @@
-"""The exceptions tribofmu raises on purpose, so a caller catches one base class.
+"""Every exception tribofmu raises on purpose, in one module under one root, so a caller
+catches one base class (:class:`TriboFMUError`); the modules that raise them re-export them
+under their old names.
 
 Each message is one line naming the culprit (file, key and value; FMU instance and call).
 The categories keep their built-in bases, so ``except ValueError`` or ``except RuntimeError``
@@ -6,12 +8,20 @@ written against earlier versions still catches them:
 
 - :class:`ScenarioError` (a ``ValueError``): a scenario file, override or setting is wrong;
   :class:`SweepError` the same for a sweep's grid, options or output directory;
-- :class:`FMUError`: an FMU file is missing or unreadable, or an FMU refused a call
-  (``master.instance.FMUFileError``, ``FMUCallError``; ``api.FMUSetupError``);
+- :class:`UsageError`: bad input from the command line or to an API call
+  that is not a scenario's (an option, a folder); exit code 2;
+- :class:`FMUError`: an FMU file is missing or unreadable (:class:`FMUFileError`), an FMU
+  refused a call (:class:`FMUCallError`), the FMUs of a run could not be set up
+  (:class:`FMUSetupError`), the FMU cache cannot be used (:class:`FMUCacheError`);
 - :class:`NumericalError` (a ``RuntimeError``): a computation a study depends on failed
-  (a simulation that fails is a result with a message, not an exception).
+  (a simulation that fails is a result with a message, not an exception);
+  :class:`RunawayError` a run's pace projects past its wall-time limit (caught by the run
+  loop, which ends the run with a message), :class:`PointTimeout` a sweep point past its
+  time limit.
 """
 from __future__ import annotations
+
+from typing import Sequence
 
 
 class TriboFMUError(Exception):
@@ -32,3 +42,54 @@ class FMUError(TriboFMUError):
 
 class NumericalError(TriboFMUError, RuntimeError):
     """A computation a study needs failed numerically (e.g. the reference solution)."""
+
+
+class UsageError(TriboFMUError):
+    """Bad input from the command line (or an API argument that is no scenario's): reported as
+    one line, exit code 2."""
+
+
+# -- FMUs -------------------------------------------------------------------------------------
+STATUS_NAMES = ("fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error", "fmi2Fatal", "fmi2Pending")
+
+
+class FMUCallError(FMUError, RuntimeError):
+    """An FMU call returned a status worse than fmi2Warning (fmi3Warning); the status codes
+    0-4 mean the same in FMI 2.0 and 3.0."""
+
+    def __init__(self, instance: str, call: str, status: int, messages: Sequence[str] = ()):
+        self.instance, self.call, self.status, self.messages = instance, call, status, list(messages)
+        label = STATUS_NAMES[status] if 0 <= status < len(STATUS_NAMES) else f"status {status}"
+        if call.startswith("fmi3"):
+            label = label.replace("fmi2", "fmi3")
+        detail = f": {'; '.join(self.messages)}" if self.messages else ""
+        super().__init__(f"{instance}: {call} returned {label}{detail}")
+
+    @property
+    def discarded(self) -> bool:
+        """True if the FMU refused the step but stays usable (a smaller step may work)."""
+        return self.status == 2
+
+
+class FMUFileError(FMUError, FileNotFoundError):
+    """An FMU file is missing or unreadable (``filename``, when set, names it)."""
+
+    def __str__(self) -> str:  # the message, also once filename is set (OSError would reformat it)
+        return str(self.args[0]) if self.args else super().__str__()
+
+
+class FMUSetupError(FMUError, RuntimeError):
+    """One or more FMUs could not be loaded or initialized; the message names each instance."""
+
+
+class FMUCacheError(FMUError):
+    """The FMU cache cannot be used (not ours, a link, not writable, disk full)."""
+
+
+# -- runs -------------------------------------------------------------------------------------
+class RunawayError(NumericalError):
+    """Raised inside the run loop when the pace projects past the wall-time limit."""
+
+
+class PointTimeout(TriboFMUError):
+    """A sweep point ran longer than the sweep's per-point time limit."""

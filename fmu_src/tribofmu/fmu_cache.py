@@ -25,16 +25,12 @@ import tempfile
 from pathlib import Path
 from typing import Callable, Iterable
 
-from .errors import FMUError
+from .errors import FMUCacheError, FMUError  # noqa: F401 (FMUCacheError re-exported)
 
 MANIFEST = "manifest.json"
 LOCK = ".build.lock"
 # A cold build writes six FMUs of < 1 MB each and stages them in the temp dir first.
 BUILD_BYTES = 20_000_000
-
-
-class FMUCacheError(FMUError):
-    """The FMU cache cannot be used (not ours, a link, not writable, disk full)."""
 
 
 def sha256_file(path: Path) -> str:

@@ -116,3 +116,12 @@ def test_the_lock_lives_in_the_temp_dir_and_is_gone_after_release(tmp_path, monk
     finally:
         release_out_locks()
     assert not path.parent.exists()
+
+
+def test_the_api_refuses_an_unresolvable_drive_as_the_cli_does(tmp_path):
+    """api.simulate: the same one-line refusal, before any FMU is found or built."""
+    from tribofmu import api
+    from tribofmu.errors import TriboFMUError, UsageError
+    with pytest.raises(UsageError, match="drive.omega") as caught:
+        api.simulate("fig2_dry", {"drive.omega": 1e12}, fmu_dir=tmp_path / "none", build=False)
+    assert isinstance(caught.value, TriboFMUError)

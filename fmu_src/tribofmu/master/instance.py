@@ -20,34 +20,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from ..atomic import left_by_gone_process
-from ..errors import FMUError
-
-STATUS_NAMES = ("fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error", "fmi2Fatal", "fmi2Pending")
-
-
-class FMUCallError(FMUError, RuntimeError):
-    """An FMU call returned a status worse than fmi2Warning (fmi3Warning); the status codes
-    0-4 mean the same in FMI 2.0 and 3.0."""
-
-    def __init__(self, instance: str, call: str, status: int, messages: Sequence[str] = ()):
-        self.instance, self.call, self.status, self.messages = instance, call, status, list(messages)
-        label = STATUS_NAMES[status] if 0 <= status < len(STATUS_NAMES) else f"status {status}"
-        if call.startswith("fmi3"):
-            label = label.replace("fmi2", "fmi3")
-        detail = f": {'; '.join(self.messages)}" if self.messages else ""
-        super().__init__(f"{instance}: {call} returned {label}{detail}")
-
-    @property
-    def discarded(self) -> bool:
-        """True if the FMU refused the step but stays usable (a smaller step may work)."""
-        return self.status == 2
-
-
-class FMUFileError(FMUError, FileNotFoundError):
-    """An FMU file is missing or unreadable (``filename``, when set, names it)."""
-
-    def __str__(self) -> str:  # the message, also once filename is set (OSError would reformat it)
-        return str(self.args[0]) if self.args else super().__str__()
+from ..errors import STATUS_NAMES, FMUCallError, FMUError, FMUFileError  # noqa: F401 (re-exported)
 
 
 # -- where FMUs are unzipped -------------------------------------------------------------

@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import NumericalError
+from ..errors import NumericalError, RunawayError  # noqa: F401 (RunawayError re-exported)
 from ..coupling.algorithms import CouplingAlgorithm, Scales
 from ..coupling.interpolation import INPUT_SIGNALS, NS, SIGNALS, sample
 from .instance import FMUCallError
@@ -227,10 +227,6 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
                       counters=dict(steps=c.steps, rejected=c.rejected, landed=c.landed, iterations=c.iterations,
                                     forced=c.forced, stick_steps=c.stick_steps),
                       calls=system.calls, out_of_time=out_of_time)
-
-
-class RunawayError(NumericalError):
-    """Raised inside :func:`run` when the pace projects past the wall-time limit."""
 
 
 def _duration(seconds: float) -> str:

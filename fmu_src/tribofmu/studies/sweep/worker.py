@@ -16,17 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import TriboFMUError
+from ...errors import PointTimeout, TriboFMUError  # noqa: F401 (PointTimeout re-exported)
 from ...master.unzipped import forget_fmus_loaded_since
 from ...scene.scenario import Scenario
 from ..metrics import result_metrics
 
 PORTRAIT_POINTS = 400
 STATUS_OK, STATUS_FAILED = "ok", "failed"
-
-
-class PointTimeout(TriboFMUError):
-    """A point ran longer than the sweep's per-point time limit."""
 
 
 def run_point(scenario: Scenario, fmu_dir: str, algorithm: str | None = None, step: float | None = None,
