@@ -124,6 +124,7 @@ class ImplicitCoupling(CouplingAlgorithm):
         self.loop_gain = 0.0  # |d(block dv)/dF * dF/d(dv)| of the last slip step ...
         self.loop_gain_step = 1.0  # ... whose length this was [s]
         self.velocity_per_impulse = 0.0  # [m/s / (N s)] the block's, last measured (0: not yet)
+        self.stick_bounds = None  # [N] (low, high): the friction's force range at the last stick
 
     def expected_gain(self, h: float) -> float:
         """The loop gain a slip step of h [s] should meet: the last one's, scaled by the
@@ -174,6 +175,8 @@ class ImplicitCoupling(CouplingAlgorithm):
             self.loop_gain, self.loop_gain_step = report.loop_gain, h
         if report.velocity_per_impulse is not None:
             self.velocity_per_impulse = report.velocity_per_impulse
+        if report.bounds is not None:
+            self.stick_bounds = report.bounds
         return new
 
     def advance(self, system, point, stop_ns):
@@ -411,6 +414,13 @@ ALGORITHMS = {
 }
 
 
+def _register_embedded() -> None:
+    """The embedded-estimate coupling builds on the classes above (coupling/embedded.py)."""
+    from .embedded import EmbeddedCoupling
+
+    ALGORITHMS["embedded"] = EmbeddedCoupling
+
+
 def make_algorithm(name: str, step: float | None = None, tol: float | None = None) -> CouplingAlgorithm:
     """The algorithm registered under name; raises ValueError naming the known ones."""
     try:
@@ -418,3 +428,6 @@ def make_algorithm(name: str, step: float | None = None, tol: float | None = Non
     except KeyError:
         raise ValueError(f"unknown algorithm {name!r} (known: {', '.join(ALGORITHMS)})") from None
     return factory(step=step, tol=tol)
+
+
+_register_embedded()

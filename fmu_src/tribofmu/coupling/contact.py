@@ -57,6 +57,7 @@ class StepReport:
     velocity_per_impulse: float | None = None  # [m/s / (N s)] the block's (1/M for a lone mass)
     iterations: int = 0  # evaluations of the coupling loop
     stuck: bool = False
+    bounds: tuple[float, float] | None = None  # [N] the friction's force range at dv = 0 (stuck steps)
 
 
 @dataclass(frozen=True)
@@ -229,6 +230,8 @@ class ImplicitStep:
         """Stuck at the step's end: the stick ramp (stuck all through), or the stick force
         (it was slipping, or nothing is known before); returns the event fraction."""
         self.report.stuck = True
+        F_pos, F_neg = self.probes[1.0][0], self.probes[-1.0][0]
+        self.report.bounds = (min(F_pos, F_neg), max(F_pos, F_neg))
         previous = self.previous
         if previous == Contact.STUCK:
             event = self.stick_ramp()
