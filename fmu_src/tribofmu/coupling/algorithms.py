@@ -13,9 +13,12 @@ points (one per accepted communication step; none if it rejected and rolled back
   discontinuous law (dry friction at dv = 0) the blocks are stuck and the force is the one
   that keeps dv = 0. Stick is resolved exactly without telling the friction FMU anything
   about the block.
-- ``adaptive``: the implicit step with step doubling: the difference between one step and
-  two half steps estimates the error; steps that miss the tolerance are rolled back and
-  retried smaller, so steps shrink at stick/slip transitions and melting, grow elsewhere.
+- ``adaptive``: the implicit step under error control, one solve per step: an embedded
+  estimate (the coupling force predicted from the last steps against the one the solve
+  found) rejects and retries steps that miss the tolerance, so steps shrink at stick/slip
+  transitions and melting, grow elsewhere (coupling/embedded.py).
+- ``doubling``: the same under step doubling (one step against two halves: three solves per
+  two accepted steps), the adaptive coupling before issue 31, kept for comparison.
 """
 from __future__ import annotations
 
@@ -179,6 +182,25 @@ class ImplicitCoupling(CouplingAlgorithm):
             self.stick_bounds = report.bounds
         return new
 
+    def _impulse_misses(self, start: Point, *ends: Point) -> list[float]:
+        """How far [m/s] the block's velocity after each of these steps is off because the
+        force ramp it felt has another mean than the friction's own mean force along the
+        step (reported by a friction with internal state); signed, computed less exact.
+
+        A lubricant that re-solidifies while dv passes 0 grips the block for a fraction of a
+        step: the force peaks inside the step and is back to nothing at its ends, so the
+        ends (all that step doubling compares) miss it. Its impulse does not."""
+        misses, previous = [], start
+        for end in ends:
+            miss = 0.0
+            if end.mode != 0 and end.F_mean == end.F_mean and end.f != 0.0:
+                h = (end.t_ns - previous.t_ns) / NS
+                felt = end.F_start + 0.5 * end.F_rate * h
+                miss = (felt - end.F_mean) * h * self.velocity_per_impulse
+            misses.append(miss)
+            previous = end
+        return misses
+
     def advance(self, system, point, stop_ns):
         h_ns = self.next_step(point, stop_ns)
         new = self.solve_step(system, point, h_ns)
@@ -218,8 +240,9 @@ class ImplicitCoupling(CouplingAlgorithm):
         return new
 
 
-class AdaptiveCoupling(ImplicitCoupling):
-    """Implicit steps under error control by step doubling.
+class StepDoublingCoupling(ImplicitCoupling):
+    """Implicit steps under error control by step doubling (the adaptive coupling before
+    issue 31; registered as ``doubling`` for comparison, see coupling/embedded.py).
 
     tol is relative: a step is accepted when one step and two half steps differ by less
     than ``tol * scale * h / T`` in x and v (scale: the drive's amplitude and velocity; T:
@@ -227,7 +250,7 @@ class AdaptiveCoupling(ImplicitCoupling):
     of steps, and by ``tol * (1 + |f|)`` in f.
     """
 
-    name = "adaptive"
+    name = "doubling"
     default_tol = 2e-4  # per-step error against the block's own motion: see README, "What accuracy costs"
     default_step = 1e-4  # first try [s]
     controller = COUPLING_STEPS
@@ -334,24 +357,6 @@ class AdaptiveCoupling(ImplicitCoupling):
     def root_tolerance(self) -> float:
         return self.root_tol_fraction * self.tol * self._v_scale
 
-    def _impulse_misses(self, start: Point, *ends: Point) -> list[float]:
-        """How far [m/s] the block's velocity after each of these steps is off because the
-        force ramp it felt has another mean than the friction's own mean force along the
-        step (reported by a friction with internal state); signed, computed less exact.
-
-        A lubricant that re-solidifies while dv passes 0 grips the block for a fraction of a
-        step: the force peaks inside the step and is back to nothing at its ends, so the
-        ends (all that step doubling compares) miss it. Its impulse does not."""
-        misses, previous = [], start
-        for end in ends:
-            miss = 0.0
-            if end.mode != 0 and end.F_mean == end.F_mean and end.f != 0.0:
-                h = (end.t_ns - previous.t_ns) / NS
-                felt = end.F_start + 0.5 * end.F_rate * h
-                miss = (felt - end.F_mean) * h * self.velocity_per_impulse
-            misses.append(miss)
-            previous = end
-        return misses
 
     def _carry_error(self, start: Point, full: Point, mid: Point, end: Point, impulse: list[float]) -> None:
         """Carry the global error estimate over the accepted halves (see coupling/estimate.py):
@@ -410,15 +415,9 @@ ALGORITHMS = {
     "jacobi": lambda step=None, tol=None: ExplicitCoupling(step, tol, sequential=False),
     "gauss-seidel": lambda step=None, tol=None: ExplicitCoupling(step, tol, sequential=True),
     "implicit": ImplicitCoupling,
-    "adaptive": AdaptiveCoupling,
+    "doubling": StepDoublingCoupling,
+    "adaptive": lambda step=None, tol=None: __getattr__("AdaptiveCoupling")(step=step, tol=tol),
 }
-
-
-def _register_embedded() -> None:
-    """The embedded-estimate coupling builds on the classes above (coupling/embedded.py)."""
-    from .embedded import EmbeddedCoupling
-
-    ALGORITHMS["embedded"] = EmbeddedCoupling
 
 
 def make_algorithm(name: str, step: float | None = None, tol: float | None = None) -> CouplingAlgorithm:
@@ -430,4 +429,12 @@ def make_algorithm(name: str, step: float | None = None, tol: float | None = Non
     return factory(step=step, tol=tol)
 
 
-_register_embedded()
+def __getattr__(name: str):
+    """``AdaptiveCoupling``: the adaptive coupling (one implicit solve per step, an embedded
+    error estimate, :class:`~.embedded.EmbeddedCoupling`), which builds on the classes above:
+    imported on first use, so that either module may be imported first."""
+    if name == "AdaptiveCoupling":
+        from .embedded import EmbeddedCoupling
+
+        return EmbeddedCoupling
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -406,6 +406,12 @@ class ImplicitStep:
             if abs(d) <= self.delta or d == db:
                 break
             a, da, b, db = b, db, F, d
+        low, high = min(F_neg, F_pos), max(F_neg, F_pos)
+        if not low <= F <= high:
+            # Round-off past the bound (a step of a few ns, where the probes' dv differ by
+            # less than delta): the stick force is the friction's to bound, dv stays within delta.
+            F = min(max(F, low), high)
+            self.block_under(F)
         return F
 
     def stick_ramp(self) -> float:
