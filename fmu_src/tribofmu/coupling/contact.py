@@ -113,6 +113,7 @@ class ImplicitStep:
         self.report = StepReport()
         self.friction_last = None  # (dv, F, f, F_mean) of the friction's latest answer (F_mean: nan for a trial)
         self.friction_stepped = False  # the friction has stepped (its state is at the step's end)
+        self.friction_input = None  # [m/s] the dv the friction holds as its input (None: unknown)
         self.block_last: BlockAnswer | None = None  # the block's latest answer (real or modelled)
         self.block_real: BlockAnswer | None = None  # its latest real step (the FMU stands there)
         self.block_samples: list[BlockAnswer] = []  # real answers under block_under's family of forces
@@ -126,6 +127,7 @@ class ImplicitStep:
         where it stands (its output's direct feedthrough; no step)."""
         F, f = self.system.friction_outputs(dv)
         self.friction_last = (dv, F, f, math.nan)
+        self.friction_input = dv
         return F, f
 
     def step_friction(self, dv: float) -> None:
@@ -134,7 +136,10 @@ class ImplicitStep:
         if self.friction_stepped:
             for slave, handle in self.friction_state:
                 slave.restore(handle)
-        F, f, F_mean = self.system.step_friction(dv, self.t, self.h)
+            self.friction_input = None  # (the step's start's)
+        # (the last trial's dv is still the friction's input: no second set)
+        F, f, F_mean = self.system.step_friction(dv, self.t, self.h, set_input=dv != self.friction_input)
+        self.friction_input = dv
         self.friction_stepped = True
         self.friction_last = (dv, F, f, F_mean)
 

@@ -187,12 +187,14 @@ class CoupledSystem:
         self.block.do_step(t, h)
         return self.block_outputs()
 
-    def step_friction(self, dv: float, t: float, h: float) -> tuple[float, float, float]:
+    def step_friction(self, dv: float, t: float, h: float, set_input: bool = True) -> tuple[float, float, float]:
         """Step the friction to dv [m/s] at t + h; returns F, f at t + h and the mean force
-        [N] over the step (F where the friction does not report it)."""
+        [N] over the step (F where the friction does not report it). set_input=False: the
+        friction holds dv as its input already (the caller's last trial set it)."""
         if self.friction is None:
             return 0.0, 0.0, 0.0
-        self.friction.set_reals(self._dv, [dv])
+        if set_input:
+            self.friction.set_reals(self._dv, [dv])
         self.friction.do_step(t, h)
         return tuple(self.friction.get_reals(self._friction_out))
 
