@@ -1,7 +1,7 @@
 """The adaptive coupling's accept / reject / landing logic and its counters."""
 import pytest
 
-from tribofmu.coupling.algorithms import AdaptiveCoupling, Scales
+from tribofmu.coupling.algorithms import StepDoublingCoupling as AdaptiveCoupling, Scales
 from tribofmu.coupling.system import Contact
 from tribofmu.physics import FLUID, FrictionLaw
 from tribofmu.physics.stepsize import COUPLING_STEPS

@@ -96,7 +96,8 @@ def test_an_imported_state_continues_bit_identically(name):
     imported.import_state(state)
     _, ahead = advance_n(original, system, point, 60, stop)
     _, again = advance_n(imported, twin_system, point, 60, stop)
-    assert len(ahead) >= 60 and same_points(ahead, again)
+    # (60 advances: 60 points of the implicit; 60 steps, some rejected or landed, of the adaptive)
+    assert len(ahead) >= 40 and same_points(ahead, again)
     assert imported.counters == original.counters
     # and the state is what makes it so: a fresh algorithm on the same slaves goes elsewhere
     fresh_system = clone_slaves(twin_system)

@@ -13,9 +13,12 @@ points (one per accepted communication step; none if it rejected and rolled back
   discontinuous law (dry friction at dv = 0) the blocks are stuck and the force is the one
   that keeps dv = 0. Stick is resolved exactly without telling the friction FMU anything
   about the block.
-- ``adaptive``: the implicit step with step doubling: the difference between one step and
-  two half steps estimates the error; steps that miss the tolerance are rolled back and
-  retried smaller, so steps shrink at stick/slip transitions and melting, grow elsewhere.
+- ``adaptive``: the implicit step under error control, one solve per step: an embedded
+  estimate (the coupling force predicted from the last steps against the one the solve
+  found) rejects and retries steps that miss the tolerance, so steps shrink at stick/slip
+  transitions and melting, grow elsewhere (coupling/embedded.py).
+- ``doubling``: the same under step doubling (one step against two halves: three solves per
+  two accepted steps), the adaptive coupling before issue 31, kept for comparison.
 """
 from __future__ import annotations
 
@@ -27,7 +30,7 @@ from ..physics.stepsize import COUPLING_STEPS
 from .contact import ImplicitStep, RetryHeld, StepSettings, slip_mode
 from .estimate import GlobalErrorEstimate
 from .interpolation import NS, hermite, hermite_mid, velocity_slopes
-from .system import Contact, CoupledSystem, Point
+from .system import Contact, CoupledSystem, Point, States
 
 
 
@@ -124,6 +127,7 @@ class ImplicitCoupling(CouplingAlgorithm):
         self.loop_gain = 0.0  # |d(block dv)/dF * dF/d(dv)| of the last slip step ...
         self.loop_gain_step = 1.0  # ... whose length this was [s]
         self.velocity_per_impulse = 0.0  # [m/s / (N s)] the block's, last measured (0: not yet)
+        self.stick_bounds = None  # [N] (low, high): the friction's force range at the last stick
 
     def expected_gain(self, h: float) -> float:
         """The loop gain a slip step of h [s] should meet: the last one's, scaled by the
@@ -174,7 +178,28 @@ class ImplicitCoupling(CouplingAlgorithm):
             self.loop_gain, self.loop_gain_step = report.loop_gain, h
         if report.velocity_per_impulse is not None:
             self.velocity_per_impulse = report.velocity_per_impulse
+        if report.bounds is not None:
+            self.stick_bounds = report.bounds
         return new
+
+    def _impulse_misses(self, start: Point, *ends: Point) -> list[float]:
+        """How far [m/s] the block's velocity after each of these steps is off because the
+        force ramp it felt has another mean than the friction's own mean force along the
+        step (reported by a friction with internal state); signed, computed less exact.
+
+        A lubricant that re-solidifies while dv passes 0 grips the block for a fraction of a
+        step: the force peaks inside the step and is back to nothing at its ends, so the
+        ends (all that step doubling compares) miss it. Its impulse does not."""
+        misses, previous = [], start
+        for end in ends:
+            miss = 0.0
+            if end.mode != 0 and end.F_mean == end.F_mean and end.f != 0.0:
+                h = (end.t_ns - previous.t_ns) / NS
+                felt = end.F_start + 0.5 * end.F_rate * h
+                miss = (felt - end.F_mean) * h * self.velocity_per_impulse
+            misses.append(miss)
+            previous = end
+        return misses
 
     def advance(self, system, point, stop_ns):
         h_ns = self.next_step(point, stop_ns)
@@ -182,17 +207,21 @@ class ImplicitCoupling(CouplingAlgorithm):
         self.counters.steps += 1
         return [new]
 
-    def solve_step(self, system: CoupledSystem, point: Point, h_ns: int, ramp_allowed: bool = True) -> Point:
+    def solve_step(self, system: CoupledSystem, point: Point, h_ns: int, ramp_allowed: bool = True,
+                   saved: States | None = None) -> Point:
         """One implicit step of h_ns from point; leaves every slave at the new point.
 
-        ramp_allowed=False holds the force over the step even where a ramp would do."""
+        ramp_allowed=False holds the force over the step even where a ramp would do. saved:
+        the slaves' states at point when the caller holds them already (the step restores the
+        block and friction from them and frees nothing); else the step saves and frees its own."""
         t, h = point.t_ns / NS, h_ns / NS
         drive = system.step_drive(t, h)
         if system.friction is None:
             x, v, a = system.step_block(0.0, 0.0, t, h)
             new = Point(point.t_ns + h_ns, *drive, x, v, a, mode=slip_mode(drive[1] - v, 0.0))
         else:
-            saved = system.save(system.block, system.friction)
+            own = saved is None
+            saved = system.save(system.block, system.friction) if own else system.loop_states(saved)
             try:
                 # Second order where the force is smooth: while the contact keeps slipping the
                 # same way, the block feels a ramp from the force at the step's start to the
@@ -205,13 +234,15 @@ class ImplicitCoupling(CouplingAlgorithm):
                     system.restore(saved)
                     new = self._solve(system, point, saved, h_ns, drive, False)
             finally:
-                system.free(saved)
+                if own:
+                    system.free(saved)
         system.finish_step(point, new, t, h)
         return new
 
 
-class AdaptiveCoupling(ImplicitCoupling):
-    """Implicit steps under error control by step doubling.
+class StepDoublingCoupling(ImplicitCoupling):
+    """Implicit steps under error control by step doubling (the adaptive coupling before
+    issue 31; registered as ``doubling`` for comparison, see coupling/embedded.py).
 
     tol is relative: a step is accepted when one step and two half steps differ by less
     than ``tol * scale * h / T`` in x and v (scale: the drive's amplitude and velocity; T:
@@ -219,27 +250,12 @@ class AdaptiveCoupling(ImplicitCoupling):
     of steps, and by ``tol * (1 + |f|)`` in f.
     """
 
-    name = "adaptive"
+    name = "doubling"
     default_tol = 2e-4  # per-step error against the block's own motion: see README, "What accuracy costs"
     default_step = 1e-4  # first try [s]
     controller = COUPLING_STEPS
     state_names = ImplicitCoupling.state_names + ("h_ns", "rejected_last", "_v_scale", "_x_scale",
                                                   "_F_scale", "_f_scale")
-
-    # The longest step, as a fraction of the drive period, shrinks with tol like the steps of
-    # a second-order method (tol^(1/3)): a step the error control lets grow through a quiet
-    # phase (the solid lubricant) must not carry the next event (its melt) unseen, and a
-    # tighter run must resolve it better, or two runs agree on the same wrong event timing
-    # and a check of one against the other passes (boundary friction at gamma = 0: period/20
-    # at every tol gave 2.2e-3 and 1.9e-3 at per-step tol 1.25e-4 and 3.1e-5, which differ
-    # by 3e-4; period/200 gave 4.0e-4 and 1.5e-4, in as many steps).
-    MAX_STEP_PER_CUBE_ROOT_TOL = 0.1
-    MAX_STEP_CEILING = 1.0 / 20.0  # never longer than this fraction of the period
-
-    @classmethod
-    def max_step_fraction(cls, tol: float) -> float:
-        """The longest step at per-step tolerance tol, as a fraction of the drive period."""
-        return min(cls.MAX_STEP_CEILING, cls.MAX_STEP_PER_CUBE_ROOT_TOL * tol ** (1.0 / 3.0))
 
     def export_state(self) -> dict:
         state = super().export_state()
@@ -255,7 +271,7 @@ class AdaptiveCoupling(ImplicitCoupling):
     def prepare(self, system, scales):
         super().prepare(system, scales)
         self.min_ns = max(2, int(scales.period * 1e-7 * NS) & ~1)
-        self.max_ns = max(self.min_ns, int(self.max_step_fraction(self.tol) * scales.period * NS) & ~1)
+        self.max_ns = max(self.min_ns, int(scales.period / 20 * NS) & ~1)
         self.h_ns = min(max(self.step_ns & ~1, self.min_ns), self.max_ns)
         self._v_scale = self._x_scale = 0.0  # largest |v| [m/s] and |x| [m] of the block so far
         self._F_scale = self._f_scale = 0.0  # largest |F| [N], |f| [1] so far
@@ -274,7 +290,9 @@ class AdaptiveCoupling(ImplicitCoupling):
             return [last]
         start = system.save()
         try:
-            full = self.solve_step(system, point, h_ns)
+            # the full step and the first half start where start was saved: they restore
+            # from it instead of saving the block and friction again (2 saves and 2 frees less)
+            full = self.solve_step(system, point, h_ns, saved=start)
             landing = int(h_ns * full.event) & ~1
             if full.event < 1.0 and landing >= 2 * self.min_ns and landing >= h_ns // 100:
                 # A stuck contact breaks away inside the step: end the step right there.
@@ -285,7 +303,7 @@ class AdaptiveCoupling(ImplicitCoupling):
             system.restore(start)
             # The halves hold the force where the full step did: an estimate comparing a
             # ramped with a held step would measure the held step's first-order error.
-            mid = self.solve_step(system, point, h_ns // 2, full.ramped)
+            mid = self.solve_step(system, point, h_ns // 2, full.ramped, saved=start)
             end = self.solve_step(system, mid, h_ns // 2, full.ramped)
             impulse = self._impulse_misses(point, mid, end)
             err = max(self._error(point, full, end), self._interpolation_error(point, mid, end, h_ns),
@@ -339,24 +357,6 @@ class AdaptiveCoupling(ImplicitCoupling):
     def root_tolerance(self) -> float:
         return self.root_tol_fraction * self.tol * self._v_scale
 
-    def _impulse_misses(self, start: Point, *ends: Point) -> list[float]:
-        """How far [m/s] the block's velocity after each of these steps is off because the
-        force ramp it felt has another mean than the friction's own mean force along the
-        step (reported by a friction with internal state); signed, computed less exact.
-
-        A lubricant that re-solidifies while dv passes 0 grips the block for a fraction of a
-        step: the force peaks inside the step and is back to nothing at its ends, so the
-        ends (all that step doubling compares) miss it. Its impulse does not."""
-        misses, previous = [], start
-        for end in ends:
-            miss = 0.0
-            if end.mode != 0 and end.F_mean == end.F_mean and end.f != 0.0:
-                h = (end.t_ns - previous.t_ns) / NS
-                felt = end.F_start + 0.5 * end.F_rate * h
-                miss = (felt - end.F_mean) * h * self.velocity_per_impulse
-            misses.append(miss)
-            previous = end
-        return misses
 
     def _carry_error(self, start: Point, full: Point, mid: Point, end: Point, impulse: list[float]) -> None:
         """Carry the global error estimate over the accepted halves (see coupling/estimate.py):
@@ -415,7 +415,8 @@ ALGORITHMS = {
     "jacobi": lambda step=None, tol=None: ExplicitCoupling(step, tol, sequential=False),
     "gauss-seidel": lambda step=None, tol=None: ExplicitCoupling(step, tol, sequential=True),
     "implicit": ImplicitCoupling,
-    "adaptive": AdaptiveCoupling,
+    "doubling": StepDoublingCoupling,
+    "adaptive": lambda step=None, tol=None: __getattr__("AdaptiveCoupling")(step=step, tol=tol),
 }
 
 
@@ -426,3 +427,14 @@ def make_algorithm(name: str, step: float | None = None, tol: float | None = Non
     except KeyError:
         raise ValueError(f"unknown algorithm {name!r} (known: {', '.join(ALGORITHMS)})") from None
     return factory(step=step, tol=tol)
+
+
+def __getattr__(name: str):
+    """``AdaptiveCoupling``: the adaptive coupling (one implicit solve per step, an embedded
+    error estimate, :class:`~.embedded.EmbeddedCoupling`), which builds on the classes above:
+    imported on first use, so that either module may be imported first."""
+    if name == "AdaptiveCoupling":
+        from .embedded import EmbeddedCoupling
+
+        return EmbeddedCoupling
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from ..physics.roots import illinois
 from .interpolation import NS, hermite
@@ -48,6 +49,26 @@ RETRY_HELD_STIFF = RetryHeld("the loop is too stiff to ramp the force")
 RETRY_HELD_TRANSITION = RetryHeld("the contact sticks or reverses inside the step")
 
 
+class BlockAnswer(NamedTuple):
+    """The block's state at the step's end under the force F0 + rate s (F_end at the end)."""
+
+    F_end: float  # N
+    x: float  # m
+    v: float  # m/s
+    a: float  # m/s^2
+    F0: float  # N
+    rate: float  # N/s
+
+
+# The block's answer to the force is affine in it (a linear block: a mass on springs), and the
+# loop function's iterates differ only in the force: from two real steps under two forces of
+# one family (held, or ramped from the step's start force) the block's answer to a third is
+# their affine combination, without a step. The final force is always stepped for real and the
+# model checked against it: a block that is not affine (to this many root tolerances) is
+# stepped for every iterate instead.
+MODEL_MISS_TOLERANCE = 1.0
+
+
 @dataclass
 class StepReport:
     """What one step measured, for the algorithm to keep or drop (a rolled-back step's
@@ -57,6 +78,7 @@ class StepReport:
     velocity_per_impulse: float | None = None  # [m/s / (N s)] the block's (1/M for a lone mass)
     iterations: int = 0  # evaluations of the coupling loop
     stuck: bool = False
+    bounds: tuple[float, float] | None = None  # [N] the friction's force range at dv = 0 (stuck steps)
 
 
 @dataclass(frozen=True)
@@ -91,7 +113,11 @@ class ImplicitStep:
         self.report = StepReport()
         self.friction_last = None  # (dv, F, f, F_mean) of the friction's latest answer (F_mean: nan for a trial)
         self.friction_stepped = False  # the friction has stepped (its state is at the step's end)
-        self.block_last = None  # (F_end, x, v, a, F0, rate) of the block's latest step
+        self.friction_input = None  # [m/s] the dv the friction holds as its input (None: unknown)
+        self.block_last: BlockAnswer | None = None  # the block's latest answer (real or modelled)
+        self.block_real: BlockAnswer | None = None  # its latest real step (the FMU stands there)
+        self.block_samples: list[BlockAnswer] = []  # real answers under block_under's family of forces
+        self.use_model = True  # off once the block turned out not affine in the force
         self.probes = {}  # side -> (friction at side * delta, block's dv and x under it, held)
         self.probe_slopes = {}  # side -> the relative acceleration at the end under that probe
 
@@ -101,6 +127,7 @@ class ImplicitStep:
         where it stands (its output's direct feedthrough; no step)."""
         F, f = self.system.friction_outputs(dv)
         self.friction_last = (dv, F, f, math.nan)
+        self.friction_input = dv
         return F, f
 
     def step_friction(self, dv: float) -> None:
@@ -109,30 +136,72 @@ class ImplicitStep:
         if self.friction_stepped:
             for slave, handle in self.friction_state:
                 slave.restore(handle)
-        F, f, F_mean = self.system.step_friction(dv, self.t, self.h)
+            self.friction_input = None  # (the step's start's)
+        # (the last trial's dv is still the friction's input: no second set)
+        F, f, F_mean = self.system.step_friction(dv, self.t, self.h, set_input=dv != self.friction_input)
+        self.friction_input = dv
         self.friction_stepped = True
         self.friction_last = (dv, F, f, F_mean)
 
     def block_at(self, F0: float, rate: float) -> tuple[float, float]:
-        """The block's relative velocity and position after the step under F0 + rate s."""
-        if self.block_last is not None:
+        """The block's relative velocity and position after the step under F0 + rate s
+        (a real step of the block)."""
+        last = self.block_real
+        if last is not None:
             for slave, handle in self.block_state:
                 slave.restore(handle)
         x, v, a = self.system.step_block(F0, rate, self.t, self.h)
-        if self.block_last is not None:
+        if last is not None:
             # the block's velocity per unit impulse (1/M for a lone mass), from the secant
-            _, _, v_last, _, F0_last, rate_last = self.block_last
-            d_impulse = (F0 - F0_last + 0.5 * (rate - rate_last) * self.h) * self.h
-            if d_impulse != 0.0 and v != v_last:
-                self.report.velocity_per_impulse = abs((v - v_last) / d_impulse)
-        self.block_last = (F0 + rate * self.h, x, v, a, F0, rate)
+            d_impulse = (F0 - last.F0 + 0.5 * (rate - last.rate) * self.h) * self.h
+            if d_impulse != 0.0 and v != last.v:
+                self.report.velocity_per_impulse = abs((v - last.v) / d_impulse)
+        self.block_last = self.block_real = BlockAnswer(F0 + rate * self.h, x, v, a, F0, rate)
         return self.V - v, x
 
-    def block_under(self, F: float) -> float:
-        """The block's relative velocity after the step whose force ends at F."""
-        if self.ramp:
-            return self.block_at(self.point.F, (F - self.point.F) / self.h)[0]
-        return self.block_at(F, 0.0)[0]
+    def block_under(self, F: float, real: bool = False) -> float:
+        """The block's relative velocity after the step whose force ends at F: modelled from
+        two real steps under other end forces where it can be (:data:`MODEL_MISS_TOLERANCE`),
+        else (or with real=True) stepped."""
+        F0, rate = (self.point.F, (F - self.point.F) / self.h) if self.ramp else (F, 0.0)
+        if not real:
+            modelled = self.block_model(F, F0, rate)
+            if modelled is not None:
+                self.block_last = modelled
+                return self.V - modelled.v
+        dv = self.block_at(F0, rate)[0]
+        # (the end force as the family names it: F0 + rate h can differ from F in the last bit)
+        self.block_last = self.block_real = self.block_real._replace(F_end=F)
+        self.block_samples.append(self.block_real)
+        return dv
+
+    def block_model(self, F: float, F0: float, rate: float) -> BlockAnswer | None:
+        """The block's answer to the end force F, affine in it through the last two real
+        answers under distinct end forces (None: fewer than two, or the model is off)."""
+        if not self.use_model or len(self.block_samples) < 2:
+            return None
+        # the latest real answer and the one farthest from it in force (near ones amplify
+        # the round-off of their difference)
+        b = self.block_samples[-1]
+        a = max(self.block_samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
+        if a.F_end == b.F_end:
+            return None
+        w = (F - a.F_end) / (b.F_end - a.F_end)
+        return BlockAnswer(F, a.x + w * (b.x - a.x), a.v + w * (b.v - a.v), a.a + w * (b.a - a.a), F0, rate)
+
+    def block_real_at(self, F: float) -> bool:
+        """Leave the block really stepped under the end force F (if its latest answer was
+        modelled, or under another force); False if the model had missed the real answer by
+        more than MODEL_MISS_TOLERANCE root tolerances (the model is then switched off)."""
+        real = self.block_real
+        if real is not None and real.F_end == F and self.block_last is real:
+            return True
+        modelled = self.block_last if self.block_last is not None and self.block_last.F_end == F else None
+        self.block_under(F, real=True)
+        if modelled is not None and abs(modelled.v - self.block_real.v) > MODEL_MISS_TOLERANCE * self.root_tol:
+            self.use_model = False
+            return False
+        return True
 
     def loop(self, dv: float) -> float:
         """H(dv): how far the block's answer is from the assumed dv."""
@@ -155,6 +224,9 @@ class ImplicitStep:
         mode, slip, event = classified
         if mode == Contact.STUCK:
             event = self.solve_stuck(event)
+            if not self.block_real_at(self.block_last.F_end):
+                event = self.solve_stuck(event)  # again, every iterate stepped
+                self.block_real_at(self.block_last.F_end)
             self.step_friction(0.0)
             f, F_mean = self.friction_last[2], math.nan  # the block felt the stick force, not the friction's
         else:
@@ -163,9 +235,10 @@ class ImplicitStep:
             if self.ramp and gain >= self.settings.max_ramp_gain:
                 return RETRY_HELD_STIFF
             dv = self.settle(dv, gain, mode)
+            if not self.block_real_at(self.friction_last[1]):
+                dv = self.settle(dv, gain, mode)  # again, every iterate stepped
+                self.block_real_at(self.friction_last[1])
             _, F, f, F_mean = self.friction_last
-            if self.block_last[0] != F:
-                self.block_under(F)
         F, x, v, a, F0, F_rate = self.block_last
         return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
                      F_rate=F_rate, mode=mode, event=event, ramped=self.ramp, F_mean=F_mean)
@@ -229,6 +302,8 @@ class ImplicitStep:
         """Stuck at the step's end: the stick ramp (stuck all through), or the stick force
         (it was slipping, or nothing is known before); returns the event fraction."""
         self.report.stuck = True
+        F_pos, F_neg = self.probes[1.0][0], self.probes[-1.0][0]
+        self.report.bounds = (min(F_pos, F_neg), max(F_pos, F_neg))
         previous = self.previous
         if previous == Contact.STUCK:
             event = self.stick_ramp()
@@ -336,6 +411,12 @@ class ImplicitStep:
             if abs(d) <= self.delta or d == db:
                 break
             a, da, b, db = b, db, F, d
+        low, high = min(F_neg, F_pos), max(F_neg, F_pos)
+        if not low <= F <= high:
+            # Round-off past the bound (a step of a few ns, where the probes' dv differ by
+            # less than delta): the stick force is the friction's to bound, dv stays within delta.
+            F = min(max(F, low), high)
+            self.block_under(F)
         return F
 
     def stick_ramp(self) -> float:

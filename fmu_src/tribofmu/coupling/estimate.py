@@ -34,7 +34,7 @@ class GlobalErrorEstimate:
     def observe(self, x: float, a: float, F: float, velocity_per_impulse: float, x_floor: float) -> None:
         """Learn w2 from a point: a = F/M - w2 x, with 1/M the block's velocity per unit impulse
         (x [m] beyond x_floor [m], so that round-off in x does not decide)."""
-        if velocity_per_impulse > 0.0 and abs(x) > x_floor:
+        if (velocity_per_impulse > 0.0 or F == 0.0) and abs(x) > x_floor:  # (no force: a = -w2 x)
             w2 = (F * velocity_per_impulse - a) / x
             if w2 > 0.0:
                 self.w2 = w2

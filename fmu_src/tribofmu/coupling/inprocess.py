@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from ..physics.block import BlockState, acceleration, advance_block
 from ..physics.friction import FrictionLaw
+from .system import CALL_KINDS
 
 
 class InProcessSlave:
@@ -34,33 +35,39 @@ class InProcessSlave:
     def __init__(self, instance: str):
         self.instance = instance
         self.calls = 0
+        self.calls_by_kind = dict.fromkeys(CALL_KINDS, 0)
         self.refs = {name: ref for ref, name in enumerate(self.variables)}
 
     def set_reals(self, refs: list[int], values: list[float]) -> None:
         self.calls += 1
+        self.calls_by_kind["set"] += 1
         for ref, value in zip(refs, values):
             setattr(self, self.variables[ref], float(value))
 
     def get_reals(self, refs: list[int]) -> list[float]:
         self.calls += 1
+        self.calls_by_kind["get"] += 1
         return [getattr(self, self.variables[ref]) for ref in refs]
 
     def do_step(self, t: float, h: float) -> None:
         self.calls += 1
+        self.calls_by_kind["doStep"] += 1
         self.advance(t, h)
 
     def advance(self, t: float, h: float) -> None:
         raise NotImplementedError
 
     def save(self) -> tuple:
+        self.calls_by_kind["save"] += 1
         return tuple(getattr(self, name) for name in self.state)
 
     def restore(self, saved: tuple) -> None:
+        self.calls_by_kind["restore"] += 1
         for name, value in zip(self.state, saved):
             setattr(self, name, value)
 
     def free_state(self, saved: tuple) -> None:
-        pass
+        self.calls_by_kind["free"] += 1
 
 
 class BlockPart(InProcessSlave):

@@ -29,9 +29,16 @@ from typing import Any, Protocol
 from .quadrature import step_dissipation  # the energy audit's own quadrature
 
 
+# The kinds of call a coupling step makes, as a slave's ``calls_by_kind`` counts them: get and
+# set reals (fmi2GetReal/fmi3GetFloat64, ...SetReal/SetFloat64), doStep, and the FMU state's
+# get ("save"), set ("restore") and free.
+CALL_KINDS = ("get", "set", "doStep", "save", "restore", "free")
+
+
 class SlaveLike(Protocol):
     instance: str
     calls: int
+    calls_by_kind: dict[str, int]  # optional: CALL_KINDS -> count (test fakes may lack it)
     refs: dict[str, int]
 
     def set_reals(self, refs: list[int], values: list[float]) -> None: ...
@@ -180,12 +187,14 @@ class CoupledSystem:
         self.block.do_step(t, h)
         return self.block_outputs()
 
-    def step_friction(self, dv: float, t: float, h: float) -> tuple[float, float, float]:
+    def step_friction(self, dv: float, t: float, h: float, set_input: bool = True) -> tuple[float, float, float]:
         """Step the friction to dv [m/s] at t + h; returns F, f at t + h and the mean force
-        [N] over the step (F where the friction does not report it)."""
+        [N] over the step (F where the friction does not report it). set_input=False: the
+        friction holds dv as its input already (the caller's last trial set it)."""
         if self.friction is None:
             return 0.0, 0.0, 0.0
-        self.friction.set_reals(self._dv, [dv])
+        if set_input:
+            self.friction.set_reals(self._dv, [dv])
         self.friction.do_step(t, h)
         return tuple(self.friction.get_reals(self._friction_out))
 
@@ -213,6 +222,12 @@ class CoupledSystem:
     def save(self, *slaves: SlaveLike) -> States:
         return States({s.instance: (s, s.save()) for s in (slaves or self.slaves) if s is not None})
 
+    def loop_states(self, states: States) -> States:
+        """The part of states an implicit step restores between its evaluations: the block's
+        and the friction's (the drive, load and thermal stay where the step put them)."""
+        loop = (self.block, self.friction)
+        return States({name: held for name, held in states.handles.items() if held[0] in loop})
+
     def restore(self, states: States) -> None:
         for slave, handle in states.handles.values():
             slave.restore(handle)
@@ -235,3 +250,17 @@ class CoupledSystem:
     @property
     def calls(self) -> dict[str, int]:
         return {s.instance: s.calls for s in self.slaves}
+
+    @property
+    def calls_by_kind(self) -> dict[str, int]:
+        """Every slave's hot-path calls summed by kind (:data:`CALL_KINDS`); a slave that does
+        not count by kind adds nothing."""
+        total = dict.fromkeys(CALL_KINDS, 0)
+        for slave in self.slaves:
+            for kind, count in getattr(slave, "calls_by_kind", {}).items():
+                total[kind] += count
+        return total
+
+    @property
+    def calls_by_instance_and_kind(self) -> dict[str, dict[str, int]]:
+        return {s.instance: dict(getattr(s, "calls_by_kind", {})) for s in self.slaves}

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from ..atomic import left_by_gone_process
+from ..coupling.system import CALL_KINDS
 from ..errors import STATUS_NAMES, FMUCallError, FMUError, FMUFileError  # noqa: F401 (re-exported)
 
 
@@ -122,7 +123,10 @@ class FMUInstance:
         if not path.is_file():
             raise FMUFileError(f"{instance}: FMU file not found: {path} (run 'tribofmu build' first)")
         self.instance = instance
-        self.calls = 0
+        self.calls = 0  # every FMI call made, setup and hot path alike
+        # the hot path's calls by kind (CALL_KINDS: get/set reals, doStep, get/set/free FMU
+        # state); the rest of ``calls`` is setup and teardown
+        self.calls_by_kind = dict.fromkeys(CALL_KINDS, 0)
         self.messages: list[str] = []
         try:
             md = fmpy.read_model_description(str(path))
@@ -280,6 +284,7 @@ class FMUInstance:
     def set_reals(self, refs: list[int], values: list[float]) -> None:
         """fmi2SetReal / fmi3SetFloat64."""
         self.calls += 1
+        self.calls_by_kind["set"] += 1
         vr, n, buf = self._buffer(refs)
         buf[:] = values
         args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)  # FMI 3: + nValues
@@ -289,6 +294,7 @@ class FMUInstance:
     def get_reals(self, refs: list[int]) -> list[float]:
         """fmi2GetReal / fmi3GetFloat64."""
         self.calls += 1
+        self.calls_by_kind["get"] += 1
         vr, n, buf = self._buffer(refs)
         args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)
         mark = len(self.messages)
@@ -300,6 +306,7 @@ class FMUInstance:
         afterwards: FMI 3.0 gets noSetFMUStatePriorToCurrentPoint = false (the FMI 2.0 call
         keeps passing true, which pythonfmu ignores)."""
         self.calls += 1
+        self.calls_by_kind["doStep"] += 1
         mark = len(self.messages)
         if self.fmi_version == 3:
             status = self._c["step"](self._component, t, h, False, *self._step_refs)
@@ -309,6 +316,7 @@ class FMUInstance:
 
     def save(self):
         self.calls += 1
+        self.calls_by_kind["save"] += 1
         state = self._state_type()
         mark = len(self.messages)
         self._check(self._names["save"], self._c["save"](self._component, ctypes.byref(state)), mark)
@@ -316,11 +324,13 @@ class FMUInstance:
 
     def restore(self, state) -> None:
         self.calls += 1
+        self.calls_by_kind["restore"] += 1
         mark = len(self.messages)
         self._check(self._names["restore"], self._c["restore"](self._component, state), mark)
 
     def free_state(self, state) -> None:
         self.calls += 1
+        self.calls_by_kind["free"] += 1
         mark = len(self.messages)
         self._check(self._names["free"], self._c["free"](self._component, ctypes.byref(state)), mark)
 

@@ -1,0 +1,171 @@
+"""Issue 31: how far the coupling is from the co-simulation floor, every target printed beside
+its measured value, interleaved in one process.
+
+    python benchmarks/bench_floor.py [--repeat 3] [--algorithms adaptive,doubling] [--cases fig2,fig6]
+                                     [--span] [--out FILE.json]
+
+Per case and algorithm (every case and algorithm once per round, ``--repeat`` rounds, median
+wall times), measured with ``tribofmu.api.simulate`` (the whole call) on the FMUs built from
+this source:
+  * nRMS(v) on the scene's window against the reference (``studies.reference``);
+  * accepted steps, rejected / accepted, coupling iterations (loop evaluations) per accepted
+    step, and the FMU calls per accepted step by kind (get, set, doStep, save, restore, free:
+    ``CoupledSystem.calls_by_kind``, read from the system the run built);
+  * the anchors of issue 31, interleaved in the same rounds: LSODA at rtol 1e-4 on the same
+    equations (boundary and fluid cases) and the exact event-driven solve (dry cases), with
+    the ratio of the median wall times.
+``--algorithms`` compares couplings in the same process (``doubling`` is the step-doubling
+coupling this issue replaces, kept registered for this comparison). ``--span`` also runs Fig. 2
+at 1x, 4x and 16x its periods for "wall time linear in the span" and the peak RSS growth.
+
+Load-independent numbers (calls, solves, rejections) are the ones to compare across runs on
+a shared machine; the wall-time ratios hold only within one run (interleaved).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import resource
+import statistics
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_front import anchor, fmt, load_avg, window_error  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ROOT / "scenarios"
+CASES = {
+    "fig6": ("fig6_boundary", {}),
+    "fig2": ("fig2_dry", {}),
+    "fig6 gamma=0": ("fig6_boundary", {"friction.gamma": 0.0}),
+    "fig6 gamma=1": ("fig6_boundary", {"friction.gamma": 1.0}),
+    "fig2 omega=3": ("fig2_dry", {"drive.omega": 3.0}),
+    "fig2 M=0.05": ("fig2_dry", {"block.M": 0.05}),
+}
+# issue 31's targets
+FIG6_NRMS, FIG6_RATIO = 1e-3, 8.0  # <= 1e-3 nRMS(v) in <= 8x LSODA rtol 1e-4
+FIG2_NRMS, FIG2_RATIO = 2e-4, 4.0  # <= 2e-4 in <= 4x the exact event-driven solve
+CALLS_PER_STEP = 20.0
+REJECTED_FRACTION = 0.20
+
+
+def ours(scenario, ref, algorithm: str) -> dict:
+    from tribofmu import api
+
+    captured = {}
+    build = api.build_system
+
+    def capture(*args, **kwargs):  # the run's system, for its calls by kind
+        captured["system"] = system = build(*args, **kwargs)
+        return system
+
+    api.build_system = capture
+    try:
+        begin = time.perf_counter()
+        result = api.simulate(scenario, algorithm=algorithm, max_wall=120.0)
+        wall = time.perf_counter() - begin
+    finally:
+        api.build_system = build
+    s = result.stats
+    steps = s["communication_steps"] or 1
+    kinds = captured["system"].calls_by_kind
+    return {"ok": bool(result.ok), "wall": wall, "nrms_v": window_error(result.time, result.v, ref, scenario.window),
+            "steps": s["communication_steps"], "rejected_per_accepted": s["rejected_steps"] / steps,
+            "landed": s.get("landed_events", 0), "iterations_per_step": s["coupling_iterations"] / steps,
+            "calls_per_step": sum(kinds.values()) / steps,
+            "calls_per_step_by_kind": {k: round(v / steps, 2) for k, v in kinds.items()},
+            "estimated_nrms_v": (s.get("estimated_error") or {}).get("nrms_v")}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--algorithms", default="adaptive")
+    parser.add_argument("--cases", default=",".join(CASES))
+    parser.add_argument("--span", action="store_true")
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args()
+    from tribofmu import api
+    from tribofmu.physics.friction import DRY
+    from tribofmu.studies.reference import reference_solution
+
+    algorithms = args.algorithms.split(",")
+    print(f"bench_floor: {load_avg()}, {args.repeat} interleaved rounds, algorithms {algorithms}", flush=True)
+    cases = []
+    for name in args.cases.split(","):
+        scene, overrides = CASES[name]
+        sc = api.load(SCENES / f"{scene}.toml", overrides or None)
+        cases.append({"name": name, "scenario": sc, "ref": reference_solution(sc),
+                      "dry": sc.friction.law().regime == DRY, "runs": {a: [] for a in algorithms}, "anchor": []})
+    api.simulate(cases[0]["scenario"])  # build or find the FMUs, warm the imports: not timed
+    for round_ in range(args.repeat):
+        for case in cases:
+            for algorithm in algorithms:
+                case["runs"][algorithm].append(ours(case["scenario"], case["ref"], algorithm))
+            case["anchor"].append(anchor("event" if case["dry"] else "lsoda", case["scenario"], case["ref"]))
+        print(f"  round {round_ + 1}/{args.repeat} done ({load_avg()})", flush=True)
+
+    report = {"load": load_avg(), "cases": {}}
+    print("\ncase           algorithm  nRMS(v)   wall med  anchor med  ratio   steps  rej/acc  iter/step  "
+          "calls/step  by kind (get set doStep save restore free)")
+    for case in cases:
+        anchor_wall = statistics.median(r["wall"] for r in case["anchor"])
+        kind = "event-driven" if case["dry"] else "LSODA 1e-4"
+        for algorithm, runs in case["runs"].items():
+            last = runs[-1]
+            wall = statistics.median(r["wall"] for r in runs)
+            row = dict(last, wall_median_s=wall, anchor=kind, anchor_wall_median_s=anchor_wall,
+                       anchor_nrms_v=case["anchor"][-1]["nrms_v"], ratio=wall / anchor_wall)
+            report["cases"][f"{case['name']} / {algorithm}"] = row
+            k = row["calls_per_step_by_kind"]
+            print(f"{case['name']:14s} {algorithm:10s} {fmt(row['nrms_v'], '.2e'):9s} {wall:8.3f}  "
+                  f"{anchor_wall:8.3f}    {row['ratio']:5.1f}x  {row['steps']:6d} {row['rejected_per_accepted']:7.2f}  "
+                  f"{row['iterations_per_step']:8.2f}  {row['calls_per_step']:9.1f}   "
+                  + " ".join(f"{k[n]:.1f}" for n in ("get", "set", "doStep", "save", "restore", "free"))
+                  + ("" if row["ok"] else "  NOT OK"))
+
+    if args.span:
+        print("\nwall time against the span (Fig. 2, default algorithm)")
+        report["span"] = {}
+        for periods in (10, 40, 160):
+            sc = api.load(SCENES / "fig2_dry.toml", {"time.periods": float(periods)})
+            rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+            begin = time.perf_counter()
+            result = api.simulate(sc, keep_window=True)
+            wall = time.perf_counter() - begin
+            grown = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss
+            report["span"][periods] = {"wall": wall, "per_period": wall / periods, "peak_rss_growth_kb": grown}
+            print(f"  {periods:4d} periods: {wall:.2f} s ({wall / periods * 1e3:.1f} ms/period), "
+                  f"peak RSS +{grown} kB, ok {result.ok}", flush=True)
+
+    print(f"\ntargets (issue 31), algorithm {algorithms[0]}")
+    c = report["cases"]
+
+    def target(text, measured, ok):
+        print(f"  [{'n/a' if ok is None else ('MET' if ok else 'MISSED'):6s}] {text}: {measured}")
+
+    first = algorithms[0]
+    f6, f2 = c.get(f"fig6 / {first}"), c.get(f"fig2 / {first}")
+    if f6:
+        target(f"Fig. 6: nRMS(v) <= {FIG6_NRMS:g} in <= {FIG6_RATIO:g}x LSODA rtol 1e-4",
+               f"{f6['nrms_v']:.2e} in {f6['ratio']:.1f}x", f6["nrms_v"] <= FIG6_NRMS and f6["ratio"] <= FIG6_RATIO)
+    if f2:
+        target(f"Fig. 2: nRMS(v) <= {FIG2_NRMS:g} in <= {FIG2_RATIO:g}x the event-driven solve",
+               f"{f2['nrms_v']:.2e} in {f2['ratio']:.1f}x", f2["nrms_v"] <= FIG2_NRMS and f2["ratio"] <= FIG2_RATIO)
+    mine = {k: v for k, v in c.items() if k.endswith(f"/ {first}")}
+    target(f"<= {CALLS_PER_STEP:g} FMU calls per accepted step (fig2, fig6)",
+           ", ".join(f"{k}: {v['calls_per_step']:.1f}" for k, v in mine.items() if k.split(" /")[0] in ("fig2", "fig6")),
+           all(v["calls_per_step"] <= CALLS_PER_STEP for k, v in mine.items() if k.split(" /")[0] in ("fig2", "fig6")))
+    target(f"rejected <= {REJECTED_FRACTION:.0%} of accepted", ", ".join(
+        f"{k}: {v['rejected_per_accepted']:.2f}" for k, v in mine.items()),
+        all(v["rejected_per_accepted"] <= REJECTED_FRACTION for v in mine.values()))
+    if args.out:
+        Path(args.out).write_text(json.dumps(report, indent=2, default=float) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
