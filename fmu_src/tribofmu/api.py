@@ -174,8 +174,7 @@ def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float
              "coupling_iterations": outcome.counters["iterations"],
              "stick_steps": outcome.counters["stick_steps"], "forced_steps": outcome.counters["forced"],
              "fmu_calls": outcome.calls, "fmu_calls_total": sum(outcome.calls.values()),
-             "fmu_calls_per_step": (sum(outcome.calls.values()) / outcome.counters["steps"]
-                                    if outcome.counters["steps"] else None),
+             "fmu_calls_per_step": fmu_calls_per_step(outcome),
              "output_points": int(reached),
              "fmus": {name: {"file": str((fmu_dir / f"{name}.fmu").resolve()), "guid": getattr(slave, "guid", None)}
                       for name, slave in slaves.items()}}
@@ -292,17 +291,29 @@ def _write_result_set(folder: Path, result: SimulationResult, scene_file: Path |
         plot_result(result, folder)
 
 
+def fmu_calls_per_step(outcome) -> dict[str, Any] | None:
+    """The stepping calls into the FMUs per accepted communication step of this run, in all
+    (``total``) and by kind (get, set, doStep, save, restore, free); set-up calls (instantiate,
+    parameters, initialization) are not counted. The runs of a check count apart
+    (``stats["check"]["runs"]``)."""
+    steps = outcome.counters["steps"]
+    if not steps or not outcome.calls_by_kind:
+        return None
+    kinds = {kind: count / steps for kind, count in outcome.calls_by_kind.items()}
+    return {"total": sum(kinds.values()), "by_kind": kinds}
+
+
 def estimated_error(coupling, audit: WindowError) -> dict[str, Any]:
     """The run's own propagated estimate of its nRMS(v) on the shown window, and how it was
     made (an adaptive run's reported error is the checked one: :mod:`tribofmu.checked`)."""
-    if coupling.name != "adaptive":
+    if not hasattr(coupling, "estimate"):
         return {"nrms_v": None, "method": "none: a fixed-step coupling estimates no error; "
                                           "use --algorithm adaptive, or tribofmu accuracy"}
     value = audit.nrms()
     return {"nrms_v": value if math.isfinite(value) else None,
-            "method": "step doubling's local errors in x and v (and the friction's impulse misses and "
-                      "impulse differences) carried through the block's linearised motion to the "
-                      "window (coupling/estimate.py)"}
+            "method": f"propagated: the {coupling.name} coupling's local error estimates (and the "
+                      "friction's impulse misses) carried through the block's linearised motion to the "
+                      "window (coupling/estimate.py); not checked"}
 
 
 def build_system(scenario: Scenario, slaves: dict) -> CoupledSystem:

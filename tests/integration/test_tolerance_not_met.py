@@ -38,3 +38,7 @@ def test_a_met_tolerance_is_ok_and_reports_the_checked_error(tmp_path, fmu_dir, 
     assert stats["ok"] and stats["tolerance_met"] and stats["estimated_error"]["nrms_v"] <= 1e-3
     assert len(stats["check"]["runs"]) >= 2 and stats["step_tol"] == stats["check"]["runs"][-1]["step_tol"]
     assert stats["wall_time"] >= sum(r["wall_time"] for r in stats["check"]["runs"])
+    # the reported run's stepping calls per accepted step, by kind (the check's runs apart)
+    per_step = stats["fmu_calls_per_step"]
+    assert set(per_step["by_kind"]) == {"get", "set", "doStep", "save", "restore", "free"}
+    assert per_step["total"] == sum(per_step["by_kind"].values()) and 5 < per_step["total"] < 100

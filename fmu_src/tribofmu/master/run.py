@@ -63,6 +63,7 @@ class RunOutcome:
     counters: dict = field(default_factory=dict)
     calls: dict = field(default_factory=dict)
     out_of_time: bool = False  # stopped because its pace projected past limits.max_wall
+    calls_by_kind: dict = field(default_factory=dict)  # stepping calls summed over the FMUs by kind
 
 
 class PointList:
@@ -226,7 +227,7 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
     return RunOutcome(recorder.kept(), ok, message, wall,
                       counters=dict(steps=c.steps, rejected=c.rejected, landed=c.landed, iterations=c.iterations,
                                     forced=c.forced, stick_steps=c.stick_steps),
-                      calls=system.calls, out_of_time=out_of_time)
+                      calls=system.calls, out_of_time=out_of_time, calls_by_kind=system.calls_by_kind)
 
 
 def _duration(seconds: float) -> str:
