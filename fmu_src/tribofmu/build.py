@@ -252,7 +252,7 @@ WRAPPER_FILE = "libpythonfmu-export.so"  # the name loader_common.h opens
 
 
 def native_loader_supported() -> bool:
-    """The loader is built for Linux x86-64 only (see the README's native-host section)."""
+    """The loader is built for Linux x86-64 only (see docs/hosts.md, native hosts)."""
     import platform
     return sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")
 

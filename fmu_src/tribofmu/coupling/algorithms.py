@@ -251,7 +251,7 @@ class StepDoublingCoupling(ImplicitCoupling):
     """
 
     name = "doubling"
-    default_tol = 2e-4  # per-step error against the block's own motion: see README, "What accuracy costs"
+    default_tol = 2e-4  # per-step error against the block's own motion, when nothing chooses it (tribofmu.checked does for simulate)
     default_step = 1e-4  # first try [s]
     controller = COUPLING_STEPS
     state_names = ImplicitCoupling.state_names + ("h_ns", "rejected_last", "_v_scale", "_x_scale",

@@ -129,7 +129,7 @@ class EmbeddedCoupling(ImplicitCoupling):
     """Implicit steps under error control by an embedded estimate: one solve per step."""
 
     name = "adaptive"
-    default_tol = StepDoublingCoupling.default_tol  # see README, "What accuracy costs"
+    default_tol = StepDoublingCoupling.default_tol  # per step; simulate chooses it (tribofmu.checked)
     default_step = StepDoublingCoupling.default_step  # first try [s]
     controller = StepDoublingCoupling.controller
     state_names = ImplicitCoupling.state_names + ("h_ns", "rejected_last", "stick_bounds")

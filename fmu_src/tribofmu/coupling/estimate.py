@@ -15,7 +15,7 @@ contact holds v = V exactly: no error in v while stuck. Events (breakaway, stick
 lubricant that re-solidifies inside a step) enter through the local errors of the steps that
 hold them.
 
-:class:`WindowError` turns the carried error into the measure the README uses: the RMS of
+:class:`WindowError` turns the carried error into the measure --tol bounds (docs/coupling.md): the RMS of
 the error in v over the scene's shown window, divided by the largest |v| there.
 """
 from __future__ import annotations

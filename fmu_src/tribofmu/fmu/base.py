@@ -24,7 +24,7 @@ would otherwise have changed what the model computes (a setter, setting an FMU s
 the instance into an error state: every following ``doStep`` is refused (fmi2Discard,
 fmi3Error) until fmi2Reset or restoring a good FMU state. A host that ignores the logger
 therefore still cannot step on with a value it believes set. What a host sees, call by call,
-is the README's state table. A step is all or nothing: a refused step (bad value, numerical
+is the state table of docs/hosts.md. A step is all or nothing: a refused step (bad value, numerical
 failure, non-finite outputs) leaves the state as it was.
 
 - saves and restores the complete state (:mod:`.fmu_state`).
