@@ -10,10 +10,12 @@ def entry() -> int:
     install_signal_handlers()
     try:
         from .cli import main
-    except KeyboardInterrupt:
+        return main()
+    except KeyboardInterrupt:  # before the command's own handler, or one escaping it (a signal
+        # arriving while a Dask cluster starts or stops): still one line and 130, not a
+        # death by SIGINT with nothing said
         print("tribofmu: interrupted; no result was written (earlier results are as they were)", file=sys.stderr)
         return 130
-    return main()
 
 
 if __name__ == "__main__":
