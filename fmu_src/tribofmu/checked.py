@@ -159,7 +159,7 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     best = None  # the last run checked (before any check: the first run)
     best_error = math.nan
     held: dict[int, Spool] = {}  # the spooled samples of base and best
-    limit = "the time budget ran out; raise --max-wall"  # why a sequence short of tol ended
+    limit = "the time budget ran out"  # why a sequence short of tol ended
 
     def release_unheld() -> None:
         for key in [k for k in held if k not in (id(base), id(best))]:
