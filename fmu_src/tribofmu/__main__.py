@@ -5,12 +5,14 @@ import sys
 def entry() -> int:
     """Ctrl-C and SIGTERM handled before the command's own imports: one line and exit 130 even
     in the first instants (the handlers raise KeyboardInterrupt, caught here or in main())."""
-    from .progress import install_signal_handlers
+    from .progress import install_signal_handlers, work_done
 
-    install_signal_handlers()
+    install_signal_handlers(own_process=True)
     try:
         from .cli import main
-        return main()
+        status = main()
+        work_done()  # a signal during the teardown does not replace the finished work's status
+        return status
     except KeyboardInterrupt:  # before the command's own handler, or one escaping it (a signal
         # arriving while a Dask cluster starts or stops): still one line and 130, not a
         # death by SIGINT with nothing said

@@ -31,7 +31,7 @@ EXIT_TOL_NOT_MET = 3  # the run completed and its result is kept, but its checke
 def main(argv: list[str] | None = None) -> int:
     # first of all (before the parser and the imports of the first half second): Ctrl-C and
     # SIGTERM stop between steps, write nothing half, and say so in one line
-    from .progress import install_signal_handlers
+    from .progress import install_signal_handlers, work_done
     install_signal_handlers()
     from .atomic import forget_published
     forget_published()  # what this command writes, for the Ctrl-C message
@@ -40,7 +40,9 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
         from .master.instance import remove_orphan_extractions
         atexit.register(remove_orphan_extractions)  # unzipped FMUs of finished (Dask) workers
-        return args.run(args)
+        status = args.run(args)
+        work_done()
+        return status
     except KeyboardInterrupt:
         _quiet_from_now_on()
         from .atomic import published
@@ -280,7 +282,7 @@ def cmd_build(args) -> int:
 
 def cmd_simulate(args) -> int:
     from . import api
-    from .progress import RunBar
+    from .progress import RunBar, work_done
     from .result_csv import expected_bytes
     from .scene.library import resolve_scene
 
@@ -304,6 +306,7 @@ def cmd_simulate(args) -> int:
             max_wall=-1.0 if args.max_wall is None else args.max_wall, command=["tribofmu", *sys.argv[1:]])
     finally:
         bar.close()  # also when the call failed before the run began
+    work_done()  # the result set is complete (or the failure is known): what follows only says so
     estimate = result.stats["estimated_error"]["nrms_v"]
     checked = result.stats["estimated_error"].get("method", "").startswith("checked")
     accuracy = (f", {'checked' if checked else 'estimated'} nRMS(v) {estimate:.2g}"
@@ -391,6 +394,7 @@ def cmd_export_ssp(args) -> int:
 def cmd_sweep(args) -> int:
     """Exit 0 when every point is ok, 1 when some failed (see their rows), 2 on bad input."""
     from . import api
+    from .progress import work_done
     from .studies.sweep import parse_grid, sweep
     require("tqdm", "tqdm", "tribofmu sweep")
     if args.workers != 0:
@@ -422,6 +426,7 @@ def cmd_sweep(args) -> int:
             print(f"tribofmu: sweep interrupted; finished points are in {out}/sweep.csv, "
                   "rerun the same command to resume", file=sys.stderr)
         return 130
+    work_done()  # sweep.csv holds every point: what follows only says so
     print(f"{len(rows)} points: {len(rows) - rows.failed} ok, {rows.failed} failed "
           f"({rows.computed} run, {rows.skipped} already done), {rows.elapsed:.1f} s -> {out}/")
     return EXIT_FAILED if rows.failed else 0

@@ -18,7 +18,7 @@ import signal
 import sys
 import time
 
-_state = {"running": 0, "requested": False}
+_state = {"running": 0, "requested": False, "own_process": False}
 
 
 def _handler(signum, _frame):
@@ -29,12 +29,31 @@ def _handler(signum, _frame):
     raise KeyboardInterrupt  # outside a run, or a second signal: stop now
 
 
-def install_signal_handlers() -> None:
-    """Ctrl-C (SIGINT) and SIGTERM stop cleanly; call from the main thread."""
+def install_signal_handlers(own_process: bool = False) -> None:
+    """Ctrl-C (SIGINT) and SIGTERM stop cleanly; call from the main thread. own_process: the
+    caller is the process's entry point (the ``tribofmu`` command), so :func:`work_done` may
+    take the signals for the rest of the process's life."""
+    _state["own_process"] = _state["own_process"] or own_process
     for sig in (signal.SIGINT, signal.SIGTERM):
         try:
             signal.signal(sig, _handler)
         except ValueError:  # not the main thread: leave signals to the host
+            return
+
+
+def work_done() -> None:
+    """The command's result is complete (written, or its failure said): from here on a Ctrl-C
+    or SIGTERM can neither lose nor change anything, so it is ignored. Without this, one that
+    arrives during the teardown (Dask's atexit handlers, which then print a traceback, or the
+    interpreter's finalization, which restores the default handlers and dies by SIGINT with
+    nothing said) replaces the exit status of the finished work. Only in the ``tribofmu``
+    process itself: a host that calls ``cli.main`` keeps its own signal handling."""
+    if not _state["own_process"]:
+        return
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            signal.signal(sig, signal.SIG_IGN)
+        except ValueError:  # not the main thread
             return
 
 
