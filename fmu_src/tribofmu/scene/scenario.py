@@ -315,11 +315,10 @@ def validate(scenario: Scenario) -> list[str]:
         out += [f"load.{p}" for p in program.problems()]
         if (not program.problems() and "Load" in scenario.fmus and regime_problem(fr.regime) is None
                 and math.isfinite(scenario.stop_time)):
-            highest = program.extremes(0.0, scenario.stop_time)[1]
-            for problem in fr.law().input_problems(0.0, highest, scenario.conditions.T):
-                if problem.startswith("n "):
-                    out.append(f"load.n0 = {ld.n0} with load.program = {ld.program!r} makes n reach "
-                               f"{highest:.6g} Pa within the run: {problem}")
+            highest, law = program.extremes(0.0, scenario.stop_time)[1], fr.law()
+            if any(p.startswith("n ") for p in law.input_problems(0.0, highest, scenario.conditions.T)):
+                out.append(f"load.n0 = {ld.n0} with load.program = {ld.program!r} makes n reach "
+                           f"{highest:.6g} Pa > 0 within the run ({law.label} needs compression, n <= 0)")
     out += [f"drive.{p}" for p in drive_problems(scenario.drive.A, scenario.drive.omega)]
     out += [f"block.{p}" for p in block_problems(scenario.block.M, scenario.block.K)]
     if regime_problem(fr.regime) is not None:
