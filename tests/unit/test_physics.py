@@ -151,3 +151,35 @@ def test_the_melt_margin_changes_sign_where_the_elastic_term_switches_off():
         assert (law.melt_margin(f) > 0) == (law.mu_eff(f) > 0), f
     assert law.melt_margin(melt) == pytest.approx(0.0, abs=1e-12)
     assert DryLaw().melt_margin(5.0) == 1.0 == FluidLaw().melt_margin(5.0)
+
+
+def test_mixed_friction_is_the_stribeck_curve_with_a_static_limit():
+    """F = [mu_c + (mu_s - mu_c) exp(-(|dv|/v_s)^delta)] L sgn(dv) + m dv; it holds up to
+    mu_s L at dv = 0 and its mean over a linear dv path is the path's integral (quadrature)."""
+    from scipy.integrate import quad
+
+    law = MixedLaw(mu_friction=0.3, mu_static=0.5, v_stribeck=0.02, stribeck_exponent=1.7, m=3.0, S=2.0)
+    L = 40.0  # N at n = -20 Pa
+    for dv in (1e-9, 0.005, 0.02, 0.3):
+        expected = (0.3 + 0.2 * math.exp(-(dv / 0.02) ** 1.7)) * L + 3.0 * dv
+        assert law.force(dv, -20.0) == pytest.approx(expected, rel=1e-14)
+        assert law.slip_force(dv, -20.0, 1.0) == law.force(dv, -20.0)
+    assert law.force(0.0, -20.0) == 0.0 and law.slip_force(0.0, -20.0, -1.0) == -0.5 * L
+    assert law.static_limit(-20.0) == 0.5 * L and law.sticks and not DryLaw().has_state
+    for a, b in ((-0.03, 0.05), (0.001, 0.2), (-0.4, -0.002), (0.02, 0.02 + 1e-9)):
+        exact = quad(lambda x: law.force(x, -20.0), a, b, points=[0.0] if a < 0 < b else None,
+                     epsabs=0.0, epsrel=1e-13, limit=200)[0] / (b - a)
+        assert law.mean_force(a, b, -20.0) == pytest.approx(exact, rel=1e-9), (a, b)
+    assert law.input_problems(0.0, 5.0, 290.0) == ["n must be <= 0 (compression) for mixed friction, got 5.0"]
+
+
+def test_the_registry_resolves_names_and_fmu_codes_to_one_law_each():
+    from tribofmu.physics.laws import LAWS, law_class
+
+    assert [(law.name, law.code) for law in LAWS.values()] == [
+        ("dry", 0), ("fluid", 1), ("boundary", 2), ("mixed", 3)]  # the FMU's codes never change
+    for law in LAWS.values():
+        assert law_class(law.name) is law_class(law.code) is law
+    assert make_law("mixed", mu_static=0.7, lam=1.0) == MixedLaw(mu_static=0.7)  # others' keys ignored
+    with pytest.raises(KeyError, match="must be one of dry, fluid, boundary, mixed, got 'wet'"):
+        law_class("wet")
