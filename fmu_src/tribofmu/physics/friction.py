@@ -7,13 +7,12 @@ state) and never compares regime codes. Pure physics, no FMI. Units are SI throu
 dv [m/s] relative velocity ``V - v``; n [Pa] normal stress (negative in compression);
 T [K] lubricant temperature; F [N] friction force on the lower block; f [1] excess volume.
 
-Equation numbers refer to the seed paper (see ``shared/MODEL.md``).
+Equation numbers refer to the seed paper (see docs/model.md).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
-
 from typing import ClassVar
 
 
