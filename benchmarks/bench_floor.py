@@ -83,7 +83,6 @@ def main() -> int:
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
     from tribofmu import api
-    from tribofmu.physics.friction import DRY
     from tribofmu.studies.reference import reference_solution
 
     algorithms = args.algorithms.split(",")
@@ -93,7 +92,7 @@ def main() -> int:
         scene, overrides = CASES[name]
         sc = api.load(SCENES / f"{scene}.toml", overrides or None)
         cases.append({"name": name, "scenario": sc, "ref": reference_solution(sc),
-                      "dry": sc.friction.law().regime == DRY, "runs": {a: [] for a in algorithms}, "anchor": []})
+                      "dry": sc.friction.law().sticks, "runs": {a: [] for a in algorithms}, "anchor": []})
     api.simulate(cases[0]["scenario"])  # build or find the FMUs, warm the imports: not timed
     for round_ in range(args.repeat):
         for case in cases:

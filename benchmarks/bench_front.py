@@ -139,7 +139,6 @@ def main() -> int:
         parser.error("--repeat must be >= 1")
 
     from tribofmu import api
-    from tribofmu.physics.friction import DRY
     from tribofmu.studies.reference import reference_solution
 
     print(f"bench_front: {load_avg()}, {args.repeat} interleaved rounds", flush=True)
@@ -148,7 +147,7 @@ def main() -> int:
         sc = api.load(SCENES / f"{scene}.toml", overrides or None)
         begin = time.perf_counter()
         ref = reference_solution(sc)
-        dry = sc.friction.law().regime == DRY
+        dry = sc.friction.law().sticks
         cases.append({"name": name, "scenario": sc, "ref": ref, "dry": dry, "ours": [], "lsoda": [], "event": [],
                       "reference_wall": time.perf_counter() - begin})
         print(f"  reference {name}: {time.perf_counter() - begin:.2f} s {'ok' if ref.ok else ref.message}",

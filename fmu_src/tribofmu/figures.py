@@ -307,14 +307,12 @@ def draw_tn_map(runs, path: Path) -> Path:
     """f of the boundary film at rest (dv = 0) under a slow temperature ramp up then down,
     per load (the friction law alone): where the two ramps differ, melting and
     solidification happen at different temperatures."""
-    from .physics.friction import BOUNDARY
     plt = _plt()
     (sc,) = runs
     law = sc.friction.law()
-    if law.regime != BOUNDARY:
-        raise ValueError(f"tn_map needs a boundary-friction scene, got {sc.friction.regime}")
-    lub = sc.friction.lubricant
-    melt = lub.mu_shear / lub.mu_shear_bar
+    if law.melt_threshold() is None:
+        raise ValueError(f"tn_map needs a lubricant that melts (boundary friction), got {law.label}")
+    melt = law.melt_threshold()
     T_up = np.arange(200.0, 1400.0, 2.0)
     # Pa: 40 loads from 1e4 to 3e7 Pa (compression), and the scene's own
     loads = -np.unique(np.append(np.logspace(4, np.log10(3e7), 40), abs(sc.conditions.n)))

@@ -109,15 +109,15 @@ def scene_items(sc, signals: dict | None = None) -> list[str]:
             items += [f"x0 = {quantity(sc.block.x0, 'm')}", f"v0 = {quantity(sc.block.v0, 'm/s')}"]
         return items
     fr = sc.friction
+    law = fr.law()
     low, high = load_range(sc)
-    if fr.regime == "dry":
-        items.append(f"μ = {_fmt(fr.mu_friction)}")
+    items += law.plot_items(_fmt)
+    if law.load_shown_as == "L":
         loads = (-high * fr.S, -low * fr.S)
         items.append(f"L(t): {_range(*loads, 'N')}" if "Load" in sc.fmus else f"L = {quantity(loads[0], 'N')}")
-        return items
-    items += [f"m = {_fmt(fr.m)}", f"γ = {_fmt(fr.gamma)}"]
-    if fr.regime == "boundary":
+    elif law.load_shown_as == "n":
         items.append(f"n(t): {_range(low, high, 'Pa')}" if "Load" in sc.fmus else f"n = {quantity(low, 'Pa')}")
+    if law.reads_temperature:
         if "Thermal" in sc.fmus:
             T = None if signals is None else signals.get("T")
             if T is not None and np.size(T) and np.all(np.isfinite(T)):
@@ -130,7 +130,7 @@ def scene_items(sc, signals: dict | None = None) -> list[str]:
 
 
 def regime_name(sc) -> str:
-    return f"{sc.friction.regime} friction" if has_friction(sc) else "no friction"
+    return sc.friction.law().label if has_friction(sc) else "no friction"
 
 
 def scene_label(sc, signals: dict | None = None) -> str:
@@ -235,8 +235,9 @@ def plot_signals(signals: dict, sc, out_dir: Path) -> list[Path]:
     t = s["time"]
     drive = has_drive(sc)
     k, prefix = length_scale(sc)
-    boundary = has_friction(sc) and sc.friction.regime == "boundary"
-    extra = [name for name, present in (("f", boundary), ("T", "T" in s and "Thermal" in sc.fmus),
+    law = sc.friction.law() if has_friction(sc) else None
+    melts = law is not None and law.melt_threshold() is not None
+    extra = [name for name, present in (("f", melts), ("T", "T" in s and "Thermal" in sc.fmus),
                                         ("n", "n" in s and "Load" in sc.fmus)) if present]
     rows = 2 + len(extra)
     fig, axes = plt.subplots(rows, 1, figsize=(7.5, 2.3 * rows + 0.9), sharex=True)
@@ -249,14 +250,13 @@ def plot_signals(signals: dict, sc, out_dir: Path) -> list[Path]:
     shade_stuck(axes[1], t, stuck)
     for ax, name in zip(axes[2:], extra):
         if name == "f":
-            lub = sc.friction.lubricant
             ax.plot(t, s["f"], color="C2", label="f (excess volume)")
-            ax.axhline(lub.mu_shear / lub.mu_shear_bar, color="0.5", lw=0.8, ls=":", label="melting: f = μ/μ̄")
+            ax.axhline(law.melt_threshold(), color="0.5", lw=0.8, ls=":", label="melting: f = μ/μ̄")
             ax.set_ylabel("f [1]")
         elif name == "T":
             ax.plot(t, s["T"], color="C1", label="T (Thermal FMU)")
             ax.set_ylabel("T [K]")
-        elif sc.friction.regime == "dry" and has_friction(sc):
+        elif law is not None and law.load_shown_as == "L":
             ax.plot(t, -s["n"] * sc.friction.S, color="C4", label="L = −n S (Load FMU)")
             ax.set_ylabel("load L [N]")
         else:

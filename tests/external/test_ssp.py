@@ -298,6 +298,7 @@ def test_bindings_carry_every_scenario_value_with_its_fmi_type(fmu_dir, tmp_path
                         "v0": real(-2e-6)},
         "Friction": {"regime": ("Integer", 2), "mu_friction": real(fr.mu_friction), "S": real(fr.S),
                      "m": real(fr.m), "gamma": real(fr.gamma), "f0": real(0.125),
+                     **{k: real(getattr(fr, k)) for k in ("mu_static", "v_stribeck", "stribeck_exponent")},
                      **{k: real(getattr(lub, k)) for k in ("phi0_star", "lam", "lam_bar", "mu_shear",
                                                          "mu_shear_bar", "phi1", "phi2", "phi3", "alpha",
                                                          "h", "tau_f", "tau_e")},

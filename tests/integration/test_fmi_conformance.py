@@ -207,6 +207,8 @@ REGIME_CASES = {
     "dry": (dict(regime=0, mu_friction=0.5, S=1.0), -20.0),
     "fluid": (dict(regime=1, m=25.0, gamma=0.0), -20.0),
     "boundary": (BOUNDARY, -1e6),
+    "mixed": (dict(regime=3, mu_friction=0.35, mu_static=0.55, v_stribeck=0.015, stribeck_exponent=1.5,
+                   m=4.0, S=1.0), -20.0),
 }
 
 
@@ -227,5 +229,9 @@ def test_friction_runs_alone_in_simulate_fmu_and_dissipates(fmu_paths, regime):
         assert np.all(np.abs(F[moving]) == 0.5 * 20.0)
     elif regime == "fluid":  # Newtonian: F = m dv
         np.testing.assert_allclose(F, 25.0 * dv, rtol=1e-15, atol=0)
+    elif regime == "mixed":  # the Stribeck curve: between mu_c L and mu_s L, plus m dv
+        coulomb = np.abs(F[moving] - 4.0 * dv[moving])
+        assert np.all(coulomb >= 0.35 * 20.0 * (1 - 1e-12)) and np.all(coulomb <= 0.55 * 20.0 * (1 + 1e-12))
+        assert np.ptp(coulomb) > 0.1 * (0.55 - 0.35) * 20.0  # it does fall from mu_s toward mu_c
     else:  # the lubricant state evolves
         assert np.ptp(f) > 0.0

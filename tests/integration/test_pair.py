@@ -108,10 +108,10 @@ def test_pair_model_follows_a_newtonian_fluid_exactly_enough():
     uses, host steps of 2e-3 s, against scipy's solution of M x'' + 2 K x = m (V - x')."""
     from scipy.integrate import solve_ivp
     from tribofmu.coupling.pair import PairModel, PairParameters
-    from tribofmu.physics.friction import FLUID, FrictionLaw
+    from tribofmu.physics import FluidLaw
 
     M, K, m, A, w, h = 0.4, 2500.0, 9.0, 1.5e-3, 23.0, 2e-3
-    model = PairModel(PairParameters(M, K, 0.0, 0.0, FrictionLaw(regime=FLUID, m=m, gamma=0.0), 0.0, 1e-4),
+    model = PairModel(PairParameters(M, K, 0.0, 0.0, FluidLaw(m=m, gamma=0.0), 0.0, 1e-4),
                       0.0, **drive(0.0, A, w), n=-1.0, T=290.0)
     times = np.arange(0, 301) * h
     v = [0.0]

@@ -4,7 +4,7 @@ from __future__ import annotations
 import copy
 
 from tribofmu.master.instance import FMUCallError
-from tribofmu.physics import BlockState, FrictionLaw, acceleration, advance_block, drive
+from tribofmu.physics import BlockState, DryLaw, FrictionLaw, acceleration, advance_block, drive
 
 
 class FakeSlave:
@@ -107,7 +107,7 @@ class FakeFriction(FakeSlave):
 
     def advance(self, t, h):
         v = self.values
-        if self.law.regime == 2:
+        if self.law.has_state:
             self.kinetics_steps += 1
             v["f"] = self.law.advance_f(v["f"], v["dv"], v["n"], v["T"], h)
 
@@ -125,7 +125,7 @@ from tribofmu.coupling.system import Contact, CoupledSystem, Point
 
 N_STRESS = -20.0  # Pa: with S = 1 m^2 and mu = 0.5 the dry bound mu L is 10 N
 MU_L = 10.0  # N
-DRY_LAW = FrictionLaw(regime=0, mu_friction=0.5, S=1.0)  # dry, mu L = 10 N at N_STRESS
+DRY_LAW = DryLaw(mu_friction=0.5, S=1.0)  # dry, mu L = 10 N at N_STRESS
 
 
 def fig2_system(law: FrictionLaw | None = None, omega: float = 30.0, A: float = 2e-3, M: float = 0.6,

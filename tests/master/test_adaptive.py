@@ -3,7 +3,7 @@ import pytest
 
 from tribofmu.coupling.algorithms import StepDoublingCoupling as AdaptiveCoupling, Scales
 from tribofmu.coupling.system import Contact
-from tribofmu.physics import FLUID, FrictionLaw
+from tribofmu.physics import FluidLaw
 from tribofmu.physics.stepsize import COUPLING_STEPS
 
 from fakes import DRY_LAW, MU_L, drive_scales, fig2_system, point_at, rig
@@ -32,7 +32,7 @@ def adaptive(system, tol=1e-3, step=1e-3, scales=SCALES):
 
 def slipping_fluid(m=20.0, M=1.0, K=500.0):
     """A block on soft springs dragged through a linear fluid at 0.1 m/s: smooth slip."""
-    system = rig(FrictionLaw(regime=FLUID, m=m), M=M, K=K, V0=0.1)
+    system = rig(FluidLaw(m=m), M=M, K=K, V0=0.1)
     return system, point_at(system, Contact.FORWARD, m * 0.1)
 
 

@@ -14,14 +14,14 @@ from scipy.optimize import brentq
 from tribofmu.coupling.contact import (RETRY_HELD_STIFF, RETRY_HELD_TRANSITION, RetryHeld,
                                        slip_mode)
 from tribofmu.coupling.system import Contact
-from tribofmu.physics import FLUID, FrictionLaw
+from tribofmu.physics import FluidLaw
 
 from fakes import DRY_LAW, MU_L, block_after, implicit_step, point_at, rig, settings
 
 
 
-def fluid(m: float, gamma: float = 0.0) -> FrictionLaw:
-    return FrictionLaw(regime=FLUID, m=m, gamma=gamma)
+def fluid(m: float, gamma: float = 0.0) -> FluidLaw:
+    return FluidLaw(m=m, gamma=gamma)
 
 
 # -- classification ------------------------------------------------------------------------

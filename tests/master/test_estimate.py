@@ -10,7 +10,7 @@ from scipy.linalg import expm
 
 from tribofmu.coupling.algorithms import AdaptiveCoupling
 from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError
-from tribofmu.physics import FrictionLaw
+from tribofmu.physics import FluidLaw
 
 from fakes import drive_scales, fig2_system
 
@@ -143,10 +143,9 @@ def test_carried_estimate_tracks_the_true_error_of_a_fluid_run(m, gamma, omega, 
     from scipy.integrate import solve_ivp
 
     from tribofmu.master import run
-    from tribofmu.physics import FLUID
 
     A = 2e-3
-    law = FrictionLaw(regime=FLUID, m=m, gamma=gamma)
+    law = FluidLaw(m=m, gamma=gamma)
     scales = drive_scales(omega, A)
     system = fig2_system(law, omega, A, M, K)
     out = run(system, AdaptiveCoupling(tol=1e-3), 3 * scales.period, scales)

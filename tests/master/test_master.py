@@ -8,7 +8,7 @@ from tribofmu.coupling.algorithms import make_algorithm
 from tribofmu.coupling.system import CoupledSystem
 from tribofmu.master import run
 from tribofmu.coupling.interpolation import NS
-from tribofmu.physics import FLUID, FrictionLaw
+from tribofmu.physics import FluidLaw
 
 from fakes import FakeBlock, drive_scales, exact_dry, fig2_system
 
@@ -103,7 +103,7 @@ def test_adaptive_meets_its_tolerance_against_the_exact_dry_motion(tol):
 
 
 def test_gauss_seidel_and_jacobi_share_the_step_but_differ_in_order():
-    law = FrictionLaw(regime=FLUID, m=25.0, gamma=0.0)
+    law = FluidLaw(m=25.0, gamma=0.0)
     a = run(fig2_system(law, omega=50.0), make_algorithm("jacobi", step=1e-4), 0.2, SCALES)
     b = run(fig2_system(law, omega=50.0), make_algorithm("gauss-seidel", step=1e-4), 0.2, SCALES)
     # Static law: the friction's step input does not matter, so the block sees the same forces.

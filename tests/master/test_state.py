@@ -8,7 +8,7 @@ from tribofmu.coupling.algorithms import AdaptiveCoupling, ImplicitCoupling, Sca
 from tribofmu.coupling.interpolation import NS
 from tribofmu.coupling.pair import PairModel, PairParameters
 from tribofmu.master import FMUCallError
-from tribofmu.physics import BOUNDARY, FLUID, FrictionLaw, drive
+from tribofmu.physics import BoundaryLaw, FluidLaw, drive
 
 from fakes import DRY_LAW, drive_scales, fig2_system
 
@@ -158,8 +158,8 @@ def host_steps(model, t_ns, count, h_ns, A, omega=OMEGA):
 
 # (law, M, K, A, n): fig. 2's rig, a shear-thinning fluid, fig. 6's boundary lubricant
 PAIRS = {"dry": (DRY_LAW, 0.6, 7000.0, 2e-3, -20.0),
-         "fluid": (FrictionLaw(regime=FLUID, m=25.0, gamma=-0.5), 0.6, 7000.0, 2e-3, -20.0),
-         "boundary": (FrictionLaw(regime=BOUNDARY, m=0.05, gamma=-2 / 3, S=3e-9), 0.7, 1300.0, 1.4e-6, -1e6)}
+         "fluid": (FluidLaw(m=25.0, gamma=-0.5), 0.6, 7000.0, 2e-3, -20.0),
+         "boundary": (BoundaryLaw(m=0.05, gamma=-2 / 3, S=3e-9), 0.7, 1300.0, 1.4e-6, -1e6)}
 
 
 @pytest.mark.parametrize("pair", PAIRS)

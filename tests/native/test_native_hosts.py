@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 from native_support import STEP, run_clean, table, vr
+from scenes import MIXED_POINTS, MIXED_SHORT
 
 pytestmark = [pytest.mark.integration, pytest.mark.native]
 
@@ -40,6 +41,8 @@ def test_fmu_binary_is_the_loader_and_carries_pythonfmus_beside_it(unzipped):
 # -- (b) our own C host -------------------------------------------------------------------
 def pair_run(programs, unzipped, scenario) -> tuple[np.ndarray, np.ndarray]:
     """Drive + TriboPair in the C host for the scenario's span at STEP; (t, v)."""
+    from tribofmu.scene.wiring import PAIR
+
     drive_dir, drive = unzipped("Drive")
     pair_dir, pair = unzipped("TriboPair")
     n = int(math.ceil(scenario.stop_time / STEP - 1e-9))
@@ -47,10 +50,11 @@ def pair_run(programs, unzipped, scenario) -> tuple[np.ndarray, np.ndarray]:
                "-f", drive_dir, "Drive", drive.get("guid"), "-f", pair_dir, "TriboPair", pair.get("guid")]
     for name, value in (("A", scenario.drive.A), ("omega", scenario.drive.omega)):
         command += ["-s", 0, vr(drive, name), repr(float(value))]
-    for name, value in (("M", scenario.block.M), ("K", scenario.block.K),
-                        ("mu_friction", scenario.friction.mu_friction), ("S", scenario.friction.S),
-                        ("n", scenario.conditions.n)):
-        command += ["-s", 1, vr(pair, name), repr(float(value))]
+    law = scenario.friction.law()
+    command += ["-i", 1, vr(pair, "regime"), law.code]
+    values = {**PAIR.start_values(scenario), **PAIR.constant_inputs(scenario)}
+    for name in ("M", "K", "n", *sorted(law.keys)):
+        command += ["-s", 1, vr(pair, name), repr(float(values[name]))]
     command += ["-c", 0, vr(drive, "V"), 1, vr(pair, "V"), "-c", 0, vr(drive, "a"), 1, vr(pair, "a_drive"),
                 "-o", 1, vr(pair, "v")]
     done = run_clean(command)
@@ -60,39 +64,43 @@ def pair_run(programs, unzipped, scenario) -> tuple[np.ndarray, np.ndarray]:
     return out[:, 0], out[:, 1]
 
 
-@pytest.mark.parametrize("overrides", [
-    {},  # Fig. 2 itself, the issue's target
+@pytest.mark.parametrize("name, overrides", [
+    ("fig2_dry", {}),  # Fig. 2 itself, the issue's target
     # a parameter point no scene uses: other drive, mass, stiffness, friction and load
-    {"drive.omega": 26.0, "drive.A": 1.7e-3, "block.M": 0.45, "block.K": 5200.0,
-     "friction.mu_friction": 0.37, "conditions.n": -13.0, "time.periods": 3.5, "time.window": [2.0, 3.5]},
-], ids=["fig2", "off-scene"])
-def test_c_host_runs_drive_and_pair_like_the_reference(programs, unzipped, overrides):
+    ("fig2_dry", {"drive.omega": 26.0, "drive.A": 1.7e-3, "block.M": 0.45, "block.K": 5200.0,
+                  "friction.mu_friction": 0.37, "conditions.n": -13.0, "time.periods": 3.5,
+                  "time.window": [2.0, 3.5]}),
+    # mixed (Stribeck) friction at the points no scene uses of its fmpy and pair tests
+    *[("mixed_stribeck", {**point, **MIXED_SHORT}) for point in MIXED_POINTS.values()],
+], ids=["fig2", "off-scene", *(f"mixed-{p}" for p in MIXED_POINTS)])
+def test_c_host_runs_drive_and_pair_like_the_reference(programs, unzipped, name, overrides):
     from tribofmu.scene.scenario import load_scenario
     from tribofmu.studies.reference import nrms, reference_solution
 
     from scenes import scene
-    scenario = load_scenario(scene("fig2_dry"), overrides)
+    scenario = load_scenario(scene(name), overrides)
     t, v = pair_run(programs, unzipped, scenario)
     t0, t1 = scenario.window
     inside = (t >= t0 - 1e-12) & (t <= t1 + 1e-12)
     reference = np.asarray(reference_solution(scenario, t[inside]).v)
     error = nrms(t, v, t[inside], reference, scenario.window)
-    print(f"\nC host, Drive + TriboPair, {overrides or 'fig2_dry'}: nRMS(v) = {error:.2e}")
+    print(f"\nC host, Drive + TriboPair, {name} {overrides}: nRMS(v) = {error:.2e}")
     assert error <= 1e-3
 
 
-@pytest.mark.parametrize("regime", [1, 2], ids=["fluid", "boundary"])
+@pytest.mark.parametrize("regime", [1, 2, 3], ids=["fluid", "boundary", "mixed"])
 def test_c_host_runs_friction_alone_like_the_physics_module(programs, unzipped, tmp_path, regime):
     """Friction under a prescribed dv(t) at parameters no scene uses: F and f after each step
     are what the physics module computes with the same steps (same inputs, same solver)."""
-    from tribofmu.physics.friction import Effects, FrictionLaw, LubricantConstants
+    from tribofmu.physics import make_law
 
     folder, description = unzipped("Friction")
     h, n = STEP, 1500
     dv = 0.04 * np.sin(37.0 * h * np.arange(n)) + 0.003
     dv_file = tmp_path / "dv.txt"
     dv_file.write_text("\n".join(repr(float(x)) for x in dv) + "\n")
-    params = dict(m=31.0, gamma=-0.3, S=0.8, mu_friction=0.41, f0=0.15, kinetics_tol=1e-7)
+    params = dict(m=31.0, gamma=-0.3, S=0.8, mu_friction=0.41, f0=0.15, kinetics_tol=1e-7,
+                  mu_static=0.57, v_stribeck=0.013, stribeck_exponent=1.6)
     normal, temperature = -17.0, 305.0
     command = [programs["fmi2_host"], "-h", repr(h), "-n", n, "-f", folder, "Friction", description.get("guid"),
                "-i", 0, vr(description, "regime"), regime]
@@ -103,13 +111,12 @@ def test_c_host_runs_friction_alone_like_the_physics_module(programs, unzipped, 
     assert done.returncode == 0, done.stderr[-2000:]
     out = table(done.stdout)
 
-    law = FrictionLaw(regime=regime, mu_friction=params["mu_friction"], S=params["S"], m=params["m"],
-                      gamma=params["gamma"], lubricant=LubricantConstants(), effects=Effects())
+    law = make_law(regime, **params)
     f = params["f0"]  # the FMU starts every regime at f0 (only boundary friction moves it)
     F_expected, f_expected = [law.force(0.0, normal, f)], [f]
     previous = None
     for k in range(n):
-        if regime == 2:
+        if law.has_state:
             f = law.advance_f(f, dv[k], normal, temperature, h, rtol=params["kinetics_tol"],
                               atol=params["kinetics_tol"], dv_start=previous)
         previous = dv[k]
@@ -119,7 +126,7 @@ def test_c_host_runs_friction_alone_like_the_physics_module(programs, unzipped, 
     assert F_scale > 0.0 and np.all(np.isfinite(out[:, 1]))
     np.testing.assert_allclose(out[:, 1], F_expected, rtol=0, atol=1e-12 * F_scale)
     np.testing.assert_allclose(out[:, 2], f_expected, rtol=0, atol=1e-12)
-    if regime == 2:  # the lubricant melts and solidifies: f is not stuck at its start
+    if law.has_state:  # the lubricant melts and solidifies: f is not stuck at its start
         assert np.ptp(out[:, 2]) > 1e-3
 
 

@@ -6,20 +6,21 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from tribofmu.physics import (BOUNDARY, DRY, FLUID, BlockState, Effects, FrictionLaw,
+from tribofmu.physics import (BlockState, BoundaryLaw, DryLaw, Effects, FluidLaw, MixedLaw, make_law,
                               advance_block, drive, energy)
 from tribofmu.physics.roots import illinois
 
-FIG6 = dict(regime=BOUNDARY, m=0.05, gamma=-2 / 3, S=3e-9)
-LAWS = [FrictionLaw(regime=DRY, mu_friction=0.5, S=1.0),
-        FrictionLaw(regime=FLUID, m=25.0, gamma=-2 / 3),
-        FrictionLaw(regime=FLUID, m=25.0, gamma=0.0),
-        FrictionLaw(regime=FLUID, m=25.0, gamma=2 / 3),
-        FrictionLaw(**FIG6)]
+FIG6 = dict(m=0.05, gamma=-2 / 3, S=3e-9)
+LAWS = [DryLaw(mu_friction=0.5, S=1.0),
+        FluidLaw(m=25.0, gamma=-2 / 3),
+        FluidLaw(m=25.0, gamma=0.0),
+        FluidLaw(m=25.0, gamma=2 / 3),
+        BoundaryLaw(**FIG6),
+        MixedLaw(mu_friction=0.3, mu_static=0.5, v_stribeck=0.02, m=3.0)]
 DVS = [0.0, 1e-12, 3e-7, 1e-4, 0.05, 2.0]
 
 
-@pytest.mark.parametrize("law", LAWS, ids=lambda l: f"regime{l.regime}-g{l.gamma:.2f}")
+@pytest.mark.parametrize("law", LAWS, ids=lambda l: f"{l.name}-g{l.gamma:.2f}")
 @pytest.mark.parametrize("f", [0.0, 0.2, 1.0, 5.0])
 def test_friction_never_adds_energy_and_is_odd(law, f):
     for dv in DVS:
@@ -29,7 +30,7 @@ def test_friction_never_adds_energy_and_is_odd(law, f):
 
 
 def test_dry_friction_is_amontons():
-    law = FrictionLaw(regime=DRY, mu_friction=0.5, S=2.0)
+    law = DryLaw(mu_friction=0.5, S=2.0)
     assert law.force(0.3, -20.0) == 0.5 * 40.0
     assert law.force(-1e-9, -20.0) == -20.0
     assert law.force(0.0, -20.0) == 0.0  # the single-valued choice; stick is the master's job
@@ -37,15 +38,19 @@ def test_dry_friction_is_amontons():
 
 def test_power_law_exponents():
     for gamma in (-2 / 3, 0.0, 2 / 3):
-        law = FrictionLaw(regime=FLUID, m=25.0, gamma=gamma)
+        law = FluidLaw(m=25.0, gamma=gamma)
         assert law.force(0.01, 0.0) == pytest.approx(25.0 * 0.01 ** (gamma + 1))
 
 
 def test_parameter_problems_name_the_culprit():
-    assert FrictionLaw(gamma=-1.0).problems() == ["gamma must be > -1 (force must vanish at rest), got -1.0"]
-    assert "S must be > 0, got 0.0" in FrictionLaw(S=0.0).problems()
-    assert "regime must be" in FrictionLaw(regime=7).problems()[0]
-    assert FrictionLaw().problems() == []
+    assert DryLaw(gamma=-1.0).problems() == ["gamma must be > -1 (force must vanish at rest), got -1.0"]
+    assert "S must be > 0, got 0.0" in DryLaw(S=0.0).problems()
+    with pytest.raises(KeyError, match="regime must be|must be 0 \\(dry\\)"):
+        make_law(7)
+    assert DryLaw().problems() == []
+    assert MixedLaw(mu_static=0.4).problems() == [
+        "mu_static must be >= mu_friction (0.5: static friction is not below kinetic), got 0.4"]
+    assert "v_stribeck must be > 0, got 0.0" in MixedLaw(v_stribeck=0.0).problems()
 
 
 def test_illinois_agrees_with_brentq():
@@ -54,17 +59,17 @@ def test_illinois_agrees_with_brentq():
 
 
 def test_boundary_elastic_term_vanishes_when_melted():
-    law = FrictionLaw(**FIG6)
+    law = BoundaryLaw(**FIG6)
     mu_over_mub = law.lubricant.mu_shear / law.lubricant.mu_shear_bar
     assert law.mu_eff(mu_over_mub + 0.1) == 0.0
     assert law.force(1e-5, -1e6, mu_over_mub + 0.1) == pytest.approx(law.viscous_force(1e-5))
 
 
 def test_boundary_effects_switch_terms_off():
-    only_elastic = FrictionLaw(**FIG6, effects=Effects(viscous=False))
+    only_elastic = BoundaryLaw(**FIG6, effects=Effects(viscous=False))
     assert only_elastic.force(1e-5, -1e6, 0.2) == pytest.approx(
         2 * only_elastic.mu_eff(0.2) * only_elastic.shear_strain(1e-5) * 3e-9)
-    frozen = FrictionLaw(**FIG6, effects=Effects(melting=False))
+    frozen = BoundaryLaw(**FIG6, effects=Effects(melting=False))
     assert frozen.advance_f(0.3, 1e-5, -1e6, 290.0, 1e-3) == 0.3
 
 
@@ -76,7 +81,7 @@ def _equilibria(law, dv, n, T):
 
 
 def test_kinetics_fixed_points_and_bistability_at_rest():
-    law = FrictionLaw(**FIG6)
+    law = BoundaryLaw(**FIG6)
     roots = _equilibria(law, 0.0, -1e6, 290.0)
     # phi0 - phi1 f + phi2 f^2 - phi3 f^3 - pressure: three roots, the outer two stable
     assert len(roots) == 3
@@ -88,7 +93,7 @@ def test_kinetics_fixed_points_and_bistability_at_rest():
 
 
 def test_kinetics_step_matches_radau_and_never_crosses_equilibrium():
-    law = FrictionLaw(**FIG6)
+    law = BoundaryLaw(**FIG6)
     for dv in (0.0, 1e-6, 3e-6, 4e-5):
         for h in (1e-6, 1e-4, 1e-2):
             f = law.advance_f(0.0, dv, -1e6, 290.0, h)
@@ -100,7 +105,7 @@ def test_kinetics_step_matches_radau_and_never_crosses_equilibrium():
 
 
 def test_kinetics_stays_finite_for_huge_steps():
-    law = FrictionLaw(**FIG6)
+    law = BoundaryLaw(**FIG6)
     f = 0.0
     for dv in (1e-3, -1e-6, 0.0, 5.0):
         f = law.advance_f(f, dv, -1e6, 290.0, 10.0)
@@ -139,10 +144,42 @@ def test_drive_is_harmonic():
 def test_the_melt_margin_changes_sign_where_the_elastic_term_switches_off():
     """mu/mu_bar - f: > 0 while eq. (19)'s shear modulus acts, <= 0 once it is floored at 0;
     laws without a lubricant report 1 (nothing melts)."""
-    law = FrictionLaw(regime=BOUNDARY)
+    law = BoundaryLaw()
     lub = law.lubricant
     melt = lub.mu_shear / lub.mu_shear_bar
     for f in (0.0, 0.5 * melt, 0.999 * melt, 1.001 * melt, 2.0 * melt):
         assert (law.melt_margin(f) > 0) == (law.mu_eff(f) > 0), f
     assert law.melt_margin(melt) == pytest.approx(0.0, abs=1e-12)
-    assert FrictionLaw(regime=DRY).melt_margin(5.0) == 1.0 == FrictionLaw(regime=FLUID).melt_margin(5.0)
+    assert DryLaw().melt_margin(5.0) == 1.0 == FluidLaw().melt_margin(5.0)
+
+
+def test_mixed_friction_is_the_stribeck_curve_with_a_static_limit():
+    """F = [mu_c + (mu_s - mu_c) exp(-(|dv|/v_s)^delta)] L sgn(dv) + m dv; it holds up to
+    mu_s L at dv = 0 and its mean over a linear dv path is the path's integral (quadrature)."""
+    from scipy.integrate import quad
+
+    law = MixedLaw(mu_friction=0.3, mu_static=0.5, v_stribeck=0.02, stribeck_exponent=1.7, m=3.0, S=2.0)
+    L = 40.0  # N at n = -20 Pa
+    for dv in (1e-9, 0.005, 0.02, 0.3):
+        expected = (0.3 + 0.2 * math.exp(-(dv / 0.02) ** 1.7)) * L + 3.0 * dv
+        assert law.force(dv, -20.0) == pytest.approx(expected, rel=1e-14)
+        assert law.slip_force(dv, -20.0, 1.0) == law.force(dv, -20.0)
+    assert law.force(0.0, -20.0) == 0.0 and law.slip_force(0.0, -20.0, -1.0) == -0.5 * L
+    assert law.static_limit(-20.0) == 0.5 * L and law.sticks and not DryLaw().has_state
+    for a, b in ((-0.03, 0.05), (0.001, 0.2), (-0.4, -0.002), (0.02, 0.02 + 1e-9)):
+        exact = quad(lambda x: law.force(x, -20.0), a, b, points=[0.0] if a < 0 < b else None,
+                     epsabs=0.0, epsrel=1e-13, limit=200)[0] / (b - a)
+        assert law.mean_force(a, b, -20.0) == pytest.approx(exact, rel=1e-9), (a, b)
+    assert law.input_problems(0.0, 5.0, 290.0) == ["n must be <= 0 (compression) for mixed friction, got 5.0"]
+
+
+def test_the_registry_resolves_names_and_fmu_codes_to_one_law_each():
+    from tribofmu.physics.laws import LAWS, law_class
+
+    assert [(law.name, law.code) for law in LAWS.values()] == [
+        ("dry", 0), ("fluid", 1), ("boundary", 2), ("mixed", 3)]  # the FMU's codes never change
+    for law in LAWS.values():
+        assert law_class(law.name) is law_class(law.code) is law
+    assert make_law("mixed", mu_static=0.7, lam=1.0) == MixedLaw(mu_static=0.7)  # others' keys ignored
+    with pytest.raises(KeyError, match="must be one of dry, fluid, boundary, mixed, got 'wet'"):
+        law_class("wet")

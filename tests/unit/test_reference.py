@@ -508,3 +508,33 @@ def test_monolithic_solver_out_of_time_is_a_failed_result_not_a_hang():
     r = solve_monolithic(scenario("fig6_boundary"), "LSODA", 1e-4, max_wall=0.0)
     assert not r.ok and "gave up" in r.message
     assert np.all(np.isnan(r.v))
+
+
+# -- mixed (Stribeck) friction -----------------------------------------------------------------
+MIXED_SHORT = {"time.periods": 2.0, "time.window": [1.0, 2.0]}
+
+
+def test_mixed_reference_reduces_to_the_dry_closed_form_without_a_stribeck_drop():
+    """mu_s = mu_c and m = 0: the stick-slip solver (DOP853 slip) gives dry friction's
+    piecewise closed form."""
+    dry = reference_solution(scenario("fig2_dry", **MIXED_SHORT))
+    mixed = reference_solution(scenario("mixed_stribeck", **MIXED_SHORT, **{
+        "friction.mu_friction": 0.5, "friction.mu_static": 0.5, "friction.m": 0.0}))
+    assert "DOP853" in mixed.stats["solver"] and "harmonic" in dry.stats["solver"]
+    assert nrms(dry.time, mixed.v, dry.time, dry.v, (1.0 * 2 * math.pi / 30, 2.0 * 2 * math.pi / 30)) < 1e-10
+
+
+def test_mixed_reference_is_where_a_regularised_monolithic_solve_converges():
+    """An independent solve (sgn -> tanh(dv/eps), Radau) approaches the exact stick-slip
+    reference as its width shrinks, about tenfold a decade of rtol, at a point no scene uses."""
+    from tribofmu.studies.reference.monolithic import solve_monolithic
+
+    sc = scenario("mixed_stribeck", **MIXED_SHORT, **{
+        "drive.omega": 33.0, "drive.A": 1.9e-3, "block.M": 0.7, "block.K": 4500.0, "friction.mu_friction": 0.3,
+        "friction.mu_static": 0.5, "friction.v_stribeck": 0.012, "friction.stribeck_exponent": 1.5,
+        "friction.m": 4.0, "conditions.n": -16.0})
+    ref = reference_solution(sc)
+    assert ref.ok and ref.stats["n_stick"] >= 2
+    errors = [nrms(ref.time, solve_monolithic(sc, "Radau", rtol=rtol, t_eval=ref.time).v, ref.time, ref.v, sc.window)
+              for rtol in (1e-6, 1e-7)]
+    assert errors[1] < 3e-5 and errors[1] < errors[0] / 5

@@ -9,7 +9,8 @@ from __future__ import annotations
 from dataclasses import fields
 
 from tribofmu.fmu.base import PARAMETER, non_negative, positive
-from tribofmu.physics.friction import REGIME_NAMES, Effects, FrictionLaw, LubricantConstants
+from tribofmu.physics.friction import Effects, FrictionLaw, LubricantConstants
+from tribofmu.physics.laws import LAWS, law_parameters, make_law, regime_problem
 
 
 LUBRICANT = {  # name: (unit, description)
@@ -35,10 +36,6 @@ EFFECTS = {  # FMU parameter name: (Effects field, description)
 }
 
 
-def _regime(value):
-    return None if value in REGIME_NAMES else f"must be 0 (dry), 1 (fluid) or 2 (boundary), got {value}"
-
-
 def _gamma(value):
     return None if value > -1 else f"must be > -1 (force must vanish at rest), got {value}"
 
@@ -54,13 +51,13 @@ def declare_block_parameters(slave) -> None:
 def declare_friction_parameters(slave) -> None:
     """The friction law's parameters: regime, the dry and fluid coefficients, the lubricant
     constants, the boundary model's switches and the start value f0."""
-    slave.declare("regime", 0, PARAMETER, "1", "friction regime: 0 = dry, 1 = fluid, 2 = boundary",
-                  check=_regime)
-    slave.declare("mu_friction", 0.5, PARAMETER, "1", "dry friction coefficient, eq. (4)",
+    slave.declare("regime", 0, PARAMETER, "1", "friction regime: " + ", ".join(
+        f"{law.code} = {law.name}" for law in LAWS.values()), check=regime_problem)
+    slave.declare("mu_friction", 0.5, PARAMETER, "1", "dry friction coefficient, eq. (4); mixed: the kinetic one",
                   check=non_negative)
     slave.declare("S", 1.0, PARAMETER, "m2", "contact area; dry load L = -n S", check=positive)
     slave.declare("m", 25.0, PARAMETER, "N.(s/m)^(gamma+1)",
-                  "viscous coefficient m = k S / h^(gamma+1), eq. (12)", check=non_negative)
+                  "viscous coefficient m = k S / h^(gamma+1), eq. (12); mixed: m dv, N.s/m", check=non_negative)
     slave.declare("gamma", 0.0, PARAMETER, "1",
                   "power-law exponent: < 0 pseudoplastic, 0 Newtonian, > 0 dilatant", check=_gamma)
     defaults = LubricantConstants()
@@ -70,6 +67,8 @@ def declare_friction_parameters(slave) -> None:
         slave.declare(name, float(getattr(defaults, name)), PARAMETER, unit, text, check=check)
     for name, (_, text) in EFFECTS.items():
         slave.declare(name, True, PARAMETER, "1", text)
+    for name, (default, unit, text) in law_parameters().items():
+        slave.declare(name, float(default), PARAMETER, unit, text)  # each law checks its own
     slave.declare("f0", 0.0, PARAMETER, "1", "boundary: excess volume at the start")
     # 1e-5 is twenty times below the master's default step tolerance on the force; tighter
     # only costs sub-steps (measured on fig6: the same nRMS(v) at 1e-5 and 1e-6)
@@ -79,7 +78,8 @@ def declare_friction_parameters(slave) -> None:
 
 def friction_law(slave) -> FrictionLaw:
     """The law the parameters of :func:`declare_friction_parameters` on slave describe."""
-    return FrictionLaw(
-        regime=slave.regime, mu_friction=slave.mu_friction, S=slave.S, m=slave.m, gamma=slave.gamma,
+    return make_law(
+        slave.regime, mu_friction=slave.mu_friction, S=slave.S, m=slave.m, gamma=slave.gamma,
+        **{name: getattr(slave, name) for name in law_parameters()},
         lubricant=LubricantConstants(**{f.name: getattr(slave, f.name) for f in fields(LubricantConstants)}),
         effects=Effects(**{field: getattr(slave, name) for name, (field, _) in EFFECTS.items()}))

@@ -16,7 +16,8 @@ from typing import Any
 from ..errors import ScenarioError
 from ..physics.block import block_problems
 from ..physics.drive import drive_problems
-from ..physics.friction import DRY, REGIMES, Effects, FrictionLaw, LubricantConstants
+from ..physics.friction import Effects, FrictionLaw, LubricantConstants
+from ..physics.laws import LAWS, MixedLaw, law_class, make_law, regime_problem
 from ..physics.load import PROGRAMS, LoadProgram
 from ..physics.thermal import ThermalParams
 from .scenario_file import _number, _short, _text_problem, read_scenario_text
@@ -31,6 +32,7 @@ DEFAULT_FMUS = ("Drive", "BlockSpring", "Friction")
 UNITS = {"drive.A": "m", "drive.omega": "rad/s", "block.M": "kg", "block.K": "N/m", "block.x0": "m",
          "block.v0": "m/s", "friction.mu_friction": "1", "friction.S": "m^2",
          "friction.m": "N (s/m)^(gamma+1)", "friction.gamma": "1", "friction.f0": "1",
+         "friction.mu_static": "1", "friction.v_stribeck": "m/s", "friction.stribeck_exponent": "1",
          "conditions.n": "Pa", "conditions.T": "K", "thermal.C": "J/K", "thermal.q": "1",
          "thermal.G": "W/K", "thermal.T_ambient": "K", "load.n0": "Pa", "load.n1": "Pa",
          "load.t_start": "s", "load.t_end": "s", "load.amplitude": "Pa", "load.period": "s",
@@ -65,18 +67,21 @@ class BlockParams:
 
 @dataclass(frozen=True)
 class FrictionParams:
-    regime: str = "dry"  # dry | fluid | boundary
+    regime: str = "dry"  # a name of tribofmu.physics.laws.LAWS: dry | fluid | boundary | mixed
     mu_friction: float = 0.5  # 1
     S: float = 1.0  # m^2
     m: float = 25.0  # N (s/m)^(gamma+1)
     gamma: float = 0.0  # 1
     f0: float = 0.0  # 1, excess volume at t = 0
+    mu_static: float = MixedLaw.mu_static  # 1
+    v_stribeck: float = MixedLaw.v_stribeck  # m/s
+    stribeck_exponent: float = MixedLaw.stribeck_exponent  # 1
     lubricant: LubricantConstants = field(default_factory=LubricantConstants)
     effects: Effects = field(default_factory=Effects)
 
     def law(self) -> FrictionLaw:
-        return FrictionLaw(regime=REGIMES[self.regime], mu_friction=self.mu_friction, S=self.S,
-                           m=self.m, gamma=self.gamma, lubricant=self.lubricant, effects=self.effects)
+        """The law object of ``regime`` (KeyError for an unknown name: :func:`validate` says so)."""
+        return make_law(self.regime, **{f.name: getattr(self, f.name) for f in fields(self) if f.name != "regime"})
 
 
 @dataclass(frozen=True)
@@ -308,16 +313,16 @@ def validate(scenario: Scenario) -> list[str]:
     else:
         program = ld.program_()
         out += [f"load.{p}" for p in program.problems()]
-        if (not program.problems() and "Load" in scenario.fmus and fr.regime in REGIMES
-                and REGIMES[fr.regime] == DRY and math.isfinite(scenario.stop_time)):
-            highest = program.extremes(0.0, scenario.stop_time)[1]
-            if highest > 0:
+        if (not program.problems() and "Load" in scenario.fmus and regime_problem(fr.regime) is None
+                and math.isfinite(scenario.stop_time)):
+            highest, law = program.extremes(0.0, scenario.stop_time)[1], fr.law()
+            if any(p.startswith("n ") for p in law.input_problems(0.0, highest, scenario.conditions.T)):
                 out.append(f"load.n0 = {ld.n0} with load.program = {ld.program!r} makes n reach "
-                           f"{highest:.6g} Pa > 0 within the run (dry friction needs compression, n <= 0)")
+                           f"{highest:.6g} Pa > 0 within the run ({law.label} needs compression, n <= 0)")
     out += [f"drive.{p}" for p in drive_problems(scenario.drive.A, scenario.drive.omega)]
     out += [f"block.{p}" for p in block_problems(scenario.block.M, scenario.block.K)]
-    if fr.regime not in REGIMES:
-        out.append(f"friction.regime must be one of {', '.join(REGIMES)}, got {fr.regime!r}")
+    if regime_problem(fr.regime) is not None:
+        out.append(f"friction.regime {regime_problem(fr.regime)}")
     else:
         law = fr.law()
         out += [f"friction.{p}" for p in law.problems()]
@@ -391,7 +396,7 @@ def scales(scenario: Scenario) -> tuple[float, float, float]:
 def enum_choices(key: str) -> list[str]:
     """The allowed values of a key that takes one of a few names (empty for other keys)."""
     if key == "friction.regime":
-        return list(REGIMES)
+        return list(LAWS)
     if key == "load.program":
         return list(PROGRAMS)
     if key == "simulation.algorithm":
@@ -400,10 +405,8 @@ def enum_choices(key: str) -> list[str]:
     return []
 
 
-# The friction keys each regime reads (the lubricant constants: boundary only).
-_REGIME_KEYS = {"dry": {"regime", "mu_friction", "S"},
-                "fluid": {"regime", "m", "gamma"},
-                "boundary": _FRICTION_KEYS - {"mu_friction"}}
+# A law reading more friction keys than this (the boundary model's 16) is named, not listed.
+LISTED_KEYS_MAX = 8
 
 
 def override_problems(scenario: Scenario, keys) -> list[str]:
@@ -411,6 +414,7 @@ def override_problems(scenario: Scenario, keys) -> list[str]:
     a table of an FMU the scene does not list, a friction key its regime does not read, a
     boundary-model switch or condition its regime ignores."""
     fmus, regime = set(scenario.fmus), scenario.friction.regime
+    law = law_class(regime) if regime_problem(regime) is None else None
     listed = f"scenario.fmus = {list(scenario.fmus)}"
     out = []
     for key in keys:
@@ -425,17 +429,19 @@ def override_problems(scenario: Scenario, keys) -> list[str]:
                        "drive.omega only sets its time span")
         elif table in ("friction", "effects", "conditions") and "Friction" not in fmus:
             out.append(f"{key}: this scene has no Friction FMU ({listed}), so [{table}] is not used")
-        elif table == "friction" and regime in _REGIME_KEYS and name not in _REGIME_KEYS[regime]:
-            used = ", ".join(f"friction.{k}" for k in sorted(_REGIME_KEYS[regime] - {"regime"})
-                             ) if regime != "boundary" else "the boundary model's keys"
-            out.append(f"{key}: {regime} friction does not use it (it uses {used})")
-        elif table == "effects" and regime != "boundary":
+        elif law is None:
+            continue  # validate() names the unknown regime
+        elif table == "friction" and name != "regime" and name not in law.keys:
+            used = ", ".join(f"friction.{k}" for k in sorted(law.keys)) \
+                if len(law.keys) <= LISTED_KEYS_MAX else f"the {law.name} model's keys"
+            out.append(f"{key}: {law.label} does not use it (it uses {used})")
+        elif table == "effects" and not law.has_state:
             out.append(f"{key}: the boundary-model switches apply to boundary friction only, "
                        f"this scene's friction is {regime}")
         elif key == "conditions.n" and "Load" in fmus:
             out.append(f"{key}: this scene's normal stress comes from its Load FMU (set [load] instead)")
-        elif key == "conditions.n" and regime == "fluid":
-            out.append(f"{key}: fluid friction does not depend on the normal stress")
-        elif key == "conditions.T" and regime != "boundary" and "Thermal" not in fmus:
-            out.append(f"{key}: {regime} friction does not depend on the temperature")
+        elif key == "conditions.n" and law.load_shown_as is None:
+            out.append(f"{key}: {law.label} does not depend on the normal stress")
+        elif key == "conditions.T" and not law.reads_temperature and "Thermal" not in fmus:
+            out.append(f"{key}: {law.label} does not depend on the temperature")
     return out

@@ -34,7 +34,8 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import Callable
 
-from ..physics.friction import REGIMES, Effects, LubricantConstants
+from ..physics.friction import Effects, LubricantConstants
+from ..physics.laws import law_class, law_parameters
 from ..physics.load import PROGRAMS
 
 # "Scenario" in annotations is :class:`tribofmu.scene.scenario.Scenario`, not imported: the
@@ -108,8 +109,9 @@ def _block(sc: "Scenario") -> dict[str, Value]:
 
 def _friction(sc: "Scenario") -> dict[str, Value]:
     fr = sc.friction
-    values: dict[str, Value] = {"regime": int(REGIMES[fr.regime])}
-    values.update({key: float(getattr(fr, key)) for key in ("mu_friction", "S", "m", "gamma", "f0")})
+    values: dict[str, Value] = {"regime": int(law_class(fr.regime).code)}
+    values.update({key: float(getattr(fr, key)) for key in ("mu_friction", "S", "m", "gamma", "f0",
+                                                            *law_parameters())})
     values.update({f.name: float(getattr(fr.lubricant, f.name)) for f in fields(LubricantConstants)})
     values.update({EFFECT_PARAMETERS[f.name]: bool(getattr(fr.effects, f.name)) for f in fields(Effects)})
     return values

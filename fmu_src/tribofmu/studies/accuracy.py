@@ -31,7 +31,6 @@ from ..errors import NumericalError
 from ..coupling.interpolation import NS
 from ..physics.block import BlockState, advance_block
 from ..physics.drive import drive
-from ..physics.friction import DRY, FLUID
 from ..scene.scenario import Scenario, scales
 from .reference import nrms, reference_solution
 from .reference.monolithic import REGULARISATION, solve_event_driven, solve_monolithic
@@ -50,13 +49,14 @@ QUICK_LADDER = ([("jacobi", h, None) for h in (1e-3, 1e-4)]
                 + [("implicit", h, None) for h in (1e-3, 1e-4)]
                 + [("adaptive", None, tol) for tol in (1e-2, 1e-3, 1e-4)])
 
-# The anchors: (solver, None, tolerance). LSODA/Radau: rtol (dry friction's regularisation width
-# is 100 rtol A omega, so its ladder sits lower); event-driven: event location / drive period.
+# The anchors: (solver, None, tolerance), for laws that stick (dry, mixed) and smooth ones.
+# LSODA/Radau: rtol (a sticking law's regularisation width is 100 rtol A omega, so its ladder
+# sits lower); event-driven: event location / drive period.
 ANCHORS = {"smooth": [(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7)],
-           "dry": ([(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-5, 1e-6, 1e-7, 1e-8)]
+           "sticks": ([(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-5, 1e-6, 1e-7, 1e-8)]
                    + [("event-driven", None, tol) for tol in (1e-2, 1e-3, 1e-4, 1e-6)])}
 QUICK_ANCHORS = {"smooth": [(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-3, 1e-5)],
-                 "dry": ([(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-5, 1e-7)]
+                 "sticks": ([(m, None, tol) for m in ("LSODA", "Radau") for tol in (1e-5, 1e-7)]
                          + [("event-driven", None, tol) for tol in (1e-3, 1e-5)])}
 MONOLITHIC = ("LSODA", "Radau", "event-driven")
 # What each column of accuracy.csv means (also in summary.json, "columns")
@@ -102,7 +102,7 @@ def anchors_for(scenario: Scenario, quick: bool = False) -> list[tuple]:
     if "Friction" not in scenario.fmus or "Drive" not in scenario.fmus:
         return []
     table = QUICK_ANCHORS if quick else ANCHORS
-    return list(table["dry" if scenario.friction.law().regime == DRY else "smooth"])
+    return list(table["sticks" if scenario.friction.law().sticks else "smooth"])
 
 
 def interleave(first: list, second: list) -> list:
@@ -228,7 +228,7 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
                 f"accurate (tol {anchor['tol']:g}: nRMS(v) {anchor['nrms_v']:.3g})" if anchor["tol"] is not None
                 else f"no run of {name} in the study is as accurate as the default"))
     summary["regularisation"] = REGULARISATION
-    summary["regime"] = "dry" if "Friction" in scenario.fmus and scenario.friction.law().regime == DRY else "smooth"
+    summary["contact"] = "sticks" if "Friction" in scenario.fmus and scenario.friction.law().sticks else "smooth"
     return rows, summary
 
 
@@ -321,7 +321,7 @@ def estimate_tracking(points, scenario: Scenario, window_only: bool = True) -> d
 
     sc = scenario
     law = sc.friction.law()
-    if "Friction" not in sc.fmus or law.regime not in (DRY, FLUID) or "Drive" not in sc.fmus:
+    if "Friction" not in sc.fmus or law.has_state or "Drive" not in sc.fmus:
         return {"pairs": 0, "median": math.nan, "p10": math.nan, "p90": math.nan,
                 "underestimated_frac": math.nan, "skipped": 0}
     M, K, n = sc.block.M, sc.block.K, sc.conditions.n
@@ -345,8 +345,8 @@ def estimate_tracking(points, scenario: Scenario, window_only: bool = True) -> d
             skipped += 1
             continue
         h = t1 - t0
-        if law.regime == DRY:
-            exact = advance_block(BlockState(start.x, start.v), law.force(float(s), n), 0.0, h, M, K)
+        if law.constant_slip_force:
+            exact = advance_block(BlockState(start.x, start.v), law.slip_force(0.0, n, float(s)), 0.0, h, M, K)
             v_true = exact.v
         else:
             def rhs(t, y):
@@ -475,10 +475,10 @@ def _place_labels(fig, ax, labels, fontsize: float) -> None:
 
 def _legend(name: str, summary: dict) -> str:
     if name in ("LSODA", "Radau"):
-        dry = "dry" in summary.get("regime", "")
-        return f"{name}, monolithic, same ODEs" + (f" ({summary.get('regularisation', '')})" if dry else "")
+        regularised = summary.get("contact") == "sticks"
+        return f"{name}, monolithic, same ODEs" + (f" ({summary.get('regularisation', '')})" if regularised else "")
     if name == "event-driven":
-        return "exact event-driven dry solve (events to tol x T)"
+        return "exact event-driven stick-slip solve (events to tol x T)"
     return name
 
 

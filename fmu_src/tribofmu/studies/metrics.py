@@ -289,16 +289,17 @@ def creep_episodes_per_period(t, V, v, A: float, omega: float, period: float, re
 
 def compute_metrics(t, V, x, v, F, f, period: float, amplitude: float,
                     melt_threshold: float | None = None, rel_tol: float = STICK_REL_TOL,
-                    stuck_mask=None, regime: str | None = None, omega: float | None = None) -> dict[str, float]:
+                    stuck_mask=None, sticks: bool | None = None, creeps: bool = False,
+                    omega: float | None = None) -> dict[str, float]:
     """All of :data:`METRICS` for one window's arrays; the stick measures from ``stuck_mask``
     (the coupling's state) when given, else estimated from ``|V - v|``.
 
-    regime: "dry", "fluid", "boundary" or "none" (no friction); a regime that cannot stick
-    has stick measures 0, and only fluid and boundary friction have creep measures. None:
-    not known (stick measured as given, creep NaN). omega [rad/s]: the drive's (default
-    2 pi / period)."""
+    sticks: whether the friction law can stick (its ``sticks``; False without friction): a
+    law that cannot has stick measures 0; None: not known (stick measured as given).
+    creeps: whether to measure creep (a law that cannot stick but follows the drive closely:
+    fluid, boundary); NaN otherwise. omega [rad/s]: the drive's (default 2 pi / period)."""
     omega = 2 * math.pi / period if omega is None else omega
-    if regime is not None and regime != "dry":
+    if sticks is False:
         stick = episodes = 0.0
     elif stuck_mask is not None:
         stick = stuck_fraction(t, stuck_mask)
@@ -306,7 +307,6 @@ def compute_metrics(t, V, x, v, F, f, period: float, amplitude: float,
     else:
         stick = stick_fraction(t, V, v, rel_tol)
         episodes = stick_episodes_per_period(t, V, v, period, rel_tol)
-    creeps = regime in ("fluid", "boundary")
     return {
         "stick_fraction": stick,
         "stick_episodes_per_period": episodes,
@@ -322,15 +322,13 @@ def compute_metrics(t, V, x, v, F, f, period: float, amplitude: float,
 
 def result_metrics(result) -> dict[str, float]:
     """:func:`compute_metrics` on a :class:`tribofmu.api.SimulationResult`'s shown window,
-    the stick measures from the coupling's own stuck state (dry friction; 0 for the others)."""
+    the stick measures from the coupling's own stuck state (laws that stick; 0 for the others)."""
     sc = result.scenario
     m = result.window_mask()
-    threshold = None
-    has_friction = "Friction" in sc.fmus
-    if sc.friction.regime == "boundary" and has_friction:
-        lub = sc.friction.lubricant
-        threshold = lub.mu_shear / lub.mu_shear_bar
+    law = sc.friction.law() if "Friction" in sc.fmus else None
+    threshold = law.melt_threshold() if law is not None else None
     return compute_metrics(result.time[m], result.V[m], result.x[m], result.v[m], result.F[m],
                            result.f[m], sc.drive.period, sc.drive.A, threshold,
                            stuck_mask=np.asarray(result.stuck)[m],
-                           regime=sc.friction.regime if has_friction else "none", omega=sc.drive.omega)
+                           sticks=law is not None and law.sticks, creeps=law is not None and not law.sticks,
+                           omega=sc.drive.omega)

@@ -1,6 +1,6 @@
 """Friction FMU: the friction law of one pair. Inputs dv, n, T; outputs F, f.
 
-Dry, fluid or boundary friction (parameter ``regime``), with the boundary model's terms
+Any law of :mod:`tribofmu.physics.laws` (parameter ``regime``, its code), with the boundary model's terms
 switched by the Boolean parameters ``*_term`` and ``melting``. The FMU never learns the
 block's mass: a stuck contact is the coupling algorithm's business (sgn(0) = 0 here).
 """
@@ -11,7 +11,8 @@ from tribofmu.fmu.parameters import declare_friction_parameters, friction_law
 from tribofmu.physics.friction import FrictionLaw
 
 class Friction(Fmi2Slave):
-    description = "Friction law of the seed paper: dry, fluid (power law) or boundary (Landau) friction"
+    description = ("Friction law of the seed paper: dry, fluid (power law) or boundary (Landau) friction, "
+                   "or mixed (Stribeck) friction")
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=1.0, step_size=1e-4)
 
     def __init__(self, **kwargs):
@@ -58,7 +59,7 @@ class Friction(Fmi2Slave):
         problems = law.input_problems(self.dv, self.n, self.T)
         if problems:
             return "; ".join(problems)
-        # (dry and fluid laws have no state: advance gives f unchanged and the mean force)
+        # (a law without state gives f unchanged and the mean force)
         self.f, self.F_mean = law.advance(self.f, self.dv, self.n, self.T, h, rtol=self.kinetics_tol,
                                           atol=self.kinetics_tol, dv_start=self.dv_previous)
         self.dv_previous = self.dv

@@ -4,12 +4,15 @@ The yardstick for every error figure of the project (co-simulation error = dista
 solution) and what a user would write instead of co-simulating. Units are SI throughout:
 t [s], X x [m], V v [m/s], F [N], f [1].
 
-Each regime is solved so that the solver never steps across a point where the right-hand side
-is not smooth:
+Each law is solved so that the solver never steps across a point where the right-hand side
+is not smooth; the law says which way (``sticks``, ``constant_slip_force``):
 
 * no friction and dry friction: piecewise exact, events located by brentq to machine
   precision; ``rtol``/``atol`` are not used (:mod:`.dry`).
-* fluid and boundary: integrated between events, restarted at every event, in one of two
+* laws that stick with a slip force that varies (mixed friction's Stribeck curve, or dry
+  friction under a varying load or with heating): exact stick, slip integrated by DOP853 at
+  rtol 1e-12 between the same events (:func:`.dry.solve_stick_slip`).
+* laws that do not stick (fluid and boundary): integrated between events, restarted at every event, in one of two
   equivalent state forms (:mod:`.smooth`); the quasi-stick u-form of the fluid law is an
   implicit system with a vanishing mass, solved by solve_ivp with the mass-form Radau IIA of
   :mod:`.radau` (a :class:`scipy.integrate.OdeSolver`).
@@ -23,10 +26,9 @@ Beyond the paper, a scene may list a Load FMU (the normal stress is a function o
 n(t), :mod:`tribofmu.physics.load`) and a Thermal FMU (the film temperature T [K] is a state,
 ``C T' = q F (V - v) - G (T - T_ambient)``, :mod:`tribofmu.physics.thermal`), solved together
 with the rest in one system (no exchange delay: the yardstick for the master's explicit T).
-Integration restarts at the load program's breakpoints. Dry friction under a varying load or
-with heating: stick is exact (x follows the drive, T relaxes in closed form as no power is
-dissipated), slip is integrated by DOP853 (the slip force mu S (-n(t)) is no longer constant),
-with the same brentq/event logic for stick and slip.
+Integration restarts at the load program's breakpoints. A law that sticks under a varying load
+or with heating: stick is exact (x follows the drive, T relaxes in closed form as no power is
+dissipated), slip is integrated by DOP853, with the same brentq/event logic for stick and slip.
 """
 from __future__ import annotations
 
@@ -36,10 +38,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...physics.friction import BOUNDARY, DRY, FLUID
 from ...scene.scenario import Scenario
 from ..measures import nrms
-from .dry import solve_dry, solve_dry_varying, solve_free
+from .dry import solve_dry, solve_free, solve_stick_slip
 from .problem import Problem, state_scale
 from .smooth import solve_smooth
 
@@ -85,8 +86,8 @@ def reference_solution(scenario: Scenario, t_eval: np.ndarray | None = None, rto
     (T the drive period). rtol [1]: relative tolerance of the ODE solver (fluid, boundary).
     atol: absolute tolerance, a scalar or one value per state (x [m], v [m/s][, f [1]]);
     default ``rtol`` times the state's scale (drive amplitude A, A*omega, 1).
-    Dry friction is solved piecewise exactly with events at machine precision, so
-    rtol/atol do not apply to it. Initial state x0, v0 (scenario.block), f0 (friction).
+    Laws that stick (dry, mixed) are solved piecewise with events at machine precision and
+    slip exact or at rtol 1e-12, so rtol/atol do not apply to them. Initial state x0, v0 (scenario.block), f0 (friction).
     Raises ValueError on misuse; a solver failure is returned with ``ok=False``.
     """
     if not isinstance(scenario, Scenario):
@@ -104,8 +105,8 @@ def reference_solution(scenario: Scenario, t_eval: np.ndarray | None = None, rto
         raise ValueError("t_eval must be finite, >= 0 and non-decreasing")
 
     problem = Problem(scenario)
-    regime = problem.law.regime
-    n_state = 2 + (problem.has_friction and regime == BOUNDARY) + (problem.thermal is not None)
+    law = problem.law
+    n_state = 2 + (problem.has_friction and law.has_state) + (problem.thermal is not None)
     if atol is not None:
         atol_arr = np.broadcast_to(np.asarray(atol, dtype=float), (n_state,)) if np.ndim(atol) == 0 \
             else np.asarray(atol, dtype=float)
@@ -116,19 +117,17 @@ def reference_solution(scenario: Scenario, t_eval: np.ndarray | None = None, rto
     start = _time.perf_counter()
     if not problem.has_friction:
         out = solve_free(problem, t_eval)
-    elif regime == DRY and problem.program is None and problem.thermal is None:
+    elif law.sticks and law.constant_slip_force and problem.program is None and problem.thermal is None:
         out = solve_dry(problem, t_eval, t_end)
-    elif regime == DRY:
-        out = solve_dry_varying(problem, t_eval, t_end)
-    elif regime in (FLUID, BOUNDARY):
+    elif law.sticks:
+        out = solve_stick_slip(problem, t_eval, t_end)
+    else:
         if atol is None:
             scale = state_scale(problem)
             scale = np.concatenate([scale[:n_state - 1], scale[3:]]) if problem.thermal is not None \
                 else scale[:n_state]
             atol_arr = rtol * scale
         out = solve_smooth(problem, t_eval, t_end, float(rtol), np.array(atol_arr, dtype=float))
-    else:  # scenario validation rejects this; guard against a hand-built scenario
-        raise ValueError(f"unknown friction regime {regime}")
     wall = _time.perf_counter() - start
 
     X, V = problem.output_drive(t_eval)

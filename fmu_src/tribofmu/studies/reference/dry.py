@@ -1,12 +1,14 @@
-"""Dry friction (and no friction at all), solved piecewise exactly.
+"""Laws that stick (dry, mixed friction; and no friction at all), solved piecewise.
 
 No friction: the free oscillator in closed form. Dry friction under a constant load without
 heating: while slipping the force is the constant ``+-mu L`` and the block a harmonic
 oscillator with a closed-form solution (:func:`advance_block`); while stuck
-``x = x_s + X(t) - X(t_s)``. Stick -> slip (``|M V' + 2 K x|`` reaches ``mu L``) and
-slip -> stick/reversal (``dv`` reaches 0) are located by brentq on these exact expressions,
-to machine precision. Under a varying load or with heating, stick stays exact (T relaxes in
-closed form as no power is dissipated) and slip is integrated by DOP853 at rtol 1e-12.
+``x = x_s + X(t) - X(t_s)``. Stick -> slip (``|M V' + 2 K x|`` reaches the law's static limit,
+``mu L``) and slip -> stick/reversal (``dv`` reaches 0) are located by brentq on these exact
+expressions, to machine precision. A slip force that varies (mixed friction's Stribeck
+curve, a varying load) or heating (:func:`solve_stick_slip`): stick stays exact (T relaxes in
+closed form as no power is dissipated), slip is integrated by DOP853 at rtol 1e-12 (a smooth
+ODE: dv keeps its sign through a slip phase), the events as above.
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ from ...physics.block import BlockState, acceleration, advance_block
 from .problem import EPS, MAX_EVENTS, MAX_STALLS, Problem, state_scale
 from .segments import Samples, Segment, Trajectory
 
-__all__ = ["solve_free", "solve_dry", "solve_dry_varying", "first_fall", "Stick", "HarmonicSlip",
+__all__ = ["solve_free", "solve_dry", "solve_stick_slip", "first_fall", "Stick", "HarmonicSlip",
            "IntegratedSlip"]
 
 
@@ -102,7 +104,8 @@ class HarmonicSlip:
 
 @dataclass(frozen=True)
 class IntegratedSlip:
-    """Slip at F = s mu L(t) [N] integrated by solve_ivp: ``dense`` gives (x, v[, T])."""
+    """Slip on the law's branch s (F = s mu L(t) for dry friction) integrated by solve_ivp:
+    ``dense`` gives (x, v[, T])."""
 
     p: Problem = field(repr=False)
     t_start: float
@@ -113,7 +116,8 @@ class IntegratedSlip:
 
     def sample(self, t: np.ndarray) -> Samples:
         y = np.asarray(self.dense(np.minimum(t, self.t_end))).reshape(-1, len(t))
-        F = np.array([self.s * abs(self.p.law.force(1.0, self.p.n_at(float(tt)))) for tt in t])
+        F = np.array([self.p.law.slip_force(self.p.drive(float(tt))[1] - vv, self.p.n_at(float(tt)), self.s)
+                      for tt, vv in zip(t, y[1])])
         T = y[2] if self.p.thermal is not None else np.full_like(t, self.p.T)
         return {"x": y[0], "v": y[1], "F": F, "f": np.zeros_like(t), "T": T}
 
@@ -219,7 +223,7 @@ def _at_dv_zero(p: Problem, t: float, x: float, bound: float, s: int,
 # -- dry friction: piecewise exact ----------------------------------------------------------------
 def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float, xtol: float | None = None) -> Trajectory:
     """xtol [s]: how closely events are located (default: machine precision)."""
-    bound = abs(p.law.force(1.0, p.n))  # mu L [N]: slip force magnitude and static limit
+    bound = p.law.static_limit(p.n)  # mu L [N]: slip force magnitude and static limit
     loose = xtol is not None
     xtol = xtol if loose else 4 * EPS * max(t_end, p.period)
     b = p.scenario.block
@@ -266,20 +270,21 @@ def solve_dry(p: Problem, t_eval: np.ndarray, t_end: float, xtol: float | None =
                                     heated=False)
 
 
-# -- dry friction under a varying load, or heating: exact stick, DOP853 slip ------------------
-def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float,
-                      xtol: float | None = None) -> Trajectory:
-    """Dry friction with n = n(t) and/or the film temperature as a state.
+# -- a law that sticks, its slip force varying, or heating: exact stick, DOP853 slip ------------
+def solve_stick_slip(p: Problem, t_eval: np.ndarray, t_end: float,
+                     xtol: float | None = None) -> Trajectory:
+    """A law that sticks (dry, mixed), with n = n(t) and/or the film temperature as a state.
 
     Stick: x = x_s + X(t) - X(t_s), v = V, T relaxes exactly toward T_ambient (no power);
-    it ends where |F_stick| reaches mu L(t) (brentq on the exact margin). Slip: y = (x, v[, T])
-    by DOP853 (rtol 1e-12) with F = s mu S (-n(t)), ending where dv reaches 0 (event), then
-    stick or reversal as in :func:`solve_dry`. Integration also stops at load breakpoints.
+    it ends where |F_stick| reaches the law's static limit (mu L(t) for dry friction; brentq
+    on the exact margin). Slip: y = (x, v[, T]) by DOP853 (rtol 1e-12) with the law's slip
+    force on the branch s, ending where dv reaches 0 (event), then stick or reversal as in
+    :func:`solve_dry`. Integration also stops at load breakpoints.
     xtol [s]: how closely stick onsets are located (default: machine precision).
     """
     law, M, K = p.law, p.M, p.K
     heated = p.thermal is not None
-    bound = lambda tt: abs(law.force(1.0, p.n_at(tt)))  # mu L(t) [N]
+    bound = lambda tt: law.static_limit(p.n_at(tt))  # mu L(t) [N] for dry friction
     loose = xtol is not None
     xtol = xtol if loose else 4 * EPS * max(t_end, p.period)
     scale = state_scale(p)
@@ -311,7 +316,7 @@ def solve_dry_varying(p: Problem, t_eval: np.ndarray, t_end: float,
             s_seg = s
 
             def rhs(tt, y):
-                F = s_seg * bound(tt)
+                F = law.slip_force(p.drive(tt)[1] - y[1], p.n_at(tt), s_seg)
                 acc = acceleration(BlockState(y[0], y[1]), F, M, K)
                 if not heated:
                     return [y[1], acc]

@@ -27,14 +27,13 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ...physics.block import BlockState, acceleration
-from ...physics.friction import BOUNDARY, DRY
 from ...scene.scenario import Scenario
-from .dry import solve_dry, solve_dry_varying
+from .dry import solve_dry, solve_stick_slip
 from .problem import Problem, state_scale
 
 __all__ = ["solve_monolithic", "solve_event_driven", "REGULARISATION", "default_grid"]
 
-REGULARISATION = "dry: mu L tanh(dv/eps), eps = 100 rtol A omega"
+REGULARISATION = "sgn(dv) -> tanh(dv/eps) (dry: mu L tanh(dv/eps)), eps = 100 rtol A omega"
 WIDTH_PER_RTOL = 100.0  # eps / (rtol A omega)
 
 
@@ -83,15 +82,13 @@ def solve_monolithic(scenario: Scenario, method: str = "LSODA", rtol: float = 1e
     start = _time.perf_counter()
     p = Problem(scenario)
     law = p.law
-    dry, boundary, heated = law.regime == DRY, law.regime == BOUNDARY, p.thermal is not None
+    regularised, boundary, heated = law.sticks, law.has_state, p.thermal is not None
     eps = width if width is not None else WIDTH_PER_RTOL * rtol * abs(p.A) * p.omega
-    if dry and not eps > 0:
+    if regularised and not eps > 0:
         raise ValueError(f"the regularisation width must be > 0, got {eps!r}")
 
     def force(t: float, dv: float, f: float) -> float:
-        if dry:
-            return abs(law.force(1.0, p.n_at(t))) * math.tanh(dv / eps)
-        return law.force(dv, p.n_at(t), f)
+        return law.regularised_force(dv, p.n_at(t), f, eps)
 
     calls = [0]
 
@@ -133,24 +130,25 @@ def solve_monolithic(scenario: Scenario, method: str = "LSODA", rtol: float = 1e
     F = np.array([force(float(t), p.drive(float(t))[1] - vi, fi) if np.isfinite(vi) else np.nan
                   for t, vi, fi in zip(t_eval, v, f)])
     wall = _time.perf_counter() - start
-    stats = {"solver": f"{method} (monolithic" + (f", {REGULARISATION}" if dry else "") + ")", "rtol": rtol,
+    stats = {"solver": f"{method} (monolithic" + (f", {REGULARISATION}" if regularised else "") + ")", "rtol": rtol,
              "n_rhs": int(sol.nfev), "n_jac": int(sol.njev), "n_lu": int(sol.nlu),
-             "n_steps": None, "width": eps if dry else None, "event_times": []}
+             "n_steps": None, "width": eps if regularised else None, "event_times": []}
     return _result(p, t_eval, x, v, F, f, wall, stats, bool(sol.success), "" if sol.success else sol.message,
                    T=y[-1] if heated else None)
 
 
 def solve_event_driven(scenario: Scenario, event_tol: float = 1e-6, t_eval: np.ndarray | None = None):
-    """Dry friction by the reference's piecewise exact solver with stick/slip events located to
-    ``event_tol`` [1] times the drive period. Raises ValueError for another regime."""
-    if "Friction" not in scenario.fmus or scenario.friction.law().regime != DRY:
-        raise ValueError("the event-driven solve is for dry friction")
+    """A law that sticks by the reference's piecewise solver with stick/slip events located to
+    ``event_tol`` [1] times the drive period. Raises ValueError for a law that does not stick."""
+    if "Friction" not in scenario.fmus or not scenario.friction.law().sticks:
+        raise ValueError("the event-driven solve is for a law that sticks (dry, mixed friction)")
     t_eval = _checked_grid(scenario, t_eval, "event_tol", event_tol)
     start = _time.perf_counter()
     p = Problem(scenario)
     t_end = max(scenario.stop_time, float(t_eval[-1]))
     xtol = event_tol * p.period
-    solver = solve_dry if p.program is None and p.thermal is None else solve_dry_varying
+    solver = solve_dry if p.law.constant_slip_force and p.program is None and p.thermal is None \
+        else solve_stick_slip
     out = solver(p, t_eval, t_end, xtol=xtol)
     wall = _time.perf_counter() - start
     stats = dict(out.stats, event_tol=event_tol)

@@ -27,7 +27,6 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from ...physics.block import BlockState, acceleration
-from ...physics.friction import BOUNDARY, FLUID
 from .problem import EPS, MAX_EVENTS, MAX_STALLS, Problem, state_scale
 from .radau import RadauMass
 from .segments import Samples, Trajectory
@@ -63,10 +62,10 @@ class SmoothSystem:
         self.p = p
         law = p.law
         self.law = law
-        self.boundary = law.regime == BOUNDARY
+        self.boundary = law.has_state
         self.heated = p.thermal is not None
         self.melting = self.boundary and law.effects.melting
-        self.has_viscous = (law.regime == FLUID or law.effects.viscous) and law.m > 0
+        self.has_viscous = law.has_power_law_term and law.m > 0
         self.q = law.gamma + 1.0
         self.u_form_available = self.has_viscous and law.gamma < 0
         lub = law.lubricant

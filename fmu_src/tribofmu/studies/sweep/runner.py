@@ -49,10 +49,10 @@ def expected_cost(scenario: Scenario, algorithm: str | None, step: float | None,
     tol = tol if tol is not None else (sim.tol or 1e-3)
     cost = span * fastest * math.sqrt(1e-3 / tol)
     if "Friction" in scenario.fmus:
-        regime = scenario.friction.regime
-        if regime != "dry":
+        law = scenario.friction.law()
+        if "gamma" in law.keys:
             cost /= max(1.0 + scenario.friction.gamma, 1e-3)
-        if regime == "boundary":
+        if law.has_state:
             cost *= 100.0
     return cost
 

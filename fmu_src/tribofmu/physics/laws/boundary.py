@@ -1,0 +1,267 @@
+"""Boundary friction: the Landau theory of a thin lubricant layer, eqs. (13)-(23).
+
+The lubricant's state is its excess volume f [1]; its kinetics, eq. (21), is stiff and
+advanced inside a step by exponential Rosenbrock-Euler sub-steps (:meth:`BoundaryLaw.advance`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import fields
+
+from ..friction import FrictionLaw, LubricantConstants, power_mean
+from ..roots import illinois
+from ..stepsize import KINETICS_SUBSTEPS
+
+
+class BoundaryLaw(FrictionLaw):
+    """F = tau S + m sgn(dv)|dv|^(gamma+1), eq. (23), with the lubricant's constants and the
+    model's switches (``effects``). S [m^2] the contact area; m, gamma the viscous term."""
+
+    name, code, label = "boundary", 2, "boundary friction"
+    keys = frozenset({"S", "m", "gamma", "f0"} | {f.name for f in fields(LubricantConstants)})
+    has_state = True
+    load_shown_as = "n"
+    reads_temperature = True
+
+    def input_problems(self, dv: float, n: float, T: float) -> list[str]:
+        out = super().input_problems(dv, n, T)
+        if T < 0:
+            out.append(f"T must be >= 0 K, got {T}")
+        return out
+
+    @property
+    def has_power_law_term(self) -> bool:
+        return self.effects.viscous
+
+    def mu_eff(self, f: float) -> float:
+        """Effective shear modulus [Pa], eq. (19) floored at 0 (paper's note 2)."""
+        lub = self.lubricant
+        return max(0.0, lub.mu_shear - lub.mu_shear_bar * f)
+
+    def melt_threshold(self) -> float | None:
+        """mu/mu_bar [1]: the elastic stress acts below it (eq. 19); None for mu_bar = 0
+        (no f melts the layer)."""
+        lub = self.lubricant
+        return lub.mu_shear / lub.mu_shear_bar if lub.mu_shear_bar > 0.0 else None
+
+    def shear_strain(self, dv: float) -> float:
+        """Stationary elastic shear strain eps [1], eq. (22)."""
+        return dv * self.lubricant.tau_e / self.lubricant.h
+
+    def force(self, dv: float, n: float, f: float = 0.0) -> float:
+        """Eq. (23): the elastic term ``tau S = 2 mu_eff eps S`` carries its own sign."""
+        F = 0.0
+        if self.effects.elastic:
+            F += 2.0 * self.mu_eff(f) * self.shear_strain(dv) * self.S
+        if self.effects.viscous:
+            F += self.viscous_force(dv)
+        return F
+
+    def mean_force(self, dv_start: float, dv: float, n: float, f: float = 0.0) -> float:
+        if dv == dv_start:
+            return self.force(dv, n, f)
+        F = 0.0
+        if self.effects.elastic:
+            F += 2.0 * self.mu_eff(f) * self.shear_strain(0.5 * (dv + dv_start)) * self.S
+        if self.effects.viscous:
+            F += self.m * power_mean(dv_start, dv, self.gamma + 1.0)
+        return F
+
+    def plot_items(self, fmt) -> list[str]:
+        return [f"m = {fmt(self.m)}", f"γ = {fmt(self.gamma)}"]
+
+    # -- kinetics -------------------------------------------------------------------
+    # Bounds the work of one advance_f call (a few seconds): the hardest inputs found by
+    # fuzzing (f relaxing from 1e7 over 12 decades of time) take about 13 000 sub-steps.
+    MAX_SUBSTEPS = 100_000
+
+    def kinetics_rate(self, f: float, dv: float, n: float, T: float) -> float:
+        """df/dt [1/s] of the Landau-Khalatnikov equation (21)."""
+        return self.rate_function(dv, n, T)(f)
+
+    def rate_function(self, dv: float, n: float, T: float):
+        """df/dt [1/s] of eq. (21) as a function of f alone, for inputs held."""
+        rate = self._rates(n, T)[0]
+        return lambda f: rate(f, dv)
+
+    def _rates(self, n: float, T: float):
+        """Eq. (21) for n, T held: rate(f, dv) [1/s], its slope d rate/df (f) [1/s], and
+        d rate/d(dv) divided by dv [1/(s (m/s)^2)].
+
+        What does not depend on f or dv is computed once: the integrator calls these
+        thousands of times per communication step."""
+        lub, effects = self.lubricant, self.effects
+        lam, lam_bar, mu, mu_bar = lub.lam, lub.lam_bar, lub.mu_shear, lub.mu_shear_bar
+        phi1, phi2, phi3, inv_tau = lub.phi1, lub.phi2, lub.phi3, 1.0 / lub.tau_f
+        # The floor keeps the pressure terms finite past both melting thresholds.
+        floor = 1e-12 * (lam + mu)
+        # mub e_ij^2 without its e_ii part, eq. (17): 2 mub eps^2 with eps = dv tau_e / h (22)
+        strain = 2.0 * mu_bar * (lub.tau_e / lub.h) ** 2
+        base = lub.phi0_star + (lub.alpha * T if effects.temperature else 0.0)
+        pressure = effects.pressure
+        # e_ii enters phi0 as (lamb/2 + mub/2) e_ii^2 (eqs. 15, 17) and the last term of
+        # eq. (21) as -n^2 (lamb + mub) / moduli^2 = -(lamb + mub) e_ii^2.
+        squeeze = -0.5 * (lam_bar + mu_bar) * n * n if pressure else 0.0
+
+        def rate(f: float, dv: float) -> float:
+            rhs = base + strain * dv * dv - phi1 * f + phi2 * f * f - phi3 * f * f * f
+            if pressure:
+                # max(max(0, lam_eff) + max(0, mu_eff), floor), without the builtin's calls
+                # (the hottest line of the kinetics: ~4 evaluations a sub-step)
+                lam_eff, mu_eff = lam - lam_bar * f, mu - mu_bar * f
+                moduli = (lam_eff if lam_eff > 0.0 else 0.0) + (mu_eff if mu_eff > 0.0 else 0.0)
+                if moduli < floor:
+                    moduli = floor
+                rhs += squeeze / (moduli * moduli)
+            return rhs * inv_tau
+
+        def slope(f: float) -> float:
+            d = -phi1 + 2.0 * phi2 * f - 3.0 * phi3 * f * f
+            if pressure:
+                lam_eff, mu_eff = lam - lam_bar * f, mu - mu_bar * f
+                moduli = (lam_eff if lam_eff > 0.0 else 0.0) + (mu_eff if mu_eff > 0.0 else 0.0)
+                if moduli > floor:
+                    d_moduli = -(lam_bar if lam_eff > 0.0 else 0.0) - (mu_bar if mu_eff > 0.0 else 0.0)
+                    d -= 2.0 * squeeze / moduli ** 3 * d_moduli
+            return d * inv_tau
+
+        return rate, slope, 2.0 * strain * inv_tau
+
+    def advance(self, f: float, dv: float, n: float, T: float, h: float,
+                rtol: float = 1e-6, atol: float = 1e-6, dv_start: float | None = None) -> tuple[float, float]:
+        """Advance the excess volume f over a step h [s] with n, T held; returns f(t+h) and
+        the mean friction force [N] over the step along the way.
+
+        dv [m/s] is held over the step, or, given dv_start, moves linearly from dv_start to
+        dv over it (the relative velocity the coupling saw at the step's start and end).
+
+        Eq. (21) is stiff (rates 1e5 to 1e7 1/s): f follows an equilibrium that moves with
+        dv. Each sub-step is exponential Rosenbrock-Euler for the non-autonomous equation
+        (Hochbruck & Ostermann): exact for the rate linearised in f *and in time* at the
+        sub-step's start, so however stiff, f ends where the moving equilibrium is, less the
+        lag the true solution has. (Holding dv over a piece instead lags f by half the
+        piece; on fig6's rig with other viscous exponents that lag shifted every
+        re-solidification at a velocity reversal: 0.5 nRMS(v).) A sub-step that would cross
+        an equilibrium of the rate at its end is replaced by backward Euler with its root
+        bracketed between f and that equilibrium, which cannot jump branches or blow up.
+        The error of a sub-step is estimated from its defect (how far the true rate at its
+        end is from the linear model's): one rate evaluation instead of step doubling's
+        extra two sub-steps; sub-steps grow where f sits near its equilibrium.
+        """
+        dv0 = dv if dv_start is None else dv_start
+        if not self.effects.melting or h <= 0.0:
+            return f, self.mean_force(dv0, dv, n, f)
+        dv_rate = (dv - dv0) / h  # m/s^2
+        rate, slope, rate_dv = self._rates(n, T)
+        mean_force = self._boundary_mean_force(n)
+        s, sub, min_sub = 0.0, h, 1e-12 * h
+        r0 = rate(f, dv0)
+        impulse = 0.0  # N s, the force integrated over the accepted sub-steps
+        for count in range(self.MAX_SUBSTEPS):
+            if s >= h:
+                return f, impulse / h
+            if count == self.MAX_SUBSTEPS // 2 and dv_rate != 0.0:
+                # An input that swings the equilibrium across decades within the step (a host
+                # jumping dv by 1e6 m/s) cannot be followed at this tolerance: hold it at its
+                # end value for the rest of the step, where f lands on equilibria in a few
+                # sub-steps (what the FMU did before it followed dv through the step).
+                dv0, dv_rate, r0 = dv, 0.0, rate(f, dv)
+            s1 = h if sub >= h - s else s + sub
+            dv_s = dv0 + dv_rate * s if dv_rate else dv
+            dv_s1 = dv if s1 >= h or not dv_rate else dv0 + dv_rate * s1
+            f1, r1, err = self._substep(rate, slope, f, r0, dv_s1, rate_dv * dv_s * dv_rate, s1 - s)
+            tol = atol + rtol * abs(f1)
+            if err <= tol or sub <= min_sub:
+                # f moves little where the sub-step is long: the force's mean over it is the
+                # mean along dv at f's mean (the elastic term is linear in dv, the viscous
+                # term integrated exactly)
+                impulse += (s1 - s) * mean_force(dv_s, dv_s1, 0.5 * (f + f1))
+                f, r0, s = f1, r1, s1
+                # Floored: a sub-step forced through at the minimum must not shrink the next
+                # one toward zero, or s would stop advancing.
+                sub = max(min_sub, sub * KINETICS_SUBSTEPS.factor(err / tol, order=1))
+            else:
+                sub *= KINETICS_SUBSTEPS.factor(err / tol, order=1)
+        if s >= h:
+            return f, impulse / h
+        raise ArithmeticError(f"eq. (21) needs more than {self.MAX_SUBSTEPS} sub-steps over "
+                              f"h={h} s (reached f={f} with {h - s} s left)")
+
+    def _boundary_mean_force(self, n: float):
+        """:meth:`mean_force` of the boundary law for n held, as a function of (dv_start, dv,
+        f): the same arithmetic, with the switches' branches and the parameters' lookups done
+        once per :meth:`advance` instead of once per sub-step."""
+        lub, effects = self.lubricant, self.effects
+        elastic, viscous_on = effects.elastic, effects.viscous
+        mu, mu_bar, tau_e, thickness, S = lub.mu_shear, lub.mu_shear_bar, lub.tau_e, lub.h, self.S
+        m, p = self.m, self.gamma + 2.0
+        force = self.force
+
+        def mean_force(dv_start: float, dv: float, f: float) -> float:
+            if dv == dv_start:
+                return force(dv, n, f)
+            try:
+                viscous = m * ((abs(dv) ** p - abs(dv_start) ** p) / (p * (dv - dv_start)))
+            except OverflowError:  # as the force itself: not finite, for the FMU to refuse
+                viscous = m * math.copysign(math.inf, dv + dv_start)
+            F = 0.0
+            if elastic:
+                mu_eff = mu - mu_bar * f
+                F += 2.0 * (mu_eff if mu_eff > 0.0 else 0.0) * (0.5 * (dv + dv_start) * tau_e / thickness) * S
+            if viscous_on:
+                F += viscous
+            return F
+
+        return mean_force
+
+    @staticmethod
+    def _substep(rate, slope, f0: float, r0: float, dv1: float, r_t: float,
+                 h: float) -> tuple[float, float, float]:
+        """One sub-step over h [s] from f0 (rate r0) to the relative velocity dv1 at its end,
+        the rate moving in time by r_t [1/s^2] through dv: (f1, its rate, estimated error)."""
+        z = slope(f0) * h
+        f_exp = None
+        if z < 30.0:  # beyond, the linearisation grows without bound: leave it to Euler
+            if abs(z) < 1e-5:
+                phi1, phi2 = 1.0 + z / 2.0, 0.5 + z / 6.0
+            else:
+                em1 = math.expm1(z)
+                phi1, phi2 = em1 / z, (em1 - z) / (z * z)
+            f_exp = f0 + h * phi1 * r0 + h * h * phi2 * r_t
+            if math.isfinite(f_exp):
+                r1 = rate(f_exp, dv1)
+                # The linear model's rate at the end; the true one is r1. The defect,
+                # integrated over the sub-step's effective length (h when slow, 1/|slope|
+                # when stiff), bounds the local error.
+                r_model = r0 * (1.0 + z * phi1) + h * phi1 * r_t
+                if r_model * r1 > 0.0 or r1 == 0.0:  # has not crossed an equilibrium
+                    return f_exp, r1, 2.0 * abs((r1 - r_model) * h * phi1)
+        end_rate = lambda y: rate(y, dv1)  # noqa: E731 (the rate at the sub-step's end)
+        f1 = BoundaryLaw._backward_euler(end_rate, f0, end_rate(f0), h)
+        r1 = end_rate(f1)
+        # Crossing: both the linear model and backward Euler land near the equilibrium;
+        # where they disagree, the sub-step was too long for the curvature of the rate.
+        err = abs(f_exp - f1) if f_exp is not None and math.isfinite(f_exp) else 0.5 * h * abs(r1 - r0)
+        return f1, r1, err
+
+    @staticmethod
+    def _backward_euler(rate, f0: float, rate0: float, h: float) -> float:
+        if rate0 == 0.0:
+            return f0
+        direction = 1.0 if rate0 > 0 else -1.0
+
+        def residual(y: float) -> float:  # signed so it starts < 0 and rises through the root
+            return direction * (y - f0 - h * rate(y))
+
+        # At least a few ulps: below that f0 + width == f0 and the bracket never opens
+        # (a step of 1e-300 s moves f by less than one ulp).
+        lo, width = f0, max(min(abs(h * rate0), 1e-3 * (1.0 + abs(f0))), 4.0 * math.ulp(f0))
+        hi = f0 + direction * width
+        for _ in range(400):
+            if residual(hi) >= 0.0:
+                break
+            lo, width = hi, 2.0 * width
+            hi = f0 + direction * width
+        else:  # the cubic term guarantees an equilibrium; only non-finite inputs get here
+            raise ArithmeticError(f"no equilibrium of eq. (21) found from f={f0}")
+        return illinois(residual, lo, hi)
