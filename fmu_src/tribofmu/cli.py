@@ -128,7 +128,8 @@ def _parser() -> argparse.ArgumentParser:
         return sub.add_parser(name, help=summary, description=description or summary[0].upper() + summary[1:] + ".",
                               epilog=_examples(name), formatter_class=plain)
 
-    p = command("build", "build the six FMUs (Friction, Drive, BlockSpring, Thermal, Load, TriboPair)")
+    from .scene.wiring import fmu_names
+    p = command("build", f"build the FMUs ({', '.join(fmu_names())})")
     p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: the per-user FMU cache)")
     p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
                    help="FMI version of the co-simulation FMUs (default 2; 3 goes to its own cache folder)")
@@ -265,11 +266,12 @@ def _add_algorithm(p) -> None:
 
 # -- commands -------------------------------------------------------------------------------
 def cmd_build(args) -> int:
-    from .build import FMU_NAMES, build_fmus
+    from .build import build_fmus
     from .fmu_cache import BUILD_BYTES, find_fmus
+    from .scene.wiring import fmu_names
     if args.out is None:  # the cache: rebuilt, with the hashes it checks recorded
-        folder = find_fmus(FMU_NAMES, None, fmi=args.fmi, build=True)
-        paths = [folder / f"{name}.fmu" for name in FMU_NAMES]
+        folder = find_fmus(fmu_names(), None, fmi=args.fmi, build=True)
+        paths = [folder / f"{name}.fmu" for name in fmu_names()]
     else:
         preflight_folder(Path(args.out), BUILD_BYTES)
         paths = build_fmus(args.out, fmi=args.fmi)

@@ -148,7 +148,6 @@ FMUS: tuple[FMU, ...] = (
     FMU("Thermal", "thermal", _thermal, outputs=("T", "Q", "Q_lost"), needs=("Friction",)),
     FMU("Load", "load", _load, outputs=("n",), needs=("Friction",)),
 )
-FMU_NAMES: tuple[str, ...] = tuple(f.name for f in FMUS)
 CONNECTIONS: tuple[Connection, ...] = (
     Connection("Drive", "V", "BlockSpring", "V"),
     Connection("BlockSpring", "dv", "Friction", "dv"),
@@ -163,6 +162,13 @@ CONNECTIONS: tuple[Connection, ...] = (
 PAIR = FMU("TriboPair", "tribopair", _pair, outputs=("x", "v", "a", "F", "f", "dv", "stuck"),
            constant_inputs=_conditions, needs=("Drive",))
 PAIRED = ("BlockSpring", "Friction")  # the FMUs the pair replaces
+
+
+def fmu_names() -> tuple[str, ...]:
+    """Every FMU tribofmu builds (``tribofmu build``, the FMU cache): the scene FMUs of
+    :data:`FMUS`, then the pair; read when called, so a new entry in :data:`FMUS` is built too."""
+    return tuple(fmu.name for fmu in (*FMUS, PAIR))
+
 PAIR_CONNECTIONS: tuple[Connection, ...] = (
     Connection("Drive", "V", "TriboPair", "V"),
     Connection("Drive", "a", "TriboPair", "a_drive"),
