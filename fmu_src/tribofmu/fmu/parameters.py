@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import fields
 
 from tribofmu.fmu.base import PARAMETER, non_negative, positive
+from tribofmu.fmu.effect_parameters import EFFECT_PARAMETERS
 from tribofmu.physics.friction import REGIME_NAMES, Effects, FrictionLaw, LubricantConstants
 
 
@@ -25,13 +26,6 @@ LUBRICANT = {  # name: (unit, description)
     "h": ("m", "lubricant layer thickness, eq. (22)"),
     "tau_f": ("Pa.s", "relaxation time of the excess volume, eq. (21)"),
     "tau_e": ("s", "Maxwell time of internal stress relaxation, eq. (22)"),
-}
-EFFECTS = {  # FMU parameter name: (Effects field, description)
-    "melting": ("melting", "boundary: f evolves by eq. (21) (false: f stays at f0)"),
-    "pressure_term": ("pressure", "boundary: normal-stress terms of eqs. (15), (21)"),
-    "temperature_term": ("temperature", "boundary: alpha T in eq. (15)"),
-    "viscous_term": ("viscous", "boundary: viscous force m sgn(dv)|dv|^(gamma+1) in eq. (23)"),
-    "elastic_term": ("elastic", "boundary: elastic force tau S in eq. (23)"),
 }
 
 
@@ -68,7 +62,7 @@ def declare_friction_parameters(slave) -> None:
         check = non_negative if name in ("lam_bar", "mu_shear_bar") else (
             positive if name in ("lam", "mu_shear", "h", "tau_f", "tau_e", "phi3") else None)
         slave.declare(name, float(getattr(defaults, name)), PARAMETER, unit, text, check=check)
-    for name, (_, text) in EFFECTS.items():
+    for name, text in EFFECT_PARAMETERS.values():
         slave.declare(name, True, PARAMETER, "1", text)
     slave.declare("f0", 0.0, PARAMETER, "1", "boundary: excess volume at the start")
     # 1e-5 is twenty times below the master's default step tolerance on the force; tighter
@@ -82,4 +76,4 @@ def friction_law(slave) -> FrictionLaw:
     return FrictionLaw(
         regime=slave.regime, mu_friction=slave.mu_friction, S=slave.S, m=slave.m, gamma=slave.gamma,
         lubricant=LubricantConstants(**{f.name: getattr(slave, f.name) for f in fields(LubricantConstants)}),
-        effects=Effects(**{field: getattr(slave, name) for name, (field, _) in EFFECTS.items()}))
+        effects=Effects(**{field: getattr(slave, name) for field, (name, _) in EFFECT_PARAMETERS.items()}))

@@ -34,6 +34,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import Callable
 
+from ..fmu.effect_parameters import EFFECT_PARAMETERS
 from ..physics.friction import REGIMES, Effects, LubricantConstants
 from ..physics.load import PROGRAMS
 
@@ -91,12 +92,6 @@ class Instance:
     constant_inputs: dict[str, float]
 
 
-# Friction FMU parameter name for each field of the boundary model's Effects switches.
-EFFECT_PARAMETERS = {"melting": "melting", "pressure": "pressure_term",
-                     "temperature": "temperature_term", "viscous": "viscous_term",
-                     "elastic": "elastic_term"}
-
-
 def _drive(sc: "Scenario") -> dict[str, Value]:
     return {"A": float(sc.drive.A), "omega": float(sc.drive.omega)}
 
@@ -111,7 +106,7 @@ def _friction(sc: "Scenario") -> dict[str, Value]:
     values: dict[str, Value] = {"regime": int(REGIMES[fr.regime])}
     values.update({key: float(getattr(fr, key)) for key in ("mu_friction", "S", "m", "gamma", "f0")})
     values.update({f.name: float(getattr(fr.lubricant, f.name)) for f in fields(LubricantConstants)})
-    values.update({EFFECT_PARAMETERS[f.name]: bool(getattr(fr.effects, f.name)) for f in fields(Effects)})
+    values.update({EFFECT_PARAMETERS[f.name][0]: bool(getattr(fr.effects, f.name)) for f in fields(Effects)})
     return values
 
 
