@@ -57,7 +57,7 @@ def test_result_csv_carries_every_coupled_signal_with_units(fmu_dir, tmp_path, n
 
 def test_column_table_is_the_one_writers_use():
     sc = api.load("dry_load_oscillation")
-    assert [c.name for c in columns.columns_for(sc)] == [c.name for c in columns.COLUMNS if c.name not in ("T", "Q")]
+    assert [c.name for c in columns.columns_for(sc)] == [c.name for c in columns.RESULT_CSV_COLUMNS if c.name not in ("T", "Q")]
     signals = {k: np.arange(3.0) + i for i, k in enumerate(("time", "X", "V", "x", "v", "F", "f", "stuck", "n"))}
     table = columns.rows(signals, sc)
     assert table.shape == (3, len(columns.columns_for(sc)))

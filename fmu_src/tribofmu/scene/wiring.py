@@ -239,6 +239,8 @@ def input_signals(points, grid) -> dict:
     the time grid [s], interpolated linearly between communication points."""
     import numpy as np
 
-    t = np.array([p.t_ns for p in points], dtype=np.int64) / 1e9
+    from ..coupling.interpolation import NS
+
+    t = np.array([p.t_ns for p in points], dtype=np.int64) / NS
     return {name: np.interp(grid, t, np.array([getattr(p, name) for p in points]))
             for name in ("T", "n", "Q")}

@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...physics.friction import BOUNDARY, DRY, FLUID
+from ...coupling.interpolation import SAMPLES_PER_PERIOD  # default t_eval: the output grid
 from ...scene.scenario import Scenario
 from ..measures import nrms
 from .dry import solve_dry, solve_dry_varying, solve_free
@@ -45,7 +46,6 @@ from .smooth import solve_smooth
 
 __all__ = ["ReferenceResult", "reference_solution", "nrms", "SAMPLES_PER_PERIOD"]
 
-SAMPLES_PER_PERIOD = 1000  # default output grid: every T/1000
 
 
 @dataclass(frozen=True)
