@@ -19,9 +19,10 @@ import sys
 from pathlib import Path
 
 from . import __version__
-from .cli_checks import (PLOT_BYTES, one_line, SSP_BYTES, SWEEP_POINT_BYTES, UsageError, check_algorithm_options,
+from .cli_checks import (PLOT_BYTES, one_line, SSP_BYTES, SWEEP_POINT_BYTES, check_algorithm_options,
                          check_number, check_out_dir, check_out_file, label_overrides, output_folder,
                          preflight, preflight_folder, require, resolve_fmu_dir)
+from .errors import UsageError
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
@@ -54,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except Exception as exc:  # every expected failure becomes one line, never a traceback
         from .errors import NumericalError, TriboFMUError
-        if isinstance(exc, (UsageError, TriboFMUError, FileNotFoundError, FileExistsError)):
+        if isinstance(exc, (TriboFMUError, FileNotFoundError, FileExistsError)):
             print(f"tribofmu: {one_line(exc)}", file=sys.stderr)
             return EXIT_FAILED if isinstance(exc, NumericalError) else EXIT_BAD_INPUT
         if isinstance(exc, OSError):  # a write that failed after the preflight: disk full, gone, ...
