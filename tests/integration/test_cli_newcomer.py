@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from tribofmu import api, cli
-from tribofmu.build import PRIVATE_PREFIX, build_fmus, private_package_name
+from tribofmu.build import PRIVATE_PREFIX, private_package_name
 from tribofmu.master.instance import EXTRACT_PREFIX
 
 from cli_run import tribofmu
@@ -23,15 +23,6 @@ SCENES = SCENARIOS
 FIG2 = SCENES / "fig2_dry.toml"
 SHORT = ["--set", "time.periods=1", "--set", "time.window=[0,1]"]  # one period: a quick run
 pytestmark = pytest.mark.integration
-
-
-@pytest.fixture(scope="module")
-def fmu_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("newcomer-fmus")
-    build_fmus(out)
-    return out
-
-
 
 
 def one_line(proc) -> str:
