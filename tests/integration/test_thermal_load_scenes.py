@@ -3,7 +3,6 @@ Load FMU feeding Friction.n, the Thermal FMU fed the friction power and feeding 
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
