@@ -1,14 +1,16 @@
-"""The parameter declarations the FMUs share: the block's and the friction law's.
+"""The declarations the FMUs share: the block's parameters and outputs, the friction law's
+parameters, and the models' caches of what their parameters make.
 
-BlockSpring and Friction declare their parameters here, and TriboPair (block and friction in
+BlockSpring and Friction declare their variables here, and TriboPair (block and friction in
 one FMU) declares both sets with the same calls: one list of names, units, descriptions and
 checks, so the pair cannot drift from the separate FMUs.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import fields
 
-from tribofmu.fmu.base import PARAMETER, non_negative, positive
+from tribofmu.fmu.base import OUTPUT, PARAMETER, non_negative, positive
 from tribofmu.fmu.effect_parameters import EFFECT_PARAMETERS
 from tribofmu.physics.friction import REGIME_NAMES, Effects, FrictionLaw, LubricantConstants
 
@@ -43,6 +45,28 @@ def declare_block_parameters(slave) -> None:
     slave.declare("K", 7000.0, PARAMETER, "N/m", "stiffness of each of the two springs", check=non_negative)
     slave.declare("x0", 0.0, PARAMETER, "m", "position at the start")
     slave.declare("v0", 0.0, PARAMETER, "m/s", "velocity at the start")
+
+
+def declare_block_outputs(slave) -> None:
+    """x [m], v [m/s] and a [m/s2] of the lower block at the end of the step."""
+    slave.declare("x", 0.0, OUTPUT, "m", "position of the lower block")
+    slave.declare("v", 0.0, OUTPUT, "m/s", "velocity of the lower block")
+    slave.declare("a", 0.0, OUTPUT, "m/s2", "acceleration of the lower block at the end of the step")
+
+
+def parameter_cached(method):
+    """A model's method of no argument whose answer depends on the parameters alone (a law, a
+    program): made once, and again only after a parameter changed (``_parameter_token``)."""
+    slot = f"_cached_{method.__name__}"
+
+    @functools.wraps(method)
+    def cached(self):
+        token, value = getattr(self, slot, (None, None))
+        if token != self._parameter_token:
+            token, value = self._parameter_token, method(self)
+            setattr(self, slot, (token, value))
+        return value
+    return cached
 
 
 def declare_friction_parameters(slave) -> None:
