@@ -9,8 +9,6 @@ of nanoseconds; windows here end a little before the span so nRMS is always defi
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 import time
 
 import numpy as np
@@ -21,6 +19,7 @@ from tribofmu.errors import ScenarioError
 from tribofmu.master.energy import energy_audit, step_integrals
 from tribofmu.studies.reference import nrms, reference_solution
 
+from cli_run import main
 from scenes import SCENARIOS
 
 pytestmark = pytest.mark.integration
@@ -248,12 +247,10 @@ def test_a_run_that_would_take_too_long_stops_with_a_message(fmu_dir):
     assert np.all(np.isfinite(r.v))
 
 
-def test_cli_runaway_is_one_line_and_exit_code_1(fmu_dir, tmp_path):
+def test_cli_runaway_is_one_line_and_exit_code_1(fmu_dir, tmp_path, capsys):
     out = tmp_path / "run"
-    proc = subprocess.run([sys.executable, "-m", "tribofmu", "simulate", str(SCENARIOS / "fig2_dry.toml"),
-                           "--set", "time.periods=5000", "--set", "time.window=[0,1]", "--max-wall", "1",
-                           "--fmu-dir", str(fmu_dir), "--out", str(out), "-q"],
-                          capture_output=True, text=True, timeout=120)
+    proc = main("simulate", SCENARIOS / "fig2_dry.toml", "--set", "time.periods=5000", "--set", "time.window=[0,1]",
+                "--max-wall", "1", "--fmu-dir", fmu_dir, "--out", out, "-q", capsys=capsys)
     assert proc.returncode == 1, proc.stderr
     lines = [line for line in proc.stderr.splitlines() if line.startswith("tribofmu:")]
     assert len(lines) == 1 and "would take" in lines[0]
