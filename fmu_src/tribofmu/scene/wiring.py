@@ -2,10 +2,11 @@
 
 The master (:mod:`tribofmu.api` builds the coupled system from it), the SSP export
 (:mod:`tribofmu.scene.ssp`), the scenario's validation and the README's wiring list all read
-what is declared here. To add an FMU to scenes, declare it once in :data:`FMUS` (file, instance
-name, start values from the scenario, recorded outputs, constant inputs, which FMUs it needs)
-and its connections in :data:`CONNECTIONS`; a constant input that a connection feeds in a
-scene is left to the connection (e.g. a Load FMU's ``n`` replaces the constant ``n``).
+what is declared here, and the build builds every FMU it declares (:func:`fmu_names`). To add
+an FMU to scenes, declare it once in :data:`FMUS` (file, instance name, start values from the
+scenario, recorded outputs, constant inputs, which FMUs it needs) and its connections in
+:data:`CONNECTIONS`; a constant input that a connection feeds in a scene is left to the
+connection (e.g. a Load FMU's ``n`` replaces the constant ``n``).
 
 Today's system (SSP connections cannot subtract, so BlockSpring forms ``dv = V - v`` itself)::
 
@@ -157,13 +158,6 @@ CONNECTIONS: tuple[Connection, ...] = (
 PAIR = FMU("TriboPair", "tribopair", _pair, outputs=("x", "v", "a", "F", "f", "dv", "stuck"),
            constant_inputs=_conditions, needs=("Drive",))
 PAIRED = ("BlockSpring", "Friction")  # the FMUs the pair replaces
-
-
-def fmu_names() -> tuple[str, ...]:
-    """Every FMU tribofmu builds (``tribofmu build``, the FMU cache): the scene FMUs of
-    :data:`FMUS`, then the pair; read when called, so a new entry in :data:`FMUS` is built too."""
-    return tuple(fmu.name for fmu in (*FMUS, PAIR))
-
 PAIR_CONNECTIONS: tuple[Connection, ...] = (
     Connection("Drive", "V", "TriboPair", "V"),
     Connection("Drive", "a", "TriboPair", "a_drive"),
@@ -172,6 +166,12 @@ PAIR_CONNECTIONS: tuple[Connection, ...] = (
     Connection("TriboPair", "F", "Thermal", "F"),
     Connection("TriboPair", "dv", "Thermal", "dv"),
 )
+
+
+def fmu_names() -> tuple[str, ...]:
+    """Every FMU tribofmu builds (``tribofmu build``, the FMU cache): the scene FMUs of
+    :data:`FMUS`, then the pair; read when called, so a new entry in :data:`FMUS` is built too."""
+    return tuple(fmu.name for fmu in (*FMUS, PAIR))
 
 
 def scene_problems(names: tuple[str, ...] | list[str]) -> list[str]:
