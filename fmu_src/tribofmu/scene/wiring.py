@@ -158,13 +158,20 @@ CONNECTIONS: tuple[Connection, ...] = (
 PAIR = FMU("TriboPair", "tribopair", _pair, outputs=("x", "v", "a", "F", "f", "dv", "stuck"),
            constant_inputs=_conditions, needs=("Drive",))
 PAIRED = ("BlockSpring", "Friction")  # the FMUs the pair replaces
+
+
+def _to_the_pair(connection: Connection) -> Connection:
+    """The connection with BlockSpring and Friction replaced by the pair (same variable names)."""
+    def end(name: str) -> str:
+        return PAIR.name if name in PAIRED else name
+    return Connection(end(connection.start), connection.output, end(connection.end), connection.input)
+
+
+# The pair is connected as the FMUs it replaces, less the dv -> F -> dv loop it closes inside,
+# plus the drive's acceleration, so that it follows V within a step instead of holding it.
 PAIR_CONNECTIONS: tuple[Connection, ...] = (
-    Connection("Drive", "V", "TriboPair", "V"),
     Connection("Drive", "a", "TriboPair", "a_drive"),
-    Connection("Load", "n", "TriboPair", "n"),
-    Connection("Thermal", "T", "TriboPair", "T"),
-    Connection("TriboPair", "F", "Thermal", "F"),
-    Connection("TriboPair", "dv", "Thermal", "dv"),
+    *(_to_the_pair(c) for c in CONNECTIONS if not (c.start in PAIRED and c.end in PAIRED)),
 )
 
 
