@@ -143,21 +143,3 @@ def test_cli_names_both_sources_in_one_line_exit_2(tmp_path, fmu_dir, capsys):
     assert main(*argv, "--recompute", capsys=capsys).returncode == 0
 
 
-def test_the_local_cluster_listens_on_the_loopback_only(monkeypatch):
-    """Scheduler and dashboard of the sweep's LocalCluster bind 127.0.0.1 (not all interfaces)."""
-    import distributed
-    from tribofmu.scene.scenario import load_scenario
-    from tribofmu.studies.sweep.runner import run_dask
-    seen = {}
-
-    class Stop(Exception):
-        pass
-
-    def fake_cluster(**kwargs):
-        seen.update(kwargs)
-        raise Stop
-    monkeypatch.setattr(distributed, "LocalCluster", fake_cluster)
-    with pytest.raises(Stop):
-        run_dask([load_scenario(FIG2)], [0], Path("."), (None, None, None, 10, None), lambda i, o: None,
-                 False, "x", None, 1, lambda m: None)
-    assert seen["host"] == "127.0.0.1" and seen["dashboard_address"].startswith("127.0.0.1:")

@@ -32,15 +32,6 @@ FIG4_OMEGAS = [10, 20, 30, 50, 80, 130]
 
 
 # -- the grid -------------------------------------------------------------------------------
-def test_parse_grid_reads_values_like_set():
-    from tribofmu.studies.sweep.grid import grid_points, parse_grid
-    g = parse_grid(["drive.omega=10, 20.5,1e2", "time.window=[1,2],[2, 3]", "friction.regime=dry,fluid"])
-    assert g == {"drive.omega": [10, 20.5, 100.0], "time.window": [[1, 2], [2, 3]],
-                 "friction.regime": ["dry", "fluid"]}
-    points = grid_points({"a.b": [1, 2], "c.d": [3, 4, 5]})
-    assert len(points) == 6 and points[0] == {"a.b": 1, "c.d": 3} and points[3] == {"a.b": 2, "c.d": 3}
-
-
 @pytest.mark.parametrize("grid_arg, words", [
     ("drive.omega=10,-5", ["drive.omega", "-5"]),
     ("drive.omega=10,fast", ["drive.omega", "fast"]),
