@@ -1,5 +1,5 @@
 """Hostile and broken input: one line naming the culprit, exit 2, within a second, nothing
-written (issue "Nothing lost, nothing wrong, nothing let in", items 1, 3, 6, 7).
+written, so that a mistake costs neither a traceback nor a half-written folder.
 
 The corpus below is the fuzz corpus: each case a scenario file (bytes), or a special file,
 and the words its one-line message must contain.

@@ -1,5 +1,5 @@
-"""Nothing runs because of its name; a sweep never mixes two physics (issue "Nothing lost,
-nothing wrong, nothing let in", items 2, 4 and 7).
+"""Nothing runs because of its name; a sweep never mixes two physics: an FMU is trusted for
+its content, not for the file name or folder it is found under.
 
 - the per-user cache: a planted, damaged or linked FMU is rebuilt (that one alone), as is a
   missing one; leftovers of killed builds are removed;

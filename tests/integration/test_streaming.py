@@ -1,6 +1,6 @@
-"""result.csv is streamed as the run produces it (issue "Nothing lost, nothing wrong, nothing
-let in", item 9): the rows written equal the whole run's samples, and only the shown window
-stays in memory."""
+"""result.csv is streamed as the run produces it, so that a long run's results need not fit in
+memory: the rows written equal the whole run's samples, and only the shown window stays in
+memory."""
 from __future__ import annotations
 
 import numpy as np
