@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from tribofmu import api
+from tribofmu.coupling.interpolation import NS
 from tribofmu.errors import ScenarioError
 from tribofmu.master.energy import energy_audit, step_integrals
 from tribofmu.studies.reference import nrms, reference_solution
@@ -79,7 +80,7 @@ def test_no_friction_is_the_free_oscillator(fmu_dir):
                                       "time.window=[1.0,3.0]"])
     assert_sane(r, residual_rel=1e-9)
     w0 = math.sqrt(2 * sc.block.K / sc.block.M)
-    t = np.array([p.t_ns for p in r.points]) / 1e9
+    t = np.array([p.t_ns for p in r.points]) / NS
     x = np.array([p.x for p in r.points])
     v = np.array([p.v for p in r.points])
     # the block is exact at communication points ...
@@ -192,7 +193,7 @@ def test_long_run_energy_balance_does_not_drift(fmu_dir):
     # O(h^4), far below one step's own dissipation
     mean_step = r.stats["energy"]["D"] / r.stats["communication_steps"]
     assert r.stats["energy"]["most_negative_step_dissipation"] > -1e-5 * mean_step
-    period_ns = sc.drive.period * 1e9
+    period_ns = sc.drive.period * NS
     # the residual of the balance over each tenth of the run: small and not growing
     cut = [0] + [next(i for i, p in enumerate(r.points) if p.t_ns >= k * n / 10 * period_ns)
                  for k in range(1, 11)]

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from tribofmu import api
+from tribofmu.coupling.interpolation import NS
 from tribofmu.studies.reference import nrms, reference_solution
 
 from cli_run import main
@@ -113,7 +114,7 @@ def test_free_oscillator_scene_uses_only_the_block(fmu_dir):
     b = result.scenario.block
     w0 = math.sqrt(2 * b.K / b.M)
     assert len(result.points) > 100  # every communication point, kept on request
-    t = np.array([p.t_ns for p in result.points]) / 1e9
+    t = np.array([p.t_ns for p in result.points]) / NS
     x = np.array([p.x for p in result.points])
     assert np.allclose(x, b.x0 * np.cos(w0 * t), rtol=0, atol=1e-12 * b.x0)  # exact at the points
     # in between, the output grid is interpolated: within the adaptive tolerance
