@@ -21,18 +21,16 @@ import numpy as np
 from .errors import FMUError, FMUSetupError  # noqa: F401 (FMUSetupError re-exported)
 from .coupling.algorithms import Scales, make_algorithm
 from .coupling.estimate import WindowError
-from .coupling.interpolation import INPUT_SIGNALS
+from .coupling.interpolation import INPUT_SIGNALS, NS, SAMPLES_PER_PERIOD, SIGNALS
 from .coupling.system import CoupledSystem
 from .master import FMUCallError, FMUFileError, FMUInstance, GridRecorder, RunLimits, run
 from .master.energy import EnergyAudit
-from .master.run import COLUMNS
 from .scene.library import resolve_scene
 from .scene.scenario import Scenario, ScenarioError, load_scenario, scales
 from .scene.wiring import constant_inputs, fmu_parameters
 
 
 
-SAMPLES_PER_PERIOD = 1000
 # The output grid is held in memory (8 bytes a value): 1e7 samples are 0.6 GB of results.
 MAX_OUTPUT_SAMPLES = 10_000_000
 
@@ -164,7 +162,7 @@ def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float
     first = recorder.keep[0]
     grid = grid[first:first + len(signals["v"])]  # the kept part of the grid the run reached
     adaptive = name == "adaptive"
-    stats = {"algorithm": coupling.name, "step": coupling.step_ns / 1e9 if not adaptive else None,
+    stats = {"algorithm": coupling.name, "step": coupling.step_ns / NS if not adaptive else None,
              "tol": coupling.tol if adaptive else None, "step_tol": coupling.tol if adaptive else None,
              "ok": outcome.ok, "completed": outcome.ok, "out_of_time": outcome.out_of_time,
              "message": outcome.message,
@@ -184,7 +182,7 @@ def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float
     heat = audit.heat()
     if heat:
         stats["heat"] = heat
-    return SimulationResult(scenario, grid, *(signals[k] for k in COLUMNS), outcome.ok, outcome.message,
+    return SimulationResult(scenario, grid, *(signals[k] for k in SIGNALS), outcome.ok, outcome.message,
                             stats, outcome.points if keep_points else [],
                             {k: signals[k] for k in INPUT_SIGNALS if k in signals})
 
@@ -331,6 +329,6 @@ def output_samples(scenario: Scenario) -> int:
     if n > MAX_OUTPUT_SAMPLES:
         raise ScenarioError(
             f"{scenario.source}: time.periods = {scenario.time.periods:g} asks for {n:.3g} output samples "
-            f"({n * 8 * (len(COLUMNS) + 1) / 1e9:.3g} GB of results); at most {MAX_OUTPUT_SAMPLES:.0e} "
+            f"({n * 8 * (len(SIGNALS) + 1) / 1e9:.3g} GB of results); at most {MAX_OUTPUT_SAMPLES:.0e} "
             f"({MAX_OUTPUT_SAMPLES // SAMPLES_PER_PERIOD} periods): simulate fewer periods")
     return n

@@ -32,10 +32,10 @@ from functools import lru_cache
 from pathlib import Path
 
 from . import __version__
+from .scene.wiring import fmu_names
 
 PACKAGE = Path(__file__).resolve().parent
 MODELS = PACKAGE / "fmu" / "models"
-FMU_NAMES = ("Friction", "Drive", "BlockSpring", "Thermal", "Load", "TriboPair")
 # What an FMU needs at run time, as whole packages: the physics, the FMU framework and, for
 # TriboPair, the coupling (which imports only the standard library and the physics).
 SHIPPED = ("__init__.py", "physics", "fmu", "coupling")
@@ -55,7 +55,7 @@ def _shipped_sources() -> list[Path]:
     for rel in SHIPPED:
         src = PACKAGE / rel
         files += sorted(p for p in src.rglob("*.py")) if src.is_dir() else [src]
-    files += [MODELS / f"{name}.py" for name in FMU_NAMES]
+    files += [MODELS / f"{name}.py" for name in fmu_names()]
     return files
 
 
@@ -184,10 +184,11 @@ def _stage_model(root: Path, name: str, private: str, fmi: int = 2) -> Path:
     return script
 
 
-def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] = FMU_NAMES,
+def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] | None = None,
                fmi: int = 2) -> list[Path]:
-    """Build ``out_dir/<Name>.fmu`` for each name (default: :func:`default_fmu_dir`) as FMI 2.0
-    or (fmi=3) FMI 3.0 co-simulation FMUs; returns their paths.
+    """Build ``out_dir/<Name>.fmu`` (default: :func:`default_fmu_dir`) for each name (default:
+    every FMU of :func:`tribofmu.scene.wiring.fmu_names`) as FMI 2.0 or (fmi=3) FMI 3.0
+    co-simulation FMUs; returns their paths.
 
     Each file appears whole or not at all (built aside, then renamed into place).
     """
@@ -201,6 +202,7 @@ def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] = FMU_N
         from pythonfmu.builder import FmuBuilder
         options = dict(canGetAndSetFMUstate=True, canSerializeFMUstate=True)
 
+    names = fmu_names() if names is None else names
     out_dir = Path(out_dir) if out_dir is not None else default_fmu_dir(fmi)
     out_dir.mkdir(parents=True, exist_ok=True)
     private = private_package_name(fmi)

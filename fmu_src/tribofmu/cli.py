@@ -19,9 +19,10 @@ import sys
 from pathlib import Path
 
 from . import __version__
-from .cli_checks import (PLOT_BYTES, one_line, SSP_BYTES, SWEEP_POINT_BYTES, UsageError, check_algorithm_options,
+from .cli_checks import (PLOT_BYTES, one_line, SSP_BYTES, SWEEP_POINT_BYTES, check_algorithm_options,
                          check_number, check_out_dir, check_out_file, label_overrides, output_folder,
                          preflight, preflight_folder, require, resolve_fmu_dir)
+from .errors import UsageError
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
@@ -56,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except Exception as exc:  # every expected failure becomes one line, never a traceback
         from .errors import NumericalError, TriboFMUError
-        if isinstance(exc, (UsageError, TriboFMUError, FileNotFoundError, FileExistsError)):
+        if isinstance(exc, (TriboFMUError, FileNotFoundError, FileExistsError)):
             print(f"tribofmu: {one_line(exc)}", file=sys.stderr)
             return EXIT_FAILED if isinstance(exc, NumericalError) else EXIT_BAD_INPUT
         if isinstance(exc, OSError):  # a write that failed after the preflight: disk full, gone, ...
@@ -130,7 +131,8 @@ def _parser() -> argparse.ArgumentParser:
         return sub.add_parser(name, help=summary, description=description or summary[0].upper() + summary[1:] + ".",
                               epilog=_examples(name), formatter_class=plain)
 
-    p = command("build", "build the six FMUs (Friction, Drive, BlockSpring, Thermal, Load, TriboPair)")
+    from .scene.wiring import fmu_names
+    p = command("build", f"build the FMUs ({', '.join(fmu_names())})")
     p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: the per-user FMU cache)")
     p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
                    help="FMI version of the co-simulation FMUs (default 2; 3 goes to its own cache folder)")
@@ -267,11 +269,12 @@ def _add_algorithm(p) -> None:
 
 # -- commands -------------------------------------------------------------------------------
 def cmd_build(args) -> int:
-    from .build import FMU_NAMES, build_fmus
+    from .build import build_fmus
     from .fmu_cache import BUILD_BYTES, find_fmus
+    from .scene.wiring import fmu_names
     if args.out is None:  # the cache: rebuilt, with the hashes it checks recorded
-        folder = find_fmus(FMU_NAMES, None, fmi=args.fmi, build=True)
-        paths = [folder / f"{name}.fmu" for name in FMU_NAMES]
+        folder = find_fmus(fmu_names(), None, fmi=args.fmi, build=True)
+        paths = [folder / f"{name}.fmu" for name in fmu_names()]
     else:
         preflight_folder(Path(args.out), BUILD_BYTES)
         paths = build_fmus(args.out, fmi=args.fmi)

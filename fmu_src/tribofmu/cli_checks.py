@@ -14,6 +14,7 @@ import re
 import sys
 from pathlib import Path
 
+from .coupling.interpolation import NS
 from .errors import UsageError  # noqa: F401 (re-exported: bad input, exit code 2)
 
 OUTPUT_ROOT = Path("out")  # default output folders: OUTPUT_ROOT/<scene name>[--<overrides>]
@@ -230,7 +231,7 @@ def check_algorithm_options(scenario, algorithm: str | None, step: float | None,
 MIN_POINTS_PER_PERIOD = 10  # fixed-step algorithms: communication points per drive period
 ADAPTIVE_POINTS_PER_PERIOD = 20  # the adaptive algorithm's largest step is period/20
 GRID_NS = 2  # the smallest step of the integer-nanosecond time grid
-LONGEST_RUN = 2.0 ** 62 / 1e9  # s (~146 years): the time grid is int64 nanoseconds
+LONGEST_RUN = 2.0 ** 62 / NS  # s (~146 years): the time grid is int64 nanoseconds
 
 
 MIN_MAX_WALL = 1.0  # s
@@ -256,7 +257,7 @@ def check_resolution(scenario, algorithm: str, step: float | None) -> None:
                          f"({LONGEST_RUN:.3g} s in integer nanoseconds): raise drive.omega or lower "
                          f"time.periods")
     points = ADAPTIVE_POINTS_PER_PERIOD if algorithm == "adaptive" else MIN_POINTS_PER_PERIOD
-    fastest = 2 * math.pi / (points * GRID_NS * 1e-9)
+    fastest = 2 * math.pi / (points * GRID_NS / NS)
     if omega > fastest:
         raise UsageError(f"drive.omega = {omega:g} rad/s: its period {period:.3g} s is shorter than "
                          f"the {algorithm} coupling can resolve ({points} steps per period of at "
@@ -273,7 +274,7 @@ def check_resolution(scenario, algorithm: str, step: float | None) -> None:
         except Exception:  # the coupling's own default; 1e-4 s when it cannot be read
             default = 1e-4
         source, h = f"the {algorithm} default step", default
-    h = max(GRID_NS, round(h * 1e9)) / 1e9  # the step the run takes, on the grid
+    h = max(GRID_NS, round(h * NS)) / NS  # the step the run takes, on the grid
     if period / h < MIN_POINTS_PER_PERIOD:
         raise UsageError(f"{source} {h:g} s gives {period / h:.3g} communication points per drive "
                          f"period ({period:.3g} s at drive.omega = {omega:g} rad/s); the {algorithm} "

@@ -49,7 +49,7 @@ def _a(s, sc):
     return np.where(np.asarray(s["stuck"]) > 0.5, -sc.drive.omega ** 2 * np.asarray(s["X"]), free)
 
 
-COLUMNS: tuple[Column, ...] = (
+RESULT_CSV_COLUMNS: tuple[Column, ...] = (
     Column("time", "s", "simulated time"),
     Column("X", "m", "drive (upper block) position, A cos(wt)"),
     Column("V", "m/s", "drive velocity"),
@@ -64,12 +64,12 @@ COLUMNS: tuple[Column, ...] = (
     Column("Q", "J", "heat the Thermal FMU received since t = 0", needs="Thermal"),
     Column("n", "Pa", "normal stress (Load FMU output, the friction's input; L = -n S)", needs="Load"),
 )
-BY_NAME = {c.name: c for c in COLUMNS}
+BY_NAME = {c.name: c for c in RESULT_CSV_COLUMNS}
 
 
 def columns_for(scenario) -> list[Column]:
     """The columns a run of this scene writes, in CSV order."""
-    return [c for c in COLUMNS if c.applies(scenario)]
+    return [c for c in RESULT_CSV_COLUMNS if c.applies(scenario)]
 
 
 def header(columns) -> str:

@@ -16,8 +16,9 @@ written against earlier versions still catches them:
 - :class:`NumericalError` (a ``RuntimeError``): a computation a study depends on failed
   (a simulation that fails is a result with a message, not an exception);
   :class:`RunawayError` a run's pace projects past its wall-time limit (caught by the run
-  loop, which ends the run with a message), :class:`PointTimeout` a sweep point past its
-  time limit.
+  loop, which ends the run with a message), :class:`SolveOutOfTime` a monolithic solve past
+  its wall-time limit (caught by the solver, which returns a failed result),
+  :class:`PointTimeout` a sweep point past its time limit.
 """
 from __future__ import annotations
 
@@ -89,6 +90,11 @@ class FMUCacheError(FMUError):
 # -- runs -------------------------------------------------------------------------------------
 class RunawayError(NumericalError):
     """Raised inside the run loop when the pace projects past the wall-time limit."""
+
+
+class SolveOutOfTime(NumericalError):
+    """Raised from inside scipy's right-hand side to stop a monolithic solve past its wall-time
+    limit (caught by :func:`tribofmu.studies.reference.monolithic.solve_monolithic`)."""
 
 
 class PointTimeout(TriboFMUError):

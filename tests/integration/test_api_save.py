@@ -7,8 +7,9 @@ import json
 
 import pytest
 
-from tribofmu import api, cli
+from tribofmu import api
 
+from cli_run import main
 from scenes import FIG2
 
 pytestmark = pytest.mark.integration
@@ -22,7 +23,7 @@ def names(folder):
 
 def test_a_notebook_user_gets_the_folder_a_cli_user_gets(tmp_path, fmu_dir, capsys):
     by_cli, by_api, saved = tmp_path / "cli", tmp_path / "api", tmp_path / "saved"
-    assert cli.main(["simulate", str(FIG2), "--out", str(by_cli), "--fmu-dir", str(fmu_dir), "-q"]) == 0
+    assert main("simulate", FIG2, "--out", by_cli, "--fmu-dir", fmu_dir, "-q", capsys=capsys).returncode == 0
     result = api.simulate_and_save(FIG2, by_api, fmu_dir=fmu_dir, build=False)
     assert result.ok and result.time[0] > 0  # the window alone is kept; the rest is on disk
     whole = api.simulate(FIG2, fmu_dir=fmu_dir, build=False)

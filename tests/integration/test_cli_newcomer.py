@@ -10,28 +10,18 @@ import time
 import zipfile
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from tribofmu import api, cli
-from tribofmu.build import PRIVATE_PREFIX, build_fmus, private_package_name
+from tribofmu.build import PRIVATE_PREFIX, private_package_name
 from tribofmu.master.instance import EXTRACT_PREFIX
 
-from cli_run import tribofmu
+from cli_run import command, main, tribofmu
 from scenes import SCENARIOS
 SCENES = SCENARIOS
 FIG2 = SCENES / "fig2_dry.toml"
 SHORT = ["--set", "time.periods=1", "--set", "time.window=[0,1]"]  # one period: a quick run
 pytestmark = pytest.mark.integration
-
-
-@pytest.fixture(scope="module")
-def fmu_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("newcomer-fmus")
-    build_fmus(out)
-    return out
-
-
 
 
 def one_line(proc) -> str:
@@ -40,7 +30,8 @@ def one_line(proc) -> str:
     return lines[0]
 
 
-# -- item 4: finds or builds its FMUs from any folder; --version; python -m; options --------------
+# -- from any folder the command finds (or builds once) the FMUs of the installed source, so a
+# newcomer never names an FMU folder; options that cannot apply are refused, not ignored -------
 def test_version_and_python_m(tmp_path, env):
     from tribofmu import __version__
     proc = tribofmu("--version", cwd=tmp_path, env=env)
@@ -100,9 +91,9 @@ def test_a_cache_that_cannot_be_made_is_one_line_exit_1_and_leaves_nothing(tmp_p
     (["--algorithm", "implicit", "--tol", "1e-3"], "--tol applies to the adaptive algorithm only, not implicit"),
     (["--tol", "0"], "--tol must be > 0"),
 ])
-def test_options_that_do_not_apply_are_one_line_exit_2(tmp_path, env, fmu_dir, args, message):
+def test_options_that_do_not_apply_are_one_line_exit_2(tmp_path, fmu_dir, args, message, capsys):
     out = tmp_path / "o"
-    proc = tribofmu("simulate", FIG2, "--fmu-dir", fmu_dir, "--out", out, *args, cwd=tmp_path, env=env)
+    proc = main("simulate", FIG2, "--fmu-dir", fmu_dir, "--out", out, *args, capsys=capsys)
     assert proc.returncode == 2 and message in one_line(proc)
     assert not out.exists()
 
@@ -122,11 +113,12 @@ def test_sweep_without_dask_names_the_package(tmp_path, env):
     assert not (tmp_path / "sw").exists()
 
 
-# -- item 3: provenance and no silent overwrites -------------------------------------------------
-def test_default_out_dirs_differ_by_overrides_and_stats_say_what_ran(tmp_path, env, fmu_dir):
-    first = tribofmu("simulate", FIG2, "--fmu-dir", fmu_dir, *SHORT, "--no-plots", cwd=tmp_path, env=env)
-    second = tribofmu("simulate", FIG2, "--fmu-dir", fmu_dir, *SHORT, "--set", "drive.omega=80",
-                      "--algorithm", "implicit", "--step", "2e-4", "--no-plots", cwd=tmp_path, env=env)
+# -- a run says what ran (scene, overrides, versions, FMUs) and never overwrites another run's folder
+def test_default_out_dirs_differ_by_overrides_and_stats_say_what_ran(tmp_path, fmu_dir, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    first = main("simulate", FIG2, "--fmu-dir", fmu_dir, *SHORT, "--no-plots", capsys=capsys)
+    second = main("simulate", FIG2, "--fmu-dir", fmu_dir, *SHORT, "--set", "drive.omega=80",
+                  "--algorithm", "implicit", "--step", "2e-4", "--no-plots", capsys=capsys)
     assert first.returncode == 0 and second.returncode == 0, first.stderr + second.stderr
     runs = sorted((tmp_path / "out").iterdir())
     assert len(runs) == 2 and all(p.name.startswith("fig2_dry--") for p in runs)
@@ -147,20 +139,14 @@ def test_default_out_dirs_differ_by_overrides_and_stats_say_what_ran(tmp_path, e
     assert by_omega[None]["provenance"]["settings"]["algorithm"] == "adaptive"
 
 
-def test_plot_titles_show_the_simulated_values():
-    from tribofmu.plots import scene_label
-    label = scene_label(api.load(FIG2, {"drive.omega": 80.0, "conditions.n": -33.0}))
-    assert "ω = 80 rad/s" in label and "L = 33 N" in label and "30" not in label
-
-
-def test_out_naming_a_file_is_refused_before_simulating(tmp_path, env):
+def test_out_naming_a_file_is_refused_before_simulating(tmp_path, capsys):
     target = tmp_path / "existing.txt"
     target.write_text("keep me")
     # a missing --fmu-dir would fail too: the --out check comes first, before any FMU or run
-    proc = tribofmu("simulate", FIG2, "--out", target, "--fmu-dir", tmp_path / "none", cwd=tmp_path, env=env)
+    proc = main("simulate", FIG2, "--out", target, "--fmu-dir", tmp_path / "none", capsys=capsys)
     assert proc.returncode == 2 and f"--out {target}: {target} is a file" in one_line(proc)
     assert target.read_text() == "keep me"
-    proc = tribofmu("export-ssp", FIG2, "--out", tmp_path, cwd=tmp_path, env=env)
+    proc = main("export-ssp", FIG2, "--out", tmp_path, capsys=capsys)
     assert proc.returncode == 2 and "is a folder, not a file" in one_line(proc)
 
 
@@ -170,52 +156,40 @@ def _short_result(fmu_dir):
 
 def test_a_failed_run_does_not_leave_older_results_beside_its_stats(tmp_path, fmu_dir, monkeypatch, capsys):
     out = tmp_path / "run"
-    argv = ["simulate", str(FIG2), "--out", str(out), "--fmu-dir", str(fmu_dir), "-q", *SHORT]
-    assert cli.main(argv) == 0
+    argv = ["simulate", FIG2, "--out", out, "--fmu-dir", fmu_dir, "-q", *SHORT]
+    assert main(*argv, capsys=capsys).returncode == 0
     assert {p.name for p in out.iterdir()} == {"stats.json", "result.csv", "columns.json", "time.png", "phase.png"}
     good = _short_result(fmu_dir)
     failed = dataclasses.replace(good, ok=False, message="stopped at t = 0.1 s: friction: fmi2DoStep")
     failed.stats = dict(good.stats, ok=False, completed=False, message=failed.message)
     monkeypatch.setattr(api, "simulate", lambda *a, **k: failed)
-    assert cli.main(argv) == cli.EXIT_FAILED
+    assert main(*argv, capsys=capsys).returncode == cli.EXIT_FAILED
     assert {p.name for p in out.iterdir()} == {"stats.json"}
     assert json.loads((out / "stats.json").read_text())["message"] == failed.message
 
 
 def test_ctrl_c_leaves_the_previous_results_untouched(tmp_path, fmu_dir, monkeypatch, capsys):
     out = tmp_path / "run"
-    argv = ["simulate", str(FIG2), "--out", str(out), "--fmu-dir", str(fmu_dir), "-q", "--no-plots", *SHORT]
-    assert cli.main(argv) == 0
+    argv = ["simulate", FIG2, "--out", out, "--fmu-dir", fmu_dir, "-q", "--no-plots", *SHORT]
+    assert main(*argv, capsys=capsys).returncode == 0
     before = {p.name: p.read_bytes() for p in out.iterdir()}
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
     monkeypatch.setattr(api, "simulate", interrupted)
-    assert cli.main(argv) == 130
-    assert "interrupted; no result was written" in capsys.readouterr().err
+    stopped = main(*argv, capsys=capsys)
+    assert stopped.returncode == 130 and "interrupted; no result was written" in stopped.stderr
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
 
-# -- item 2 and 9: progress, kill, and nothing left in the temp folder ---------------------------
-def test_progress_bar_reports_time_steps_and_rejections():
-    import io
-    from tribofmu.master.run import RunProgress
-    from tribofmu.progress import RunBar
-    stream = io.StringIO()
-    with RunBar("scene", 2.0, enabled=True, interval=0.0, stream=stream) as bar:
-        bar(RunProgress(t=0.5, stop_time=2.0, steps=123, rejected=4, wall_time=0.1))
-        text = stream.getvalue()
-    assert "25%" in text and "123 steps, 4 rejected" in text and "t = 0.5/2 s" in text
-    assert RunBar("scene", 1.0, enabled=False)._bar is None
-
-
+# -- a killed run leaves no half result and nothing in the temp folder ----------------------------
 def test_killed_run_writes_nothing_and_removes_its_extracted_fmus(tmp_path, env, fmu_dir):
     tmp = Path(env["TMPDIR"])
     orphan = tmp / f"{EXTRACT_PREFIX}999999999-dead"  # left by a process that no longer exists
     orphan.mkdir()
     out = tmp_path / "long"
-    proc = subprocess.Popen([sys.executable, "-m", "tribofmu", "simulate", SCENES / "fig5_pseudoplastic.toml",
-                             "--fmu-dir", fmu_dir, "--out", out, "--set", "time.periods=400"],
+    proc = subprocess.Popen(command("simulate", SCENES / "fig5_pseudoplastic.toml", "--fmu-dir", fmu_dir,
+                                    "--out", out, "--set", "time.periods=400"),
                             cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while not list(tmp.glob(f"{EXTRACT_PREFIX}{proc.pid}-*")) and time.monotonic() < deadline:
@@ -244,7 +218,7 @@ def test_instances_of_one_fmu_share_one_extraction_removed_at_exit(tmp_path, env
     assert list(Path(env["TMPDIR"]).iterdir()) == []  # none after exit
 
 
-# -- item 5: our FMUs and our package in one process ---------------------------------------------
+# -- the FMUs' private copy of the physics never shadows the installed package in one process ----
 def test_fmu_loaded_in_process_does_not_shadow_the_package(tmp_path, env, fmu_dir):
     code = ("import sys, fmpy\n"
             f"r = fmpy.simulate_fmu({str(fmu_dir / 'Drive.fmu')!r}, stop_time=0.01, step_size=1e-3,\n"
@@ -278,7 +252,7 @@ def test_built_fmus_never_import_the_name_tribofmu(fmu_dir):
                         assert words[1].split(".")[0] != "tribofmu", (source, line)
 
 
-# -- item 8: stick from the coupling's own state --------------------------------------------------
+# -- stick is what the coupling held, not a threshold on |V - v| (creeping slip is no stick) ------
 def test_stick_fraction_comes_from_the_coupling_state(fmu_dir):
     from tribofmu.studies import metrics
     result = api.simulate(SCENES / "fig4_dry_w130.toml", fmu_dir=fmu_dir, build=False)
@@ -301,29 +275,3 @@ def test_boundary_friction_is_never_stuck_and_says_so_through_melting(fmu_dir):
     assert 0 < got["melt_fraction"] < 1
 
 
-def test_stuck_mask_episodes_at_a_point_no_scene_uses():
-    from tribofmu.studies import metrics
-    T = 0.37
-    t = np.linspace(0, 3 * T, 3001)
-    phase = (t / T) % 1.0
-    stuck = ((phase > 0.1) & (phase < 0.3)) | ((phase > 0.6) & (phase < 0.65)) | (phase > 0.95)
-    assert metrics.stuck_fraction(t, stuck) == pytest.approx(0.30, abs=2e-3)
-    # phase > 0.95 continues into phase < 0.0 of the next period: one episode across the wrap
-    assert metrics.stuck_episodes_per_period(t, stuck, T) == 3
-
-
-def test_a_signal_during_a_run_is_deferred_to_the_next_step_and_a_second_one_is_not():
-    from tribofmu import progress
-    reached = []
-    with pytest.raises(KeyboardInterrupt):
-        with progress.deferred_interrupts():
-            progress._handler(signal.SIGINT, None)  # inside FMU code this must not raise
-            reached.append("after the first signal")
-    assert reached == ["after the first signal"]
-    with pytest.raises(KeyboardInterrupt):
-        with progress.deferred_interrupts():
-            progress._handler(signal.SIGINT, None)
-            progress._handler(signal.SIGINT, None)  # asked twice: stop now
-    with pytest.raises(KeyboardInterrupt):
-        progress._handler(signal.SIGTERM, None)  # outside a run: at once
-    progress.check_interrupt()  # nothing pending is left behind

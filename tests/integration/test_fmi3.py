@@ -15,7 +15,7 @@ from fmpy import read_model_description
 from fmpy.fmi3 import FMU3Slave
 
 from tribofmu import api
-from tribofmu.build import build_fmus, private_package_name
+from tribofmu.build import private_package_name
 from tribofmu.master.instance import FMUCallError, FMUInstance, extract
 
 from fmi_harness import FMU_NAMES
@@ -63,12 +63,6 @@ def test_fmi3_fmus_ship_their_own_private_package(fmu3_dir):
         script = archive.read(f"resources/{private}_Drive.py").decode()
     assert "\nFMI_VERSION = 3\n" in version_file
     assert "(Fmi3Slave)" in script and "tribofmu." not in script
-
-
-def test_build_refuses_an_unknown_fmi_version(tmp_path):
-    with pytest.raises(ValueError, match="must be 2 or 3, got 4"):
-        build_fmus(tmp_path, fmi=4)
-    assert not list(tmp_path.iterdir())
 
 
 @pytest.mark.parametrize("name", PAPER_SCENES)

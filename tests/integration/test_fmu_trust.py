@@ -1,5 +1,5 @@
-"""Nothing runs because of its name; a sweep never mixes two physics (issue "Nothing lost,
-nothing wrong, nothing let in", items 2, 4 and 7).
+"""Nothing runs because of its name; a sweep never mixes two physics: an FMU is trusted for
+its content, not for the file name or folder it is found under.
 
 - the per-user cache: a planted, damaged or linked FMU is rebuilt (that one alone), as is a
   missing one; leftovers of killed builds are removed;
@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import stat
 import tempfile
 from pathlib import Path
 
 import pytest
 
+from cli_run import main
 from scenes import FIG2
 
 SHORT = {"time.periods": 1, "time.window": [0, 1]}
@@ -130,36 +130,16 @@ def test_a_sweep_records_its_fmus_and_refuses_to_mix_physics(tmp_path, fmu_dir):
 
 
 def test_cli_names_both_sources_in_one_line_exit_2(tmp_path, fmu_dir, capsys):
-    from tribofmu import cli
     out = tmp_path / "sweep"
-    argv = ["sweep", str(FIG2), "--grid", "drive.omega=30", "--workers", "0", "--out", str(out),
-            "--fmu-dir", str(fmu_dir), "-q", "--no-plots", "--set", "time.periods=1", "--set", "time.window=[0,1]"]
-    assert cli.main(argv) == 0
+    argv = ["sweep", FIG2, "--grid", "drive.omega=30", "--workers", "0", "--out", out,
+            "--fmu-dir", fmu_dir, "-q", "--no-plots", "--set", "time.periods=1", "--set", "time.window=[0,1]"]
+    assert main(*argv, capsys=capsys).returncode == 0
     meta = json.loads((out / "sweep.json").read_text())
     meta["fmu_source"] = "_tribofmu_fmu_0_0_9_0123456789ab"
     (out / "sweep.json").write_text(json.dumps(meta))
-    capsys.readouterr()
-    assert cli.main(argv) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "0123456789ab" in err and "--recompute" in err, err
-    assert cli.main([*argv, "--recompute"]) == 0
+    refused = main(*argv, capsys=capsys)
+    err = refused.stderr.strip()
+    assert refused.returncode == 2 and len(err.splitlines()) == 1 and "0123456789ab" in err and "--recompute" in err, err
+    assert main(*argv, "--recompute", capsys=capsys).returncode == 0
 
 
-def test_the_local_cluster_listens_on_the_loopback_only(monkeypatch):
-    """Scheduler and dashboard of the sweep's LocalCluster bind 127.0.0.1 (not all interfaces)."""
-    import distributed
-    from tribofmu.scene.scenario import load_scenario
-    from tribofmu.studies.sweep.runner import run_dask
-    seen = {}
-
-    class Stop(Exception):
-        pass
-
-    def fake_cluster(**kwargs):
-        seen.update(kwargs)
-        raise Stop
-    monkeypatch.setattr(distributed, "LocalCluster", fake_cluster)
-    with pytest.raises(Stop):
-        run_dask([load_scenario(FIG2)], [0], Path("."), (None, None, None, 10, None), lambda i, o: None,
-                 False, "x", None, 1, lambda m: None)
-    assert seen["host"] == "127.0.0.1" and seen["dashboard_address"].startswith("127.0.0.1:")

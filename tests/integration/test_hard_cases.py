@@ -9,18 +9,18 @@ of nanoseconds; windows here end a little before the span so nRMS is always defi
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 import time
 
 import numpy as np
 import pytest
 
 from tribofmu import api
+from tribofmu.coupling.interpolation import NS
 from tribofmu.errors import ScenarioError
 from tribofmu.master.energy import energy_audit, step_integrals
 from tribofmu.studies.reference import nrms, reference_solution
 
+from cli_run import main
 from scenes import SCENARIOS
 
 pytestmark = pytest.mark.integration
@@ -80,7 +80,7 @@ def test_no_friction_is_the_free_oscillator(fmu_dir):
                                       "time.window=[1.0,3.0]"])
     assert_sane(r, residual_rel=1e-9)
     w0 = math.sqrt(2 * sc.block.K / sc.block.M)
-    t = np.array([p.t_ns for p in r.points]) / 1e9
+    t = np.array([p.t_ns for p in r.points]) / NS
     x = np.array([p.x for p in r.points])
     v = np.array([p.v for p in r.points])
     # the block is exact at communication points ...
@@ -193,7 +193,7 @@ def test_long_run_energy_balance_does_not_drift(fmu_dir):
     # O(h^4), far below one step's own dissipation
     mean_step = r.stats["energy"]["D"] / r.stats["communication_steps"]
     assert r.stats["energy"]["most_negative_step_dissipation"] > -1e-5 * mean_step
-    period_ns = sc.drive.period * 1e9
+    period_ns = sc.drive.period * NS
     # the residual of the balance over each tenth of the run: small and not growing
     cut = [0] + [next(i for i, p in enumerate(r.points) if p.t_ns >= k * n / 10 * period_ns)
                  for k in range(1, 11)]
@@ -248,12 +248,10 @@ def test_a_run_that_would_take_too_long_stops_with_a_message(fmu_dir):
     assert np.all(np.isfinite(r.v))
 
 
-def test_cli_runaway_is_one_line_and_exit_code_1(fmu_dir, tmp_path):
+def test_cli_runaway_is_one_line_and_exit_code_1(fmu_dir, tmp_path, capsys):
     out = tmp_path / "run"
-    proc = subprocess.run([sys.executable, "-m", "tribofmu", "simulate", str(SCENARIOS / "fig2_dry.toml"),
-                           "--set", "time.periods=5000", "--set", "time.window=[0,1]", "--max-wall", "1",
-                           "--fmu-dir", str(fmu_dir), "--out", str(out), "-q"],
-                          capture_output=True, text=True, timeout=120)
+    proc = main("simulate", SCENARIOS / "fig2_dry.toml", "--set", "time.periods=5000", "--set", "time.window=[0,1]",
+                "--max-wall", "1", "--fmu-dir", fmu_dir, "--out", out, "-q", capsys=capsys)
     assert proc.returncode == 1, proc.stderr
     lines = [line for line in proc.stderr.splitlines() if line.startswith("tribofmu:")]
     assert len(lines) == 1 and "would take" in lines[0]

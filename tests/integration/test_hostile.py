@@ -11,13 +11,12 @@ import json
 import os
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
 
-from cli_run import tribofmu
+from cli_run import command, tribofmu
 
 pytestmark = pytest.mark.integration
 
@@ -93,8 +92,8 @@ def test_out_that_cannot_be_swapped_is_refused_before_the_run(tmp_path, env, fmu
 
 def test_second_run_into_the_same_out_is_refused_while_the_first_writes(tmp_path, env, fmu_dir):
     out = tmp_path / "shared"
-    first = subprocess.Popen([sys.executable, "-m", "tribofmu", "simulate", "fig2_dry", "--fmu-dir", fmu_dir,
-                              "--out", out, "--no-plots", "--set", "time.periods=40", "--set", "time.window=[39,40]"],
+    first = subprocess.Popen(command("simulate", "fig2_dry", "--fmu-dir", fmu_dir, "--out", out, "--no-plots",
+                                     "--set", "time.periods=40", "--set", "time.window=[39,40]"),
                              cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     locks = Path(env["TMPDIR"]) / f"tribofmu-{os.getuid()}-locks"
     deadline = time.monotonic() + 120
@@ -117,8 +116,8 @@ def test_second_run_into_the_same_out_is_refused_while_the_first_writes(tmp_path
 # -- interruptions --------------------------------------------------------------------------
 @pytest.mark.parametrize("delay", [0.15, 0.3, 0.45, 0.6])
 def test_interrupt_during_start_up_is_one_line_and_130(tmp_path, env, fmu_dir, delay):
-    proc = subprocess.Popen([sys.executable, "-m", "tribofmu", "simulate", "fig2_dry", "--fmu-dir", fmu_dir,
-                             "--out", tmp_path / "out", "--no-plots"],
+    proc = subprocess.Popen(command("simulate", "fig2_dry", "--fmu-dir", fmu_dir, "--out", tmp_path / "out",
+                                    "--no-plots"),
                             cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(delay)
     proc.send_signal(signal.SIGINT)
@@ -130,9 +129,9 @@ def test_interrupt_during_start_up_is_one_line_and_130(tmp_path, env, fmu_dir, d
     assert err.strip().splitlines() == ["tribofmu: interrupted; no result was written (earlier results are as they were)"]
 
 
-def sweep_command(out: Path, fmu_dir, *extra, masses: str = "0.5,0.6") -> list:
-    return [sys.executable, "-m", "tribofmu", "sweep", "fig2_dry", "--grid", "drive.omega=20,30,40,50",
-            "--grid", f"block.M={masses}", *SHORT, "--fmu-dir", fmu_dir, "--no-plots", "--out", out, "-q", *extra]
+def sweep_args(out: Path, fmu_dir, *extra, masses: str = "0.5,0.6") -> list:
+    return ["sweep", "fig2_dry", "--grid", "drive.omega=20,30,40,50", "--grid", f"block.M={masses}",
+            *SHORT, "--fmu-dir", fmu_dir, "--no-plots", "--out", out, "-q", *extra]
 
 
 # (A terminal's Ctrl-C about 1.5 s in, while the local Dask cluster starts, ended the process
@@ -144,7 +143,8 @@ def sweep_command(out: Path, fmu_dir, *extra, masses: str = "0.5,0.6") -> list:
 def test_interrupted_dask_sweep_is_one_line_and_130(tmp_path, env, fmu_dir, delay, group):
     pytest.importorskip("distributed")
     out = tmp_path / "sweep"
-    proc = subprocess.Popen(sweep_command(out, fmu_dir, "--workers", "2", masses="0.4,0.5,0.6,0.7"), cwd=tmp_path, env=env,
+    proc = subprocess.Popen(command(*sweep_args(out, fmu_dir, "--workers", "2", masses="0.4,0.5,0.6,0.7")),
+                            cwd=tmp_path, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     time.sleep(delay)
     if group:  # what a terminal's Ctrl-C does: every process of the foreground group
@@ -169,7 +169,7 @@ def test_a_signal_after_the_sweep_is_done_changes_nothing(tmp_path, env, fmu_dir
     if workers != "0":
         pytest.importorskip("distributed")
     out = tmp_path / "sweep"
-    proc = subprocess.Popen(sweep_command(out, fmu_dir, "--workers", workers), cwd=tmp_path, env=env,
+    proc = subprocess.Popen(command(*sweep_args(out, fmu_dir, "--workers", workers)), cwd=tmp_path, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     summary = proc.stdout.readline()  # printed once sweep.csv holds every point
     proc.send_signal(signal.SIGINT)
@@ -182,13 +182,12 @@ def test_a_signal_after_the_sweep_is_done_changes_nothing(tmp_path, env, fmu_dir
 
 def test_interrupted_recompute_leaves_the_earlier_sweep_whole_and_resumes(tmp_path, env, fmu_dir):
     out = tmp_path / "sweep"
-    done = subprocess.run(sweep_command(out, fmu_dir, "--workers", "0"), cwd=tmp_path, env=env,
-                          capture_output=True, text=True, timeout=600)
+    done = tribofmu(*sweep_args(out, fmu_dir, "--workers", "0"), cwd=tmp_path, env=env)
     assert done.returncode == 0, done.stderr
     before = (out / "sweep.csv").read_bytes()
     assert len(before.decode().strip().splitlines()) == 9
     points_before = sorted(p.name for p in (out / "points").iterdir())
-    proc = subprocess.Popen(sweep_command(out, fmu_dir, "--workers", "0", "--recompute"), cwd=tmp_path,
+    proc = subprocess.Popen(command(*sweep_args(out, fmu_dir, "--workers", "0", "--recompute")), cwd=tmp_path,
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120  # until the recompute has finished a point or two
     staged = out / ".recompute" / "sweep.csv"
@@ -205,8 +204,7 @@ def test_interrupted_recompute_leaves_the_earlier_sweep_whole_and_resumes(tmp_pa
     assert "the earlier sweep in" in err and "as it was" in err
     assert (out / "sweep.csv").read_bytes() == before  # every row, every column
     assert sorted(p.name for p in (out / "points").iterdir()) == points_before
-    again = subprocess.run(sweep_command(out, fmu_dir, "--workers", "0", "--recompute"), cwd=tmp_path, env=env,
-                           capture_output=True, text=True, timeout=600)
+    again = tribofmu(*sweep_args(out, fmu_dir, "--workers", "0", "--recompute"), cwd=tmp_path, env=env)
     assert again.returncode == 0, again.stderr
     assert "already done" in again.stderr  # resumed: the points recomputed before the interrupt kept
     after = (out / "sweep.csv").read_text().strip().splitlines()

@@ -1,15 +1,15 @@
 """Tier 3: the real FMUs, built here, driven by the master through the API and the CLI."""
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from tribofmu import api
+from tribofmu.coupling.interpolation import NS
 from tribofmu.studies.reference import nrms, reference_solution
 
+from cli_run import main
 from scenes import SCENARIOS
 
 pytestmark = pytest.mark.integration
@@ -17,11 +17,6 @@ pytestmark = pytest.mark.integration
 
 def simulate(fmu_dir, name, overrides=None, **kwargs):
     return api.simulate(SCENARIOS / f"{name}.toml", overrides, fmu_dir=fmu_dir, build=False, **kwargs)
-
-
-def cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "tribofmu.cli", *map(str, args)], cwd=cwd,
-                          capture_output=True, text=True, timeout=600)
 
 
 def stick_episodes_per_period(result, threshold=1e-6):
@@ -119,7 +114,7 @@ def test_free_oscillator_scene_uses_only_the_block(fmu_dir):
     b = result.scenario.block
     w0 = math.sqrt(2 * b.K / b.M)
     assert len(result.points) > 100  # every communication point, kept on request
-    t = np.array([p.t_ns for p in result.points]) / 1e9
+    t = np.array([p.t_ns for p in result.points]) / NS
     x = np.array([p.x for p in result.points])
     assert np.allclose(x, b.x0 * np.cos(w0 * t), rtol=0, atol=1e-12 * b.x0)  # exact at the points
     # in between, the output grid is interpolated: within the adaptive tolerance
@@ -135,10 +130,10 @@ def test_friction_never_adds_energy_in_the_coupled_run(fmu_dir):
 
 
 # -- the CLI contract ----------------------------------------------------------------------------
-def test_cli_simulate_writes_result_stats_and_figures(fmu_dir, tmp_path):
+def test_cli_simulate_writes_result_stats_and_figures(fmu_dir, tmp_path, capsys):
     out = tmp_path / "run"
-    proc = cli("simulate", SCENARIOS / "fig2_dry.toml", "--out", out, "--fmu-dir", fmu_dir,
-               "--set", "drive.omega=80", "--set", "time.periods=2", "--set", "time.window=[1,2]")
+    proc = main("simulate", SCENARIOS / "fig2_dry.toml", "--out", out, "--fmu-dir", fmu_dir,
+                "--set", "drive.omega=80", "--set", "time.periods=2", "--set", "time.window=[1,2]", capsys=capsys)
     assert proc.returncode == 0, proc.stderr
     lines = (out / "result.csv").read_text().splitlines()
     assert lines[0] == "time,X,V,x,v,F,f,stuck,dv,a"
@@ -163,32 +158,33 @@ def test_cli_simulate_writes_result_stats_and_figures(fmu_dir, tmp_path):
     (["--algorithm", "newton"], "unknown algorithm 'newton'"),
     (["--step", "-1"], "--step must be > 0"),
 ])
-def test_cli_bad_input_is_one_line_exit_2_and_writes_nothing(fmu_dir, tmp_path, args, culprit):
+def test_cli_bad_input_is_one_line_exit_2_and_writes_nothing(fmu_dir, tmp_path, args, culprit, capsys):
     out = tmp_path / "bad"
-    proc = cli("simulate", SCENARIOS / "fig2_dry.toml", "--out", out, "--fmu-dir", fmu_dir, *args)
+    proc = main("simulate", SCENARIOS / "fig2_dry.toml", "--out", out, "--fmu-dir", fmu_dir, *args, capsys=capsys)
     assert proc.returncode == 2
     assert culprit in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
     assert not (out / "result.csv").exists()
 
 
-def test_cli_missing_fmu_and_missing_scenario(tmp_path):
-    proc = cli("simulate", SCENARIOS / "fig2_dry.toml", "--fmu-dir", tmp_path / "none", "--out", tmp_path / "o")
+def test_cli_missing_fmu_and_missing_scenario(tmp_path, capsys):
+    proc = main("simulate", SCENARIOS / "fig2_dry.toml", "--fmu-dir", tmp_path / "none", "--out", tmp_path / "o",
+                capsys=capsys)
     assert proc.returncode == 2 and "FMU file not found" in proc.stderr and "Drive.fmu" in proc.stderr
-    proc = cli("simulate", tmp_path / "nope.toml")
+    proc = main("simulate", tmp_path / "nope.toml", capsys=capsys)
     assert proc.returncode == 2 and "nope.toml" in proc.stderr and "Traceback" not in proc.stderr
 
 
-def test_cli_bad_scenario_file_names_file_and_key(tmp_path, fmu_dir):
+def test_cli_bad_scenario_file_names_file_and_key(tmp_path, fmu_dir, capsys):
     bad = tmp_path / "bad.toml"
     bad.write_text((SCENARIOS / "fig2_dry.toml").read_text().replace("M = 0.6", "M = -0.6"))
-    proc = cli("simulate", bad, "--fmu-dir", fmu_dir, "--out", tmp_path / "o")
+    proc = main("simulate", bad, "--fmu-dir", fmu_dir, "--out", tmp_path / "o", capsys=capsys)
     assert proc.returncode == 2
     assert proc.stderr.strip() == "tribofmu: bad.toml: block.M must be > 0, got -0.6"
 
 
-def test_cli_build_writes_every_fmu(tmp_path):
-    proc = cli("build", "--out", tmp_path / "b")
+def test_cli_build_writes_every_fmu(tmp_path, capsys):
+    proc = main("build", "--out", tmp_path / "b", capsys=capsys)
     assert proc.returncode == 0, proc.stderr
     assert sorted(p.name for p in (tmp_path / "b").iterdir()) == [
         "BlockSpring.fmu", "Drive.fmu", "Friction.fmu", "Load.fmu", "Thermal.fmu", "TriboPair.fmu"]

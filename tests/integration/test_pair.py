@@ -103,25 +103,6 @@ def test_pair_state_restored_continues_bit_identically(fmu_dir):
         inst.free()
 
 
-def test_pair_model_follows_a_newtonian_fluid_exactly_enough():
-    """The in-process model alone (no FMU): Newtonian fluid F = m dv at a point no scene
-    uses, host steps of 2e-3 s, against scipy's solution of M x'' + 2 K x = m (V - x')."""
-    from scipy.integrate import solve_ivp
-    from tribofmu.coupling.pair import PairModel, PairParameters
-    from tribofmu.physics import FluidLaw
-
-    M, K, m, A, w, h = 0.4, 2500.0, 9.0, 1.5e-3, 23.0, 2e-3
-    model = PairModel(PairParameters(M, K, 0.0, 0.0, FluidLaw(m=m, gamma=0.0), 0.0, 1e-4),
-                      0.0, **drive(0.0, A, w), n=-1.0, T=290.0)
-    times = np.arange(0, 301) * h
-    v = [0.0]
-    for t in times[:-1]:
-        v.append(model.step(t, h, **drive(t, A, w), n=-1.0, T=290.0).v)
-    sol = solve_ivp(lambda s, y: [y[1], (m * (-A * w * math.sin(w * s) - y[1]) - 2 * K * y[0]) / M],
-                    (0.0, times[-1]), [0.0, 0.0], t_eval=times, rtol=1e-11, atol=1e-14, method="DOP853")
-    assert np.max(np.abs(np.array(v) - sol.y[1])) <= 2e-3 * np.max(np.abs(sol.y[1]))
-
-
 def test_pair_passes_its_kinetics_tol_to_the_lubricant_kinetics(fmu_dir):
     """TriboPair's kinetics_tol reaches the kinetics, as the Friction FMU's does: the same
     boundary run at two kinetics tolerances gives two excess volumes (they would be equal

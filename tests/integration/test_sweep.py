@@ -25,21 +25,13 @@ import pytest
 
 from tribofmu.studies import metrics as M
 
+from cli_run import main, tribofmu
 from scenes import FIG2, NEWTONIAN
 SHORT = {"time.periods": 2, "time.window": [1, 2]}  # a short span: one period shown
 FIG4_OMEGAS = [10, 20, 30, 50, 80, 130]
 
 
 # -- the grid -------------------------------------------------------------------------------
-def test_parse_grid_reads_values_like_set():
-    from tribofmu.studies.sweep.grid import grid_points, parse_grid
-    g = parse_grid(["drive.omega=10, 20.5,1e2", "time.window=[1,2],[2, 3]", "friction.regime=dry,fluid"])
-    assert g == {"drive.omega": [10, 20.5, 100.0], "time.window": [[1, 2], [2, 3]],
-                 "friction.regime": ["dry", "fluid"]}
-    points = grid_points({"a.b": [1, 2], "c.d": [3, 4, 5]})
-    assert len(points) == 6 and points[0] == {"a.b": 1, "c.d": 3} and points[3] == {"a.b": 2, "c.d": 3}
-
-
 @pytest.mark.parametrize("grid_arg, words", [
     ("drive.omega=10,-5", ["drive.omega", "-5"]),
     ("drive.omega=10,fast", ["drive.omega", "fast"]),
@@ -48,11 +40,10 @@ def test_parse_grid_reads_values_like_set():
     ("drive.omega=10,10.0", ["drive.omega", "repeats"]),
 ])
 def test_a_bad_grid_is_one_line_exit_2_before_any_work(tmp_path, capsys, grid_arg, words):
-    from tribofmu.cli import main
     out = tmp_path / "out"
-    code = main(["sweep", str(FIG2), "--grid", grid_arg, "--out", str(out), "--workers", "0"])
-    err = capsys.readouterr().err.strip()
-    assert code == 2
+    refused = main("sweep", FIG2, "--grid", grid_arg, "--out", out, "--workers", "0", capsys=capsys)
+    err = refused.stderr.strip()
+    assert refused.returncode == 2
     assert len(err.splitlines()) == 1 and all(w in err for w in words), err
     assert not (out / "sweep.csv").exists() and not (out / "fmus").exists()
 
@@ -264,10 +255,9 @@ def test_cli_sweep_on_an_embedded_cluster_two_dimensional_map(tmp_path):
     """The command as a user runs it, in its own process: its own LocalCluster, the FMUs of
     the per-user cache, whose source sweep.json records."""
     out = tmp_path / "map"
-    proc = subprocess.run([sys.executable, "-m", "tribofmu.cli", "sweep", str(FIG2),
-                           "--grid", "drive.omega=30,130", "--grid", "conditions.n=-20,-10",
-                           "--set", "time.periods=2", "--set", "time.window=[1,2]", "--out", str(out),
-                           "--workers", "2"], capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    proc = tribofmu("sweep", FIG2, "--grid", "drive.omega=30,130", "--grid", "conditions.n=-20,-10",
+                    "--set", "time.periods=2", "--set", "time.window=[1,2]", "--out", out, "--workers", "2",
+                    cwd=tmp_path, env=os.environ)
     assert proc.returncode == 0, proc.stderr
     from tribofmu.build import private_package_name
     meta = json.loads((out / "sweep.json").read_text())

@@ -3,12 +3,10 @@ Load FMU feeding Friction.n, the Thermal FMU fed the friction power and feeding 
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from tribofmu.build import build_fmus
 from tribofmu.coupling.algorithms import Scales, make_algorithm
 from tribofmu.coupling.interpolation import sample
 from tribofmu.master import FMUInstance, run
@@ -21,13 +19,6 @@ from tribofmu.studies.reference import nrms, reference_solution
 
 from scenes import SCENARIOS
 pytestmark = pytest.mark.integration
-
-
-@pytest.fixture(scope="module")
-def fmu_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("fmus")
-    build_fmus(out)
-    return out
 
 
 def cosimulate(fmu_dir, scenario, tol=None):

@@ -6,7 +6,9 @@ import json
 
 import pytest
 
-from tribofmu import checked, cli
+from tribofmu import checked
+
+from cli_run import main
 
 pytestmark = pytest.mark.integration
 SHORT = ["--set", "time.periods=1", "--set", "time.window=[0,1]"]
@@ -15,12 +17,11 @@ SHORT = ["--set", "time.periods=1", "--set", "time.window=[0,1]"]
 def test_a_tolerance_not_met_keeps_the_results_says_so_and_exits_3(tmp_path, fmu_dir, monkeypatch, capsys):
     monkeypatch.setattr(checked, "MAX_RUNS", 1)  # the sequence stops before its check
     out = tmp_path / "o"
-    code = cli.main(["simulate", "fig2_dry", *SHORT, "--tol", "1e-5", "--max-wall", "0", "--fmu-dir",
-                     str(fmu_dir), "--out", str(out), "--no-plots", "-q"])
-    captured = capsys.readouterr()
-    assert code == 3, captured.err
-    lines = captured.err.strip().splitlines()
-    assert len(lines) == 1 and "tolerance 1e-05 not checked" in lines[0] and "Traceback" not in captured.err
+    captured = main("simulate", "fig2_dry", *SHORT, "--tol", "1e-5", "--max-wall", "0", "--fmu-dir", fmu_dir,
+                    "--out", out, "--no-plots", "-q", capsys=capsys)
+    assert captured.returncode == 3, captured.stderr
+    lines = captured.stderr.strip().splitlines()
+    assert len(lines) == 1 and "tolerance 1e-05 not checked" in lines[0] and "Traceback" not in captured.stderr
     stats = json.loads((out / "stats.json").read_text())
     assert stats["ok"] is False and stats["completed"] is True and stats["tolerance_met"] is False
     assert stats["tol"] == 1e-5 and stats["estimated_error"]["nrms_v"] is None
@@ -29,11 +30,10 @@ def test_a_tolerance_not_met_keeps_the_results_says_so_and_exits_3(tmp_path, fmu
 
 def test_a_met_tolerance_is_ok_and_reports_the_checked_error(tmp_path, fmu_dir, capsys):
     out = tmp_path / "o"
-    code = cli.main(["simulate", "fig2_dry", *SHORT, "--fmu-dir", str(fmu_dir), "--out", str(out),
-                     "--no-plots", "-q"])
-    captured = capsys.readouterr()
-    assert code == 0, captured.err
-    assert "checked nRMS(v)" in captured.out and "(tol 0.001)" in captured.out
+    captured = main("simulate", "fig2_dry", *SHORT, "--fmu-dir", fmu_dir, "--out", out, "--no-plots", "-q",
+                    capsys=capsys)
+    assert captured.returncode == 0, captured.stderr
+    assert "checked nRMS(v)" in captured.stdout and "(tol 0.001)" in captured.stdout
     stats = json.loads((out / "stats.json").read_text())
     assert stats["ok"] and stats["tolerance_met"] and stats["estimated_error"]["nrms_v"] <= 1e-3
     assert len(stats["check"]["runs"]) >= 2 and stats["step_tol"] == stats["check"]["runs"][-1]["step_tol"]

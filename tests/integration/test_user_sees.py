@@ -1,20 +1,18 @@
 """What a user sees: every coupled signal in result.csv with its unit, the saved result redrawn,
-scenes by name, options that cannot apply refused with the reason, one folder per run, and
-the CLI synopsis of docs/cli.md equal to the parser's."""
+scenes by name, options that cannot apply refused with the reason, one folder per run."""
 import json
 import os
-import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from tribofmu import api, cli, columns
+from tribofmu import api, columns
 from tribofmu.errors import ScenarioError
 from tribofmu.result_csv import write_result_csv
 from tribofmu.scene.library import resolve_scene, scene_names, scenes_dir
 
-from cli_run import tribofmu
+from cli_run import main, tribofmu
 from scenes import ROOT
 
 pytestmark = pytest.mark.integration
@@ -55,18 +53,11 @@ def test_result_csv_carries_every_coupled_signal_with_units(fmu_dir, tmp_path, n
         assert np.allclose(back["n"], expected, rtol=1e-4)  # linear between communication points
 
 
-def test_column_table_is_the_one_writers_use():
-    sc = api.load("dry_load_oscillation")
-    assert [c.name for c in columns.columns_for(sc)] == [c.name for c in columns.COLUMNS if c.name not in ("T", "Q")]
-    signals = {k: np.arange(3.0) + i for i, k in enumerate(("time", "X", "V", "x", "v", "F", "f", "stuck", "n"))}
-    table = columns.rows(signals, sc)
-    assert table.shape == (3, len(columns.columns_for(sc)))
-
-
 # -- simulate -> stats.json metrics, plot DIR, scenes by name ----------------------------------------
-def test_simulate_by_name_from_another_folder_then_plot_the_saved_result(tmp_path, env):
-    proc = tribofmu("simulate", "dry_load_oscillation", "--set", "time.periods=2", "--set", "time.window=[0,2]",
-                    "--no-plots", "-q", cwd=tmp_path, env=env)
+def test_simulate_by_name_from_another_folder_then_plot_the_saved_result(tmp_path, fmu_dir, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    proc = main("simulate", "dry_load_oscillation", "--set", "time.periods=2", "--set", "time.window=[0,2]",
+                "--fmu-dir", fmu_dir, "--no-plots", "-q", capsys=capsys)
     assert proc.returncode == 0, proc.stderr
     out = tmp_path / "out" / "dry_load_oscillation--time.periods=2--time.window=0,2"
     assert sorted(p.name for p in out.iterdir()) == ["columns.json", "result.csv", "stats.json"]
@@ -74,38 +65,11 @@ def test_simulate_by_name_from_another_folder_then_plot_the_saved_result(tmp_pat
     assert set(stats["metrics"]) >= {"stick_fraction", "creep_fraction", "harmonics"}
     assert stats["metrics"]["creep_fraction"] is None and stats["metrics"]["stick_fraction"] > 0  # dry
     assert stats["provenance"]["scene"]["file"].endswith("dry_load_oscillation.toml")
-    proc = tribofmu("plot", out, cwd=tmp_path, env=env)
+    proc = main("plot", out, capsys=capsys)
     assert proc.returncode == 0, proc.stderr
     assert (out / "time.png").is_file() and (out / "phase.png").is_file()
-    bad = tribofmu("plot", tmp_path, cwd=tmp_path, env=env)
+    bad = main("plot", tmp_path, capsys=capsys)
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "no result.csv" in bad.stderr
-
-
-def test_time_png_draws_the_coupled_inputs(tmp_path):
-    import matplotlib.pyplot as plt
-    from tribofmu import plots
-    drawn = {}
-    original = plots.save_png
-
-    def keep(fig, path, dpi=110):
-        drawn[Path(path).name] = [ax.get_ylabel() for ax in fig.axes] + [fig._suptitle.get_text() if fig._suptitle else ""]
-        plt.close(fig)
-        return Path(path)
-    plots.save_png = keep
-    try:
-        for name in ("boundary_heating", "dry_load_oscillation", "fig2_dry"):
-            sc = api.load(name)
-            t = np.linspace(0, sc.stop_time, 200)
-            s = {k: np.sin(t) for k in ("X", "V", "x", "v", "F", "f", "stuck")}
-            s.update(time=t, T=290 + 1000 * t / t[-1], n=np.array([sc.normal_stress(x) for x in t]), Q=t)
-            plots.plot_signals(s, sc, tmp_path)
-            labels = drawn["time.png"]
-            assert ("T [K]" in labels) == (name == "boundary_heating"), labels
-            assert ("load L [N]" in labels) == (name == "dry_load_oscillation"), labels
-            if name == "boundary_heating":
-                assert "T: 290 K → 1290 K" in labels[-1]
-    finally:
-        plots.save_png = original
 
 
 def test_scenes_ship_in_the_package_and_are_listed(tmp_path, env):
@@ -130,44 +94,3 @@ def test_scenes_ship_in_the_package_and_are_listed(tmp_path, env):
         resolve_scene("fig9")
     proc = tribofmu("simulate", "fig9", cwd=tmp_path, env=env)
     assert proc.returncode == 2 and proc.stderr.startswith("tribofmu: no scene named 'fig9'")
-
-
-# -- docs/cli.md synopsis == parser; --help plain with examples ----------------------------------------
-CLI_PAGE = ROOT / "docs" / "cli.md"  # the CLI reference the README links to
-
-
-def readme_cli_block() -> list[str]:
-    text = CLI_PAGE.read_text()
-    section = text.split("\n## Synopsis\n", 1)[1]
-    block = re.search(r"```\n(.*?)```", section, re.S).group(1)
-    return [line.split("  #")[0].rstrip() for line in block.strip().splitlines()]
-
-
-def test_the_readme_synopsis_is_the_parser():
-    lines = readme_cli_block()
-    assert [line for line in lines if not line.startswith("tribofmu --version")] == cli.synopsis(), (
-        "docs/cli.md 'Synopsis' block drifted from the parser; it should read:\n" + "\n".join(cli.synopsis()))
-
-
-def test_every_option_help_lists_is_named_in_the_readme():
-    readme = CLI_PAGE.read_text()
-    parser = cli._parser()
-    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
-    for name, p in sub.choices.items():
-        assert f"tribofmu {name}" in readme, name
-        for action in p._actions:
-            flags = [f for f in action.option_strings if f not in ("-h", "--help")]
-            if flags:  # one of its spellings (-q for -q/--quiet)
-                assert any(re.search(rf"tribofmu {name} .*{re.escape(f)}(?![\w-])", readme) for f in flags), (name, flags)
-
-
-@pytest.mark.parametrize("command", [None, "build", "simulate", "plot", "scenes", "export-ssp", "sweep",
-                                     "accuracy", "figures"])
-def test_help_is_plain_text_with_an_example(command, capsys):
-    with pytest.raises(SystemExit):
-        cli._parser().parse_args([command, "--help"] if command else ["--help"])
-    text = capsys.readouterr().out
-    assert "``" not in text and ":mod:" not in text and ":func:" not in text
-    assert re.search(r"examples?:\n  tribofmu ", text), text
-    if command in ("simulate", "sweep", "accuracy", "export-ssp"):
-        assert re.search(r"SCENARIO\s+a shipped scene's name", text), text

@@ -170,3 +170,14 @@ def test_a_law_that_cannot_stick_reports_no_stick_whatever_the_mask():
         assert np.isnan(out["creep_fraction"]) != creeps
     dry = M.compute_metrics(t, V, np.sin(t), v, V - v, np.zeros_like(t), T, 1.0, stuck_mask=mask, sticks=True)
     assert dry["stick_fraction"] == pytest.approx(0.1, abs=2e-3) and np.isnan(dry["creep_fraction"])
+
+
+def test_stuck_mask_episodes_at_a_point_no_scene_uses():
+    from tribofmu.studies import metrics
+    T = 0.37
+    t = np.linspace(0, 3 * T, 3001)
+    phase = (t / T) % 1.0
+    stuck = ((phase > 0.1) & (phase < 0.3)) | ((phase > 0.6) & (phase < 0.65)) | (phase > 0.95)
+    assert metrics.stuck_fraction(t, stuck) == pytest.approx(0.30, abs=2e-3)
+    # phase > 0.95 continues into phase < 0.0 of the next period: one episode across the wrap
+    assert metrics.stuck_episodes_per_period(t, stuck, T) == 3

@@ -1,5 +1,5 @@
 """A result set is one unit: killed at any rename of the swap, the output folder holds the
-old set or the new one, whole (issue "Nothing lost, nothing wrong, nothing let in", item 5).
+old set or the new one, whole: a reader never finds a result.csv beside another run's stats.
 
 Each case runs a child process that writes a set and SIGKILLs itself at the n-th rename
 (or exchange, or removal); then the folder must hold one set, all its files from one run,

@@ -54,28 +54,34 @@ def test_the_wiring_validates_a_scenes_fmu_list(fmus, message):
         load_scenario(FIG2, {"scenario.fmus": fmus})
 
 
-def test_a_fourth_fmu_is_added_in_one_place(monkeypatch):
-    """A Load FMU whose n feeds Friction.n: declared once, the scene instantiates it, connects
-    it, stops holding n constant, and the SSP export declares it."""
-    if "Load" not in wiring.FMU_NAMES:  # declared for real since the load scenes (issue 13)
-        load = wiring.FMU("Load", "load", lambda sc: {"n0": float(sc.conditions.n)}, outputs=("n",),
-                          needs=("Friction",))
-        monkeypatch.setattr(wiring, "FMUS", wiring.FMUS + (load,))
-        monkeypatch.setattr(wiring, "CONNECTIONS",
-                            wiring.CONNECTIONS + (wiring.Connection("Load", "n", "Friction", "n"),))
+def test_a_new_fmu_is_added_in_one_place(monkeypatch):
+    """An FMU no scene has (a hydraulic press whose n feeds Friction.n), declared only in
+    wiring.FMUS and wiring.CONNECTIONS: the scene validates, instantiates and connects it,
+    stops holding n constant, the SSP export declares it, and the build and the CLI's
+    ``build`` command list it."""
+    press = wiring.FMU("Press", "press", lambda sc: {"n0": float(sc.conditions.n)}, outputs=("n",),
+                       needs=("Friction",))
+    monkeypatch.setattr(wiring, "FMUS", wiring.FMUS + (press,))
+    monkeypatch.setattr(wiring, "CONNECTIONS",
+                        wiring.CONNECTIONS + (wiring.Connection("Press", "n", "Friction", "n"),))
     base = load_scenario(FIG2)
-    sc = dataclasses.replace(base, fmus=base.fmus + ("Load",))
+    sc = dataclasses.replace(base, fmus=base.fmus + ("Press",))
     assert wiring.scene_problems(sc.fmus) == []
-    assert wiring.scene_problems(("BlockSpring", "Load")) == [
-        "scenario.fmus must include 'Friction' when it includes 'Load', got ['BlockSpring', 'Load']"]
-    assert "Load.n -> Friction.n" in [str(c) for c in wiring.connections(sc)]
-    friction = next(i for i in wiring.instances(sc) if i.fmu.name == "Friction")
-    assert friction.constant_inputs == {"T": 290.0}  # n now comes through the connection
+    assert wiring.scene_problems(("BlockSpring", "Press")) == [
+        "scenario.fmus must include 'Friction' when it includes 'Press', got ['BlockSpring', 'Press']"]
+    assert "Press.n -> Friction.n" in [str(c) for c in wiring.connections(sc)]
+    insts = {i.fmu.name: i for i in wiring.instances(sc)}
+    assert insts["Press"].start_values == {"n0": -20.0}
+    assert insts["Friction"].constant_inputs == {"T": 290.0}  # n now comes through the connection
     ssd = system_structure(sc).decode()
-    assert 'startElement="Load" startConnector="n" endElement="Friction" endConnector="n"' in ssd
-    assert 'source="resources/Load.fmu"' in ssd
-    # without the Load FMU the archive is unchanged
+    assert 'startElement="Press" startConnector="n" endElement="Friction" endConnector="n"' in ssd
+    assert 'source="resources/Press.fmu"' in ssd
+    # without the new FMU the archive is unchanged
     assert system_structure(base) == system_structure(dataclasses.replace(sc, fmus=base.fmus))
+    # what gets built, and the CLI's help, follow the same declaration
+    assert wiring.fmu_names()[-2:] == ("Press", "TriboPair")
+    from tribofmu import cli
+    assert "Thermal, Load, Press, TriboPair)" in " ".join(cli._parser().format_help().split())
 
 
 def test_the_readme_lists_the_wiring():

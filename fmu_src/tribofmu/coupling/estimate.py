@@ -23,6 +23,8 @@ from __future__ import annotations
 import cmath
 import math
 
+from .interpolation import NS
+
 
 class GlobalErrorEstimate:
     """The carried error (ex [m], ev [m/s]) and what it needs of the block."""
@@ -86,7 +88,7 @@ class WindowError:
 
     def add(self, points) -> None:
         for p in points:
-            t, e = p.t_ns * 1e-9, p.global_error
+            t, e = p.t_ns / NS, p.global_error
             if self.previous is not None and self.previous[0] < t:
                 t0, e0 = self.previous
                 lo, hi = max(t0, self.start), min(t, self.end)

@@ -13,6 +13,9 @@ the scalar ones and runs in host processes that need not load numpy.
 from __future__ import annotations
 
 NS = 1_000_000_000  # nanoseconds per second
+# The output grid, every T/1000 (T the drive period): results are sampled on it and, by
+# default, the references they are compared with, so that both are on the same times.
+SAMPLES_PER_PERIOD = 1000
 
 
 def velocity_slopes(start, end) -> tuple[float, float]:

@@ -3,6 +3,7 @@
 module that imports either library."""
 from __future__ import annotations
 
+from .. import __version__
 from .fmi_version import FMI_VERSION
 
 if FMI_VERSION == 3:
@@ -23,7 +24,7 @@ PARAMETER, INPUT, OUTPUT = Causality.parameter, Causality.input, Causality.outpu
 
 AUTHOR = "tribofmu developers"
 LICENSE = "MIT"
-VERSION = "0.1.0"
+VERSION = __version__  # the package's; a built FMU carries its own copy of the package's __init__.py
 
 _KINDS = {float: Real, int: Integer, bool: Boolean}
 _PREFIX = f"fmi{FMI_VERSION}"

@@ -1,14 +1,17 @@
-"""The parameter declarations the FMUs share: the block's and the friction law's.
+"""The declarations the FMUs share: the block's parameters and outputs, the friction law's
+parameters, and the models' caches of what their parameters make.
 
-BlockSpring and Friction declare their parameters here, and TriboPair (block and friction in
+BlockSpring and Friction declare their variables here, and TriboPair (block and friction in
 one FMU) declares both sets with the same calls: one list of names, units, descriptions and
 checks, so the pair cannot drift from the separate FMUs.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import fields
 
-from tribofmu.fmu.base import PARAMETER, non_negative, positive
+from tribofmu.fmu.base import OUTPUT, PARAMETER, non_negative, positive
+from tribofmu.fmu.effect_parameters import EFFECT_PARAMETERS
 from tribofmu.physics.friction import Effects, FrictionLaw, LubricantConstants
 from tribofmu.physics.laws import LAWS, law_parameters, make_law, regime_problem
 
@@ -27,13 +30,6 @@ LUBRICANT = {  # name: (unit, description)
     "tau_f": ("Pa.s", "relaxation time of the excess volume, eq. (21)"),
     "tau_e": ("s", "Maxwell time of internal stress relaxation, eq. (22)"),
 }
-EFFECTS = {  # FMU parameter name: (Effects field, description)
-    "melting": ("melting", "boundary: f evolves by eq. (21) (false: f stays at f0)"),
-    "pressure_term": ("pressure", "boundary: normal-stress terms of eqs. (15), (21)"),
-    "temperature_term": ("temperature", "boundary: alpha T in eq. (15)"),
-    "viscous_term": ("viscous", "boundary: viscous force m sgn(dv)|dv|^(gamma+1) in eq. (23)"),
-    "elastic_term": ("elastic", "boundary: elastic force tau S in eq. (23)"),
-}
 
 
 def _gamma(value):
@@ -46,6 +42,28 @@ def declare_block_parameters(slave) -> None:
     slave.declare("K", 7000.0, PARAMETER, "N/m", "stiffness of each of the two springs", check=non_negative)
     slave.declare("x0", 0.0, PARAMETER, "m", "position at the start")
     slave.declare("v0", 0.0, PARAMETER, "m/s", "velocity at the start")
+
+
+def declare_block_outputs(slave) -> None:
+    """x [m], v [m/s] and a [m/s2] of the lower block at the end of the step."""
+    slave.declare("x", 0.0, OUTPUT, "m", "position of the lower block")
+    slave.declare("v", 0.0, OUTPUT, "m/s", "velocity of the lower block")
+    slave.declare("a", 0.0, OUTPUT, "m/s2", "acceleration of the lower block at the end of the step")
+
+
+def parameter_cached(method):
+    """A model's method of no argument whose answer depends on the parameters alone (a law, a
+    program): made once, and again only after a parameter changed (``_parameter_token``)."""
+    slot = f"_cached_{method.__name__}"
+
+    @functools.wraps(method)
+    def cached(self):
+        token, value = getattr(self, slot, (None, None))
+        if token != self._parameter_token:
+            token, value = self._parameter_token, method(self)
+            setattr(self, slot, (token, value))
+        return value
+    return cached
 
 
 def declare_friction_parameters(slave) -> None:
@@ -65,7 +83,7 @@ def declare_friction_parameters(slave) -> None:
         check = non_negative if name in ("lam_bar", "mu_shear_bar") else (
             positive if name in ("lam", "mu_shear", "h", "tau_f", "tau_e", "phi3") else None)
         slave.declare(name, float(getattr(defaults, name)), PARAMETER, unit, text, check=check)
-    for name, (_, text) in EFFECTS.items():
+    for name, text in EFFECT_PARAMETERS.values():
         slave.declare(name, True, PARAMETER, "1", text)
     for name, (default, unit, text) in law_parameters().items():
         slave.declare(name, float(default), PARAMETER, unit, text)  # each law checks its own
@@ -82,4 +100,4 @@ def friction_law(slave) -> FrictionLaw:
         slave.regime, mu_friction=slave.mu_friction, S=slave.S, m=slave.m, gamma=slave.gamma,
         **{name: getattr(slave, name) for name in law_parameters()},
         lubricant=LubricantConstants(**{f.name: getattr(slave, f.name) for f in fields(LubricantConstants)}),
-        effects=Effects(**{field: getattr(slave, name) for name, (field, _) in EFFECTS.items()}))
+        effects=Effects(**{field: getattr(slave, name) for field, (name, _) in EFFECT_PARAMETERS.items()}))

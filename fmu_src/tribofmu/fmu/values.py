@@ -56,61 +56,28 @@ class ValueAccessMixin:
                 values.append(cast(var.getter()))
         return values
 
-    if FMI_VERSION == 3:
-        def get_float64(self, vrs):
-            return self._get(Real, vrs, float, math.nan)
 
-        def get_int32(self, vrs):
-            return self._get(Integer, vrs, int, 0)
+def _accessors(kind: type, cast: Callable[[Any], Any], missing: Any):
+    """The getter and setter of one FMI type, by value reference."""
+    def get(self, vrs):
+        return self._get(kind, vrs, cast, missing)
 
-        def get_boolean(self, vrs):
-            return self._get(Boolean, vrs, bool, False)
+    def set(self, vrs, values):
+        self._set(kind, vrs, values)
+    return get, set
 
-        def set_float64(self, vrs, values):
-            self._set(Real, vrs, values)
 
-        def set_int32(self, vrs, values):
-            self._set(Integer, vrs, values)
-
-        def set_boolean(self, vrs, values):
-            self._set(Boolean, vrs, values)
-
-        # The models declare no String or UInt64 variable: pythonfmu3's own versions raise on
-        # any other type, which is fmi3Fatal (the instance lost); these refuse by name.
-        def get_uint64(self, vrs):
-            return self._get(UInt64, vrs, int, 0)
-
-        def set_uint64(self, vrs, values):
-            self._set(UInt64, vrs, values)
-
-        def get_string(self, vrs):
-            return self._get(String, vrs, str, "")
-
-        def set_string(self, vrs, values):
-            self._set(String, vrs, values)
-    else:
-        def get_real(self, vrs):
-            return self._get(Real, vrs, float, math.nan)
-
-        def get_integer(self, vrs):
-            return self._get(Integer, vrs, int, 0)
-
-        def get_boolean(self, vrs):
-            return self._get(Boolean, vrs, bool, False)
-
-        def set_real(self, vrs, values):
-            self._set(Real, vrs, values)
-
-        def set_integer(self, vrs, values):
-            self._set(Integer, vrs, values)
-
-        def set_boolean(self, vrs, values):
-            self._set(Boolean, vrs, values)
-
-        # The models declare no String variable: pythonfmu's own get_string/set_string raise
-        # on any other type, which is fmi2Fatal (the instance lost); these refuse by name.
-        def get_string(self, vrs):
-            return self._get(String, vrs, str, "")
-
-        def set_string(self, vrs, values):
-            self._set(String, vrs, values)
+# The typed calls by the suffix of pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) method:
+# (variable type, Python type of a value read, what a refused read gives). The models declare
+# no String (nor UInt64) variable: pythonfmu's own versions raise on any other type, which is
+# fmi2Fatal/fmi3Fatal (the instance lost); these refuse by name.
+_TYPED_CALLS = {("float64" if FMI_VERSION == 3 else "real"): (Real, float, math.nan),
+                ("int32" if FMI_VERSION == 3 else "integer"): (Integer, int, 0),
+                "boolean": (Boolean, bool, False),
+                "string": (String, str, "")}
+if FMI_VERSION == 3:
+    _TYPED_CALLS["uint64"] = (UInt64, int, 0)
+for _suffix, (_kind, _cast, _missing) in _TYPED_CALLS.items():
+    for _name, _method in zip(("get_", "set_"), _accessors(_kind, _cast, _missing)):
+        _method.__name__ = _method.__qualname__ = _name + _suffix
+        setattr(ValueAccessMixin, _name + _suffix, _method)

@@ -22,8 +22,6 @@ from ..coupling.interpolation import INPUT_SIGNALS, NS, SIGNALS, sample
 from .instance import FMUCallError
 from ..coupling.system import CoupledSystem, Point
 
-COLUMNS = SIGNALS
-
 
 @dataclass(frozen=True)
 class RunProgress:

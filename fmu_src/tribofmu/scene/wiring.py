@@ -2,10 +2,11 @@
 
 The master (:mod:`tribofmu.api` builds the coupled system from it), the SSP export
 (:mod:`tribofmu.scene.ssp`), the scenario's validation and the README's wiring list all read
-what is declared here. To add an FMU to scenes, declare it once in :data:`FMUS` (file, instance
-name, start values from the scenario, recorded outputs, constant inputs, which FMUs it needs)
-and its connections in :data:`CONNECTIONS`; a constant input that a connection feeds in a
-scene is left to the connection (e.g. a Load FMU's ``n`` replaces the constant ``n``).
+what is declared here, and the build builds every FMU it declares (:func:`fmu_names`). To add
+an FMU to scenes, declare it once in :data:`FMUS` (file, instance name, start values from the
+scenario, recorded outputs, constant inputs, which FMUs it needs) and its connections in
+:data:`CONNECTIONS`; a constant input that a connection feeds in a scene is left to the
+connection (e.g. a Load FMU's ``n`` replaces the constant ``n``).
 
 Today's system (SSP connections cannot subtract, so BlockSpring forms ``dv = V - v`` itself)::
 
@@ -34,6 +35,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import Callable
 
+from ..fmu.effect_parameters import EFFECT_PARAMETERS
 from ..physics.friction import Effects, LubricantConstants
 from ..physics.laws import law_class, law_parameters
 from ..physics.load import PROGRAMS
@@ -92,12 +94,6 @@ class Instance:
     constant_inputs: dict[str, float]
 
 
-# Friction FMU parameter name for each field of the boundary model's Effects switches.
-EFFECT_PARAMETERS = {"melting": "melting", "pressure": "pressure_term",
-                     "temperature": "temperature_term", "viscous": "viscous_term",
-                     "elastic": "elastic_term"}
-
-
 def _drive(sc: "Scenario") -> dict[str, Value]:
     return {"A": float(sc.drive.A), "omega": float(sc.drive.omega)}
 
@@ -113,7 +109,7 @@ def _friction(sc: "Scenario") -> dict[str, Value]:
     values.update({key: float(getattr(fr, key)) for key in ("mu_friction", "S", "m", "gamma", "f0",
                                                             *law_parameters())})
     values.update({f.name: float(getattr(fr.lubricant, f.name)) for f in fields(LubricantConstants)})
-    values.update({EFFECT_PARAMETERS[f.name]: bool(getattr(fr.effects, f.name)) for f in fields(Effects)})
+    values.update({EFFECT_PARAMETERS[f.name][0]: bool(getattr(fr.effects, f.name)) for f in fields(Effects)})
     return values
 
 
@@ -150,7 +146,6 @@ FMUS: tuple[FMU, ...] = (
     FMU("Thermal", "thermal", _thermal, outputs=("T", "Q", "Q_lost"), needs=("Friction",)),
     FMU("Load", "load", _load, outputs=("n",), needs=("Friction",)),
 )
-FMU_NAMES: tuple[str, ...] = tuple(f.name for f in FMUS)
 CONNECTIONS: tuple[Connection, ...] = (
     Connection("Drive", "V", "BlockSpring", "V"),
     Connection("BlockSpring", "dv", "Friction", "dv"),
@@ -165,14 +160,27 @@ CONNECTIONS: tuple[Connection, ...] = (
 PAIR = FMU("TriboPair", "tribopair", _pair, outputs=("x", "v", "a", "F", "f", "dv", "stuck"),
            constant_inputs=_conditions, needs=("Drive",))
 PAIRED = ("BlockSpring", "Friction")  # the FMUs the pair replaces
+
+
+def _to_the_pair(connection: Connection) -> Connection:
+    """The connection with BlockSpring and Friction replaced by the pair (same variable names)."""
+    def end(name: str) -> str:
+        return PAIR.name if name in PAIRED else name
+    return Connection(end(connection.start), connection.output, end(connection.end), connection.input)
+
+
+# The pair is connected as the FMUs it replaces, less the dv -> F -> dv loop it closes inside,
+# plus the drive's acceleration, so that it follows V within a step instead of holding it.
 PAIR_CONNECTIONS: tuple[Connection, ...] = (
-    Connection("Drive", "V", "TriboPair", "V"),
     Connection("Drive", "a", "TriboPair", "a_drive"),
-    Connection("Load", "n", "TriboPair", "n"),
-    Connection("Thermal", "T", "TriboPair", "T"),
-    Connection("TriboPair", "F", "Thermal", "F"),
-    Connection("TriboPair", "dv", "Thermal", "dv"),
+    *(_to_the_pair(c) for c in CONNECTIONS if not (c.start in PAIRED and c.end in PAIRED)),
 )
+
+
+def fmu_names() -> tuple[str, ...]:
+    """Every FMU tribofmu builds (``tribofmu build``, the FMU cache): the scene FMUs of
+    :data:`FMUS`, then the pair; read when called, so a new entry in :data:`FMUS` is built too."""
+    return tuple(fmu.name for fmu in (*FMUS, PAIR))
 
 
 def scene_problems(names: tuple[str, ...] | list[str]) -> list[str]:
@@ -240,6 +248,8 @@ def input_signals(points, grid) -> dict:
     the time grid [s], interpolated linearly between communication points."""
     import numpy as np
 
-    t = np.array([p.t_ns for p in points], dtype=np.int64) / 1e9
+    from ..coupling.interpolation import NS
+
+    t = np.array([p.t_ns for p in points], dtype=np.int64) / NS
     return {name: np.interp(grid, t, np.array([getattr(p, name) for p in points]))
             for name in ("T", "n", "Q")}

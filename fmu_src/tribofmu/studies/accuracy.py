@@ -35,7 +35,7 @@ from ..scene.scenario import Scenario, scales
 from .reference import nrms, reference_solution
 from .reference.monolithic import REGULARISATION, solve_event_driven, solve_monolithic
 
-COLUMNS = ("algorithm", "family", "step", "tol", "default", "reported_nrms_v", "nrms_v", "max_err_v",
+ACCURACY_CSV_COLUMNS = ("algorithm", "family", "step", "tol", "default", "reported_nrms_v", "nrms_v", "max_err_v",
            "wall_time_s", "steps", "fmu_calls", "rhs_evals", "rollbacks", "ok", "est_true_ratio_median", "est_true_ratio_p10",
            "est_true_ratio_p90", "est_underestimated_frac")
 
@@ -375,10 +375,10 @@ def estimate_tracking(points, scenario: Scenario, window_only: bool = True) -> d
 # -- output -------------------------------------------------------------------------------------
 def rows_csv(rows: list[dict]) -> str:
     buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=COLUMNS, extrasaction="ignore", lineterminator="\n")
+    writer = csv.DictWriter(buf, fieldnames=ACCURACY_CSV_COLUMNS, extrasaction="ignore", lineterminator="\n")
     writer.writeheader()
     for row in rows:
-        writer.writerow({k: ("" if row.get(k) is None else row.get(k, "")) for k in COLUMNS})
+        writer.writerow({k: ("" if row.get(k) is None else row.get(k, "")) for k in ACCURACY_CSV_COLUMNS})
     return buf.getvalue()
 
 

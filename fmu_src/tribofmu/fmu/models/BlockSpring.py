@@ -8,7 +8,7 @@ cannot subtract) can feed the friction FMU.
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, INPUT, OUTPUT
-from tribofmu.fmu.parameters import declare_block_parameters
+from tribofmu.fmu.parameters import declare_block_outputs, declare_block_parameters
 from tribofmu.physics.block import BlockState, acceleration, advance_block
 
 
@@ -22,9 +22,7 @@ class BlockSpring(Fmi2Slave):
         self.declare("F", 0.0, INPUT, "N", "force on the block (friction) at the start of the step")
         self.declare("F_rate", 0.0, INPUT, "N/s", "slope of F over the step (0: F held constant)")
         self.declare("V", 0.0, INPUT, "m/s", "upper block velocity, only used for the output dv")
-        self.declare("x", 0.0, OUTPUT, "m", "position of the lower block")
-        self.declare("v", 0.0, OUTPUT, "m/s", "velocity of the lower block")
-        self.declare("a", 0.0, OUTPUT, "m/s2", "acceleration of the lower block at the end of the step")
+        declare_block_outputs(self)
         self.declare("dv", 0.0, OUTPUT, "m/s", "relative velocity V - v", depends_on=("V",),
                      getter=lambda: self.V - self.v)
 

@@ -6,6 +6,7 @@ Programs (parameter ``program``): 0 constant n0; 1 ramp from n0 at t_start to n1
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, PARAMETER, OUTPUT
+from tribofmu.fmu.parameters import parameter_cached
 from tribofmu.physics.load import PROGRAM_NAMES, LoadProgram
 
 
@@ -20,7 +21,6 @@ class Load(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self._program_cache = None
         d = LoadProgram()
         self.declare("program", d.program, PARAMETER, "1",
                      "0 = constant, 1 = ramp, 2 = step, 3 = sine", check=_program)
@@ -35,12 +35,10 @@ class Load(Fmi2Slave):
         self.declare("n", d.n0, OUTPUT, "Pa", "normal stress on the contact",
                      getter=lambda: self.program_().n(self.time))
 
+    @parameter_cached
     def program_(self) -> LoadProgram:
-        if self._program_cache is None or self._program_cache[0] != self._parameter_token:
-            self._program_cache = self._parameter_token, LoadProgram(
-                program=self.program, n0=self.n0, n1=self.n1, t_start=self.t_start, t_end=self.t_end,
-                amplitude=self.amplitude, period=self.period, phase=self.phase)
-        return self._program_cache[1]
+        return LoadProgram(program=self.program, n0=self.n0, n1=self.n1, t_start=self.t_start, t_end=self.t_end,
+                           amplitude=self.amplitude, period=self.period, phase=self.phase)
 
     def model_problems(self):
         return [] if "program" in self._bad else self.program_().problems()

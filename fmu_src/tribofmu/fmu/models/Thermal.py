@@ -11,6 +11,7 @@ far, for energy bookkeeping.
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import (TriboModel as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT,
                                  OUTPUT, non_negative, positive)
+from tribofmu.fmu.parameters import parameter_cached
 from tribofmu.physics.thermal import ThermalParams, advance_thermal
 
 
@@ -24,7 +25,6 @@ class Thermal(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self._params = None
         defaults = ThermalParams()
         self.declare("C", defaults.C, PARAMETER, "J/K", "heat capacity of the film", check=positive)
         self.declare("q", defaults.q, PARAMETER, "1", "share of the friction power that heats the film",
@@ -41,11 +41,9 @@ class Thermal(Fmi2Slave):
         self.declare("Q", 0.0, OUTPUT, "J", "heat received by the film so far, q int (P + F dv) dt")
         self.declare("Q_lost", 0.0, OUTPUT, "J", "heat conducted to the surroundings so far")
 
+    @parameter_cached
     def params(self) -> ThermalParams:
-        if self._params is None or self._params[0] != self._parameter_token:
-            self._params = self._parameter_token, ThermalParams(C=self.C, q=self.q, G=self.G,
-                                                                T_ambient=self.T_ambient)
-        return self._params[1]
+        return ThermalParams(C=self.C, q=self.q, G=self.G, T_ambient=self.T_ambient)
 
     def model_problems(self):
         return self.params().problems()

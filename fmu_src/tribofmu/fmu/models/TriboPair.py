@@ -13,7 +13,8 @@ Parameters: those of BlockSpring and Friction (same names, units and checks) and
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT, OUTPUT, positive
-from tribofmu.fmu.parameters import declare_block_parameters, declare_friction_parameters, friction_law
+from tribofmu.fmu.parameters import (declare_block_outputs, declare_block_parameters, declare_friction_parameters,
+                                     friction_law, parameter_cached)
 from tribofmu.coupling.pair import PairModel, PairParameters
 
 OUTPUTS = ("x", "v", "a", "F", "f", "dv", "stuck")
@@ -26,7 +27,6 @@ class TriboPair(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self._law = None
         self._model = None
         declare_block_parameters(self)
         declare_friction_parameters(self)
@@ -38,19 +38,16 @@ class TriboPair(Fmi2Slave):
                      "within the step (0: V held)")
         self.declare("n", -20.0, INPUT, "Pa", "normal stress on the contact (negative in compression)")
         self.declare("T", 290.0, INPUT, "K", "lubricant temperature")
-        self.declare("x", 0.0, OUTPUT, "m", "position of the lower block")
-        self.declare("v", 0.0, OUTPUT, "m/s", "velocity of the lower block")
-        self.declare("a", 0.0, OUTPUT, "m/s2", "acceleration of the lower block at the end of the step")
+        declare_block_outputs(self)
         self.declare("F", 0.0, OUTPUT, "N", "friction force on the lower block at the end of the step")
         self.declare("f", 0.0, OUTPUT, "1", "excess volume of the lubricant (0 = solid-like)")
         self.declare("dv", 0.0, OUTPUT, "m/s", "relative velocity V - v at the end of the step")
         self.declare("stuck", 0.0, OUTPUT, "1",
                      "1 where the internal coupling held the blocks together over its last step, else 0")
 
+    @parameter_cached
     def law(self):
-        if self._law is None or self._law[0] != self._parameter_token:
-            self._law = self._parameter_token, friction_law(self)
-        return self._law[1]
+        return friction_law(self)
 
     def changed(self, name):
         if name in ("x0", "v0"):

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...coupling.interpolation import SAMPLES_PER_PERIOD  # default t_eval: the output grid
 from ...scene.scenario import Scenario
 from ..measures import nrms
 from .dry import solve_dry, solve_free, solve_stick_slip
@@ -46,7 +47,6 @@ from .smooth import solve_smooth
 
 __all__ = ["ReferenceResult", "reference_solution", "nrms", "SAMPLES_PER_PERIOD"]
 
-SAMPLES_PER_PERIOD = 1000  # default output grid: every T/1000
 
 
 @dataclass(frozen=True)

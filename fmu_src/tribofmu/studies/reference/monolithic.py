@@ -26,6 +26,7 @@ import time as _time
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from ...errors import SolveOutOfTime as _OutOfTime
 from ...physics.block import BlockState, acceleration
 from ...scene.scenario import Scenario
 from .dry import solve_dry, solve_stick_slip
@@ -58,10 +59,6 @@ def _result(problem: Problem, t_eval, x, v, F, f, wall, stats, ok, message, T=No
     T = T if T is not None else np.full_like(t_eval, problem.T)
     return ReferenceResult(time=t_eval, X=X, V=V, x=x, v=v, F=F, f=f, wall_time=wall, stats=stats, ok=ok,
                            message=message, T=T, n=n)
-
-
-class _OutOfTime(Exception):
-    pass
 
 
 def solve_monolithic(scenario: Scenario, method: str = "LSODA", rtol: float = 1e-4,

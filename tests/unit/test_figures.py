@@ -1,8 +1,6 @@
-"""tribofmu figures: the paper's figures, units on every axis, no overlapping tick labels, saved
-runs reused, a cheap subset from the command line (never the full Fig. 6 here)."""
-import os
-import subprocess
-import sys
+"""The figures and plots drawn from fake runs (no FMU): the paper's layouts, units on every
+axis, no overlapping tick labels, titles that show the simulated values, time.png with the
+coupled inputs. The ``figures`` command itself: tests/integration/test_figures_command.py."""
 from pathlib import Path
 
 import numpy as np
@@ -10,8 +8,9 @@ import pytest
 
 from tribofmu import api, figures
 
-from scenes import ROOT, SCENARIOS
+from scenes import SCENARIOS
 SCENES = SCENARIOS
+FIG2 = SCENES / "fig2_dry.toml"
 
 
 def fake_run(scene: str, overrides=None) -> figures.Signals:
@@ -138,27 +137,6 @@ def test_a_free_oscillator_draws_no_drive(tmp_path):
     assert shown[0] == ["x (block)", "v (block)"]  # time.png: no drive lines
 
 
-@pytest.mark.integration
-def test_figures_command_subset_reuses_its_runs(tmp_path):
-    env = dict(os.environ, TRIBOFMU_CACHE=str(tmp_path / "cache"), PYTHONDONTWRITEBYTECODE="1")
-    out = tmp_path / "figs"
-    cmd = [sys.executable, "-m", "tribofmu", "figures", "--only", "fig2,fig3", "--out", str(out)]
-    first = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
-    assert first.returncode == 0, first.stderr
-    assert sorted(p.name for p in out.glob("*.png")) == ["fig2.png", "fig3.png"]
-    assert "fig2_dry:" in first.stderr  # one simulation, shared by both figures
-    assert first.stderr.count("steps,") == 1
-    saved = out / "data" / "fig2_dry.npz"
-    stamp = saved.stat().st_mtime_ns
-    second = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
-    assert second.returncode == 0 and "steps," not in second.stderr
-    assert saved.stat().st_mtime_ns == stamp
-    bad = subprocess.run([*cmd[:4], "--only", "fig9"], cwd=tmp_path, env=env, capture_output=True, text=True)
-    assert bad.returncode == 2
-    assert bad.stderr.strip().splitlines() == [
-        "tribofmu: --only fig9: unknown figure 'fig9' (known: fig2, fig3, fig4, fig5, fig6, tn_map)"]
-
-
 def test_accuracy_chart_labels_neither_overprint_nor_clip(tmp_path, monkeypatch):
     from tribofmu import plots
     from tribofmu.studies.accuracy import plot_accuracy
@@ -221,3 +199,36 @@ def test_figs_2_and_4_mark_stick_and_no_legend_covers_a_curve(monkeypatch):
                     assert not inside.any(), (line.get_label(), "under the legend")
     import matplotlib.pyplot as plt
     plt.close("all")
+
+
+def test_plot_titles_show_the_simulated_values():
+    from tribofmu.plots import scene_label
+    label = scene_label(api.load(FIG2, {"drive.omega": 80.0, "conditions.n": -33.0}))
+    assert "ω = 80 rad/s" in label and "L = 33 N" in label and "30" not in label
+
+
+def test_time_png_draws_the_coupled_inputs(tmp_path):
+    import matplotlib.pyplot as plt
+    from tribofmu import plots
+    drawn = {}
+    original = plots.save_png
+
+    def keep(fig, path, dpi=110):
+        drawn[Path(path).name] = [ax.get_ylabel() for ax in fig.axes] + [fig._suptitle.get_text() if fig._suptitle else ""]
+        plt.close(fig)
+        return Path(path)
+    plots.save_png = keep
+    try:
+        for name in ("boundary_heating", "dry_load_oscillation", "fig2_dry"):
+            sc = api.load(name)
+            t = np.linspace(0, sc.stop_time, 200)
+            s = {k: np.sin(t) for k in ("X", "V", "x", "v", "F", "f", "stuck")}
+            s.update(time=t, T=290 + 1000 * t / t[-1], n=np.array([sc.normal_stress(x) for x in t]), Q=t)
+            plots.plot_signals(s, sc, tmp_path)
+            labels = drawn["time.png"]
+            assert ("T [K]" in labels) == (name == "boundary_heating"), labels
+            assert ("load L [N]" in labels) == (name == "dry_load_oscillation"), labels
+            if name == "boundary_heating":
+                assert "T: 290 K → 1290 K" in labels[-1]
+    finally:
+        plots.save_png = original
