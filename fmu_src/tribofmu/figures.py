@@ -192,38 +192,43 @@ def _time_pair(axes, r: Signals, first: str, second: str) -> None:
     axes[1].set_ylabel(f"{second} [{prefix}m/s]")
 
 
-def draw_fig2(runs, path: Path) -> Path:
-    from .plots import finish_axes, scene_label, shade_stuck, title
+def _time_figure(runs, path: Path, heading: str, draw, rows: int = 2, height: float = 6.0) -> Path:
+    """One run on `rows` panels over a shared t axis, filled by draw(axes, run); the title is
+    heading followed by the scene's label."""
+    from .plots import finish_axes, scene_label, title
     plt = _plt()
     (r,) = runs
-    fig, axes = plt.subplots(2, 1, figsize=(7.5, 6), sharex=True)
-    _time_pair(axes, r, "X, x", "V, v")
-    shade_stuck(axes[0], r.time, r.stuck, None)  # where the blocks stick, labelled once
-    shade_stuck(axes[1], r.time, r.stuck, "stuck (x follows X)")
+    fig, axes = plt.subplots(rows, 1, figsize=(7.5, height), sharex=True)
+    draw(axes, r)
     axes[-1].set_xlabel("t [s]")
     finish_axes(axes)
-    title(fig, "Fig. 2 — " + scene_label(r.scenario))
+    title(fig, heading + scene_label(r.scenario))
     fig.tight_layout()
     return _save(fig, path)
+
+
+def draw_fig2(runs, path: Path) -> Path:
+    from .plots import shade_stuck
+
+    def draw(axes, r):
+        _time_pair(axes, r, "X, x", "V, v")
+        shade_stuck(axes[0], r.time, r.stuck, None)  # where the blocks stick, labelled once
+        shade_stuck(axes[1], r.time, r.stuck, "stuck (x follows X)")
+    return _time_figure(runs, path, "Fig. 2 — ", draw)
 
 
 def draw_fig3(runs, path: Path) -> Path:
-    from .plots import finish_axes, length_scale, scene_label, title
-    plt = _plt()
-    (r,) = runs
-    fig, axes = plt.subplots(2, 1, figsize=(7.5, 6), sharex=True)
-    k, prefix = length_scale(r.scenario)
-    axes[0].plot(r.time, (r.X - r.x) * k, color="C0", label="X − x")
-    axes[0].set_ylabel(f"X − x [{prefix}m]")
-    axes[1].plot(r.time, (r.V - r.v) * k, color="C3", label="V − v")
-    axes[1].set_ylabel(f"V − v [{prefix}m/s]")
-    for ax in axes:
-        ax.axhline(0.0, color="0.5", lw=0.7)
-    axes[-1].set_xlabel("t [s]")
-    finish_axes(axes)
-    title(fig, "Fig. 3 — relative motion; " + scene_label(r.scenario))
-    fig.tight_layout()
-    return _save(fig, path)
+    from .plots import length_scale
+
+    def draw(axes, r):
+        k, prefix = length_scale(r.scenario)
+        axes[0].plot(r.time, (r.X - r.x) * k, color="C0", label="X − x")
+        axes[0].set_ylabel(f"X − x [{prefix}m]")
+        axes[1].plot(r.time, (r.V - r.v) * k, color="C3", label="V − v")
+        axes[1].set_ylabel(f"V − v [{prefix}m/s]")
+        for ax in axes:
+            ax.axhline(0.0, color="0.5", lw=0.7)
+    return _time_figure(runs, path, "Fig. 3 — relative motion; ", draw)
 
 
 def draw_fig4(runs, path: Path) -> Path:
@@ -287,20 +292,13 @@ def draw_fig5(runs, path: Path) -> Path:
 
 
 def draw_fig6(runs, path: Path) -> Path:
-    from .plots import finish_axes, scene_label, title
-    plt = _plt()
-    (r,) = runs
-    fig, axes = plt.subplots(3, 1, figsize=(7.5, 8.5), sharex=True)
-    _time_pair(axes, r, "X, x", "V, v")
-    lub = r.scenario.friction.lubricant
-    axes[2].plot(r.time, r.f, color="C2", label="f (excess volume)")
-    axes[2].axhline(lub.mu_shear / lub.mu_shear_bar, color="0.4", lw=0.9, ls=":", label="melting: f = μ/μ̄")
-    axes[2].set_ylabel("f [1]")
-    axes[-1].set_xlabel("t [s]")
-    finish_axes(axes)
-    title(fig, "Fig. 6 — " + scene_label(r.scenario))
-    fig.tight_layout()
-    return _save(fig, path)
+    def draw(axes, r):
+        _time_pair(axes, r, "X, x", "V, v")
+        lub = r.scenario.friction.lubricant
+        axes[2].plot(r.time, r.f, color="C2", label="f (excess volume)")
+        axes[2].axhline(lub.mu_shear / lub.mu_shear_bar, color="0.4", lw=0.9, ls=":", label="melting: f = μ/μ̄")
+        axes[2].set_ylabel("f [1]")
+    return _time_figure(runs, path, "Fig. 6 — ", draw, rows=3, height=8.5)
 
 
 def draw_tn_map(runs, path: Path) -> Path:

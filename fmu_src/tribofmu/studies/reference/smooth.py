@@ -45,6 +45,18 @@ _R_TO_V_FORM = 2.0
 _SETTLE_AT_ONCE = 1e-9
 
 
+def forward_jacobian(g: Callable, y, scale) -> np.ndarray:
+    """dg/dy by forward differences, column j stepped by sqrt(eps) max(|y_j|, scale_j)."""
+    y = np.asarray(y, dtype=float)
+    g0 = np.asarray(g(y), dtype=float)
+    J = np.empty((len(g0), len(y)))
+    for j in range(len(y)):
+        yj = y.copy()
+        yj[j] += math.sqrt(EPS) * max(abs(y[j]), scale[j])
+        J[:, j] = (np.asarray(g(yj), dtype=float) - g0) / (yj[j] - y[j])
+    return J
+
+
 class SmoothSystem:
     """Fluid or boundary friction as an ODE, in one of two equivalent state forms.
 
@@ -160,16 +172,7 @@ class SmoothSystem:
         iteration convergent (with it, BDF "converges" onto dv = 0 and stays there). The stiff
         kinetics of f and the elastic damping are in.
         """
-        y = np.asarray(y, dtype=float)
-        f0 = self._rhs_v_without_viscous(t, y)
-        scale = self.scale[:len(y)]
-        J = np.empty((len(y), len(y)))
-        for j in range(len(y)):
-            h = math.sqrt(EPS) * max(abs(y[j]), scale[j])
-            yj = y.copy()
-            yj[j] += h
-            J[:, j] = (self._rhs_v_without_viscous(t, yj) - f0) / (yj[j] - y[j])
-        return J
+        return forward_jacobian(lambda yy: self._rhs_v_without_viscous(t, yy), y, self.scale[:len(y)])
 
     def rhs_u(self, t, y):
         x, v, dv, f = self.unpack(t, y, "u")
@@ -209,17 +212,9 @@ class SmoothSystem:
 
     def jac_u_mass(self, t, y) -> np.ndarray:
         """dG/dy by forward differences (G is linear in x and, for the fluid law, in u)."""
-        y = np.asarray(y, dtype=float)
-        g0 = self.rhs_u_mass(t, y)
         scale = self.scale[:len(y)].copy()
         scale[1] = self.u_scale
-        J = np.empty((len(y), len(y)))
-        for j in range(len(y)):
-            h = math.sqrt(EPS) * max(abs(y[j]), scale[j])
-            yj = y.copy()
-            yj[j] += h
-            J[:, j] = (self.rhs_u_mass(t, yj) - g0) / (yj[j] - y[j])
-        return J
+        return forward_jacobian(lambda yy: self.rhs_u_mass(t, yy), y, scale)
 
     # -- events ------------------------------------------------------------------------------
     def ratio_event(self, form: str, r: float):
