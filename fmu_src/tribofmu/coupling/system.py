@@ -61,6 +61,15 @@ class Contact(IntEnum):
     def slipping(self) -> bool:
         return self in (Contact.FORWARD, Contact.BACKWARD)
 
+    @property
+    def stuck(self) -> bool:
+        return self is Contact.STUCK
+
+    @property
+    def direction(self) -> float:
+        """The sign of dv while slipping (+1.0 forward, -1.0 backward), 0.0 otherwise."""
+        return 1.0 if self is Contact.FORWARD else (-1.0 if self is Contact.BACKWARD else 0.0)
+
 
 @dataclass
 class Point:
@@ -68,8 +77,9 @@ class Point:
 
     F is the force the block felt at the end of the step that led here; F_start and
     F_rate describe the force over that step (F_start + F_rate s), for energy audits.
-    mode: a :class:`Contact` (+1/-1 slipping with dv > 0 / < 0, 0 stuck: dv held at 0 by the
-    coupling, 2 unknown: the start).
+    mode: a :class:`Contact` (slipping forward or backward, stuck: dv held at 0 by the coupling,
+    or unknown: the start, before any step classified the contact; a plain int given, as from
+    a JSON snapshot, is read as the Contact it names).
     """
 
     t_ns: int
@@ -83,8 +93,8 @@ class Point:
     f: float = 0.0
     F_start: float = 0.0
     F_rate: float = 0.0
-    F_mean: float = math.nan  # N, the friction's own mean force over the step (nan: not reported)
-    mode: int = 0
+    F_mean: float | None = None  # N, the friction's own mean force over the step (None: not reported)
+    mode: Contact = Contact.UNKNOWN
     est_error: float = 0.0  # m/s, the algorithm's own estimate of this step's error in v (0: none)
     global_error: float = 0.0  # m/s, its estimate of the error in v carried to here (0: none)
     event: float = 1.0  # fraction of the step at which the contact broke away or stuck (1: none)
@@ -92,6 +102,10 @@ class Point:
     T: float = math.nan  # K, the friction's temperature input at this point (Thermal's output)
     n: float = math.nan  # Pa, the friction's normal stress input at this point
     Q: float = 0.0  # J, heat the Thermal slave received up to this point (0 without one)
+
+    def __post_init__(self):
+        if type(self.mode) is not Contact:
+            self.mode = Contact(self.mode)
 
     @property
     def dv(self) -> float:

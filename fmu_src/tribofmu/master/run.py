@@ -146,7 +146,7 @@ class GridRecorder:
         if len(self.buffer) >= 2:
             self._flush()
         elif self.first is not None and self.filled == 0 and len(self.grid):  # never stepped
-            self._store(0, {k: np.array([float(self.first.mode == 0) if k == "stuck" else getattr(self.first, k)])
+            self._store(0, {k: np.array([float(self.first.mode.stuck) if k == "stuck" else getattr(self.first, k)])
                             for k in self.signals})
             for audit in self.audits:
                 audit.add([self.first])
