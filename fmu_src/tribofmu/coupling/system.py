@@ -144,8 +144,8 @@ class CoupledSystem:
         if friction is not None:
             fr = friction.refs
             self._dv = [fr["dv"]]
-            # the mean force over the step, where the friction reports it (F twice where not)
-            self._friction_out = [fr["F"], fr["f"], fr.get("F_mean", fr["F"])]
+            # F, f, and the mean force over the step where the friction reports it (no output read twice)
+            self._friction_out = [fr["F"], fr["f"]] + ([fr["F_mean"]] if "F_mean" in fr else [])
             fed = {"n"} if load is not None else set()
             fed |= {"T"} if thermal is not None else set()
             held = {k: v for k, v in (conditions or {}).items() if k not in fed}
@@ -201,16 +201,18 @@ class CoupledSystem:
         self.block.do_step(t, h)
         return self.block_outputs()
 
-    def step_friction(self, dv: float, t: float, h: float, set_input: bool = True) -> tuple[float, float, float]:
+    def step_friction(self, dv: float, t: float, h: float,
+                      set_input: bool = True) -> tuple[float, float, float | None]:
         """Step the friction to dv [m/s] at t + h; returns F, f at t + h and the mean force
-        [N] over the step (F where the friction does not report it). set_input=False: the
+        [N] over the step (None where the friction does not report it). set_input=False: the
         friction holds dv as its input already (the caller's last trial set it)."""
         if self.friction is None:
-            return 0.0, 0.0, 0.0
+            return 0.0, 0.0, None
         if set_input:
             self.friction.set_reals(self._dv, [dv])
         self.friction.do_step(t, h)
-        return tuple(self.friction.get_reals(self._friction_out))
+        F, f, *F_mean = self.friction.get_reals(self._friction_out)
+        return F, f, (F_mean[0] if F_mean else None)
 
     def finish_step(self, start: Point, end: Point, t: float, h: float) -> None:
         """Called once the coupled loop of a step t -> t + h [s] is solved (end holds its
