@@ -10,8 +10,10 @@ error of an ODE code. The tighter run is the one reported; its error is the pair
 over r^p - 1 (r = CHECK_RATIO) at the slowest convergence order allowed for, MIN_ORDER.
 
 When that checked error is past tol, the next pair follows: the tighter run and its own
-partner when the checked error says that one more factor will do, or else a new pair planned
-at the per-step tolerance the checked error asks for. The sequence ends when a pair meets tol,
+partner when the checked error says that one or two more factors will do (the chain of three
+runs then shows the convergence order, and the third run's error is estimated at that order,
+OBSERVED_ORDER_MAX), or else a new pair planned at the per-step tolerance the checked error
+asks for. The sequence ends when a pair meets tol,
 or the time budget (``--max-wall``), MAX_RUNS or MIN_STEP_TOL is reached; then the result is
 kept but not ``ok``. Every run of the sequence counts in the reported ``wall_time``.
 """
