@@ -103,6 +103,9 @@ class CouplingAlgorithm(ABC):
     def advance(self, system: CoupledSystem, point: Point, stop_ns: int) -> list[Point]:
         """Advance from point toward stop_ns; returns the accepted points (may be empty)."""
 
+    def finish(self, system: CoupledSystem) -> None:
+        """Called once after the last step (or a failure): release what the algorithm holds."""
+
     def next_step(self, point: Point, stop_ns: int) -> int:
         return min(self.step_ns, stop_ns - point.t_ns)
 
@@ -292,6 +295,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
 
     def prepare(self, system, scales):
         super().prepare(system, scales)
+        self._held = None  # (point, system, the slaves' states there): see states_at
         g = self.step_granularity
         self.min_ns = max(g, int(scales.period * MIN_STEP_PERIODS * NS) // g * g)
         self.max_ns = max(self.min_ns, int(scales.period * MAX_STEP_PERIODS * NS) // g * g)
@@ -325,6 +329,23 @@ class ErrorControlledCoupling(ImplicitCoupling):
         return self.root_tol_fraction * self.tol * self.velocity_scale()
 
     # -- the bookkeeping of one tried step ---------------------------------------------------
+    def states_at(self, system: CoupledSystem, point: Point) -> States:
+        """Every slave's state at point, saved once however many tries a step from it takes
+        (a rejected or landed try restores them and the next try starts from the same point
+        object); the states of the point before are freed when the next point's are saved."""
+        held = self._held
+        if held is not None and held[0] is point and held[1] is system:
+            return held[2]
+        self.finish(system)
+        states = system.save()
+        self._held = (point, system, states)
+        return states
+
+    def finish(self, system: CoupledSystem) -> None:
+        held, self._held = getattr(self, "_held", None), None
+        if held is not None:
+            held[1].free(held[2])
+
     def _landed(self, system: CoupledSystem, start: States, h_ns: int, event: float) -> bool:
         """A stuck contact broke away at the fraction event of the tried step of h_ns: when
         the landing is worth a step of its own, roll back and make it the next try (True)."""

@@ -159,25 +159,22 @@ class EmbeddedCoupling(ErrorControlledCoupling):
 
     def advance(self, system: CoupledSystem, point: Point, stop_ns: int) -> list[Point]:
         h_ns = self.planned_step(point, stop_ns)
-        start = system.save()
-        try:
-            new = self.solve_step(system, point, h_ns, saved=start)
-            if self._landed(system, start, h_ns, new.event):  # a breakaway inside: end the step there
-                return []
-            h = h_ns / NS
-            local = self.local_error(point, new, h)
-            err = self.error_ratio(point, new, local, h)
-            # local error ~ h^(order + 1): ramped h^3, held h^2; a stick ramp's breakaway
-            # miss dF^2 with dF ~ h^2: h^4
-            order = 3 if local.stuck else (2 if new.ramped else 1)
-            if not self._accepted(system, start, h_ns, err, order, self.min_ns, 1):
-                return []
-            self._carry_error(point, new, local, h)
-            self.history = self.next_history(point, new, h)
-            self.magnitudes.accept(new)
-            return [new]
-        finally:
-            system.free(start)
+        start = self.states_at(system, point)
+        new = self.solve_step(system, point, h_ns, saved=start)
+        if self._landed(system, start, h_ns, new.event):  # a breakaway inside: end the step there
+            return []
+        h = h_ns / NS
+        local = self.local_error(point, new, h)
+        err = self.error_ratio(point, new, local, h)
+        # local error ~ h^(order + 1): ramped h^3, held h^2; a stick ramp's breakaway
+        # miss dF^2 with dF ~ h^2: h^4
+        order = 3 if local.stuck else (2 if new.ramped else 1)
+        if not self._accepted(system, start, h_ns, err, order, self.min_ns, 1):
+            return []
+        self._carry_error(point, new, local, h)
+        self.history = self.next_history(point, new, h)
+        self.magnitudes.accept(new)
+        return [new]
 
     @staticmethod
     def next_history(point: Point, new: Point, h: float) -> ForceHistory:

@@ -221,6 +221,11 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
     except (FloatingPointError, RunawayError) as exc:
         ok, message = False, str(exc)
         out_of_time = isinstance(exc, RunawayError)
+    finally:
+        try:
+            algorithm.finish(system)
+        except FMUCallError:  # a failed run's slaves may refuse: they are closed next anyway
+            pass
     recorder.finish()
     wall = _time.perf_counter() - begin
     c = algorithm.counters
