@@ -167,3 +167,23 @@ def test_a_block_at_rest_in_both_runs_agrees_exactly():
     rest = FakeResult(t, np.zeros_like(t))
     assert checked.window_difference(rest, rest) == 0.0
     assert checked.window_difference(FakeResult(t, np.full_like(t, 1e-9)), rest) == math.inf
+
+
+def test_a_chain_of_three_runs_reports_at_the_order_it_shows_and_never_above_the_pair_rule():
+    # error = 2 step_tol (order 1): the first pair's checked error (at MIN_ORDER) is 4.3 tol;
+    # one more run of the chain shows order 1, and its error is reported from it
+    runs = FakeRuns(power_law(2.0))
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    first = checked.FIRST_STEP_TOL * 1e-3
+    assert [c[0] for c in runs.calls] == [first, first / 2, first / 4]
+    assert result.stats["check"]["observed_order"] == pytest.approx(1.0, rel=1e-3)
+    true_error = checked.window_difference(result, FakeRuns(lambda step_tol: 0.0)(1.0))
+    reported = result.stats["estimated_error"]["nrms_v"]
+    assert reported == pytest.approx(checked.ORDER_SAFETY * true_error, rel=1e-2)
+    assert result.ok and reported <= true_error / (checked.CHECK_RATIO ** checked.MIN_ORDER - 1.0)
+
+
+def test_differences_that_do_not_shrink_are_not_credited_an_order():
+    assert checked.observed_order(2e-4, 1e-4) is None and checked.observed_order(1e-4, None) is None
+    assert checked.checked_error(1e-4, 1e-4) == checked.checked_error(1e-4)
+    assert checked.observed_order(1e-4, 1e-3) == checked.OBSERVED_ORDER_MAX  # 3.3 is not credited

@@ -32,7 +32,7 @@ def test_implicit_resolves_stick_four_times_per_period():
     out = run(system, make_algorithm("implicit", step=2e-4), 6.5 * PERIOD, SCALES)
     assert out.ok
     assert stick_episodes(out.points, 5 * PERIOD, 6 * PERIOD) == 4
-    stuck = [p for p in out.points if p.mode == 0 and p.t_ns > 0]
+    stuck = [p for p in out.points if p.mode.stuck and p.t_ns > 0]
     assert stuck and all(abs(p.dv) <= 1e-9 * SCALES.velocity for p in stuck)
     assert all(abs(p.F) <= 10.0 + 1e-9 for p in out.points)  # |F| <= mu L
 
@@ -99,7 +99,7 @@ def test_adaptive_meets_its_tolerance_against_the_exact_dry_motion(tol):
     _, v, stuck = exact_dry(t)
     err = (np.array([p.v for p in out.points]) - v) / SCALES.velocity
     assert np.sqrt(np.mean(err ** 2)) < 3 * tol
-    assert np.mean(stuck == np.array([p.mode == 0 for p in out.points])) > 0.95
+    assert np.mean(stuck == np.array([p.mode.stuck for p in out.points])) > 0.95
 
 
 def test_gauss_seidel_and_jacobi_share_the_step_but_differ_in_order():

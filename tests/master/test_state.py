@@ -28,7 +28,7 @@ def same_points(a, b):
 
 # -- rollback -------------------------------------------------------------------------------
 
-def test_every_advance_frees_its_states_and_a_rollback_leaves_every_slave_in_place():
+def test_states_are_held_once_per_point_freed_by_finish_and_a_rollback_leaves_every_slave_in_place():
     system = fig2_system()
     algorithm = AdaptiveCoupling(tol=1e-4)
     algorithm.prepare(system, SCALES)
@@ -37,7 +37,8 @@ def test_every_advance_frees_its_states_and_a_rollback_leaves_every_slave_in_pla
     while point.t_ns < stop:
         before, counters = slave_states(system), copy.copy(algorithm.counters)
         new = algorithm.advance(system, point, stop)
-        assert all(s.live_states == 0 for s in system.slaves)
+        # the states at the point tried from, kept for its retries (saved once per point)
+        assert all(s.live_states == 1 for s in system.slaves)
         if new:
             outcomes["accepted"] += 1
             point = new[-1]
@@ -48,6 +49,8 @@ def test_every_advance_frees_its_states_and_a_rollback_leaves_every_slave_in_pla
             assert getattr(algorithm.counters, kind) == getattr(counters, kind) + 1
             outcomes[kind] += 1
     assert min(outcomes.values()) > 0  # every path was taken
+    algorithm.finish(system)
+    assert all(s.live_states == 0 for s in system.slaves)
 
 
 def test_a_failing_slave_mid_step_leaves_no_state_allocated():
@@ -57,6 +60,7 @@ def test_a_failing_slave_mid_step_leaves_no_state_allocated():
         system.friction.fail_at = 0.0  # every friction step fails
         with pytest.raises(FMUCallError, match="scripted failure"):
             algorithm.advance(system, system.start_point(), NS)
+        algorithm.finish(system)  # (the run loop calls it however the run ends)
         assert all(s.live_states == 0 for s in system.slaves)
 
 

@@ -32,7 +32,44 @@ from .estimate import GlobalErrorEstimate
 from .interpolation import NS, hermite, hermite_mid, velocity_slopes
 from .system import Contact, CoupledSystem, Point, States
 
+# The "zero" relative velocity, as a fraction of the scene's velocity scale: |dv| within it
+# counts as stuck. Far below any velocity error the error control resolves (the root
+# tolerance is 1e-3 of the per-step tolerance's share of |v|), far above v's round-off.
+ZERO_VELOCITY = 1e-10
+# A step's error is measured against the block's own motion: its largest |v| and |x| so far,
+# floored at this fraction of the scene's scales (from complete rest the motion is round-off,
+# and no step would pass).
+SCALE_FLOOR = 1e-6
+# The smallest and largest step, as fractions of the scene's period: 1e-7 T resolves any
+# event the kinetics can produce; T/20 keeps the drive's own cosine resolved.
+MIN_STEP_PERIODS, MAX_STEP_PERIODS = 1e-7, 1.0 / 20.0
+# An event (a breakaway) this early in a step, as a fraction of it, is not landed on: the
+# step is accepted with the event inside (its own error estimate judges it).
+MIN_LANDING_FRACTION = 0.01
+# w2 is learned only from points whose |x| is beyond this fraction of the largest |x| so far:
+# nearer the spring's rest a = F/M - w2 x divides round-off by x.
+W2_POSITION_FLOOR = 1e-3
+# How much smaller than its allowance a grazing step's error is treated: > 1 rejects it (dv
+# dips past 0 between communication points: a stick or a reversal the step would pass over).
+GRAZING_ERROR = 4.0
+# Where between two communication points the interpolated relative velocity is checked for a
+# crossing of 0 (quarters: a dip shorter than a quarter step is below the step's resolution).
+GRAZING_SAMPLES = (0.25, 0.5, 0.75)
 
+
+@dataclass
+class Magnitudes:
+    """The largest |v| [m/s], |x| [m], |F| [N], |f| [1] of the accepted points so far: what a
+    step's error is measured against. Updated only when a step is accepted (:meth:`accept`)."""
+
+    v: float = 0.0
+    x: float = 0.0
+    F: float = 0.0
+    f: float = 0.0
+
+    def accept(self, point: Point) -> None:
+        self.v, self.x, self.F = max(self.v, abs(point.v)), max(self.x, abs(point.x)), max(self.F, abs(point.F))
+        self.f = max(self.f, abs(point.f))
 
 
 @dataclass
@@ -65,6 +102,9 @@ class CouplingAlgorithm(ABC):
     @abstractmethod
     def advance(self, system: CoupledSystem, point: Point, stop_ns: int) -> list[Point]:
         """Advance from point toward stop_ns; returns the accepted points (may be empty)."""
+
+    def finish(self, system: CoupledSystem) -> None:
+        """Called once after the last step (or a failure): release what the algorithm holds."""
 
     def next_step(self, point: Point, stop_ns: int) -> int:
         return min(self.step_ns, stop_ns - point.t_ns)
@@ -168,7 +208,7 @@ class ImplicitCoupling(CouplingAlgorithm):
         """One ImplicitStep; keeps what it measured (the loop gain, the block's response)."""
         h = h_ns / NS
         settings = StepSettings(self.expected_gain(h), self.max_ramp_gain, self.root_tolerance(),
-                                1e-10 * self.scales.velocity, self.max_iterations, self.scales.position)
+                                ZERO_VELOCITY * self.scales.velocity, self.max_iterations, self.scales.position)
         step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp)
         new = step.solve()
         report = step.report
@@ -193,7 +233,7 @@ class ImplicitCoupling(CouplingAlgorithm):
         misses, previous = [], start
         for end in ends:
             miss = 0.0
-            if end.mode != 0 and end.F_mean == end.F_mean and end.f != 0.0:
+            if end.mode.slipping and end.F_mean is not None and end.f != 0.0:
                 h = (end.t_ns - previous.t_ns) / NS
                 felt = end.F_start + 0.5 * end.F_rate * h
                 miss = (felt - end.F_mean) * h * self.velocity_per_impulse
@@ -240,43 +280,115 @@ class ImplicitCoupling(CouplingAlgorithm):
         return new
 
 
-class StepDoublingCoupling(ImplicitCoupling):
-    """Implicit steps under error control by step doubling (the adaptive coupling before
-    issue 31; registered as ``doubling`` for comparison, see coupling/embedded.py).
+class ErrorControlledCoupling(ImplicitCoupling):
+    """What every error-controlled implicit coupling shares: the step-size bounds, the
+    motion's magnitudes its errors are measured against (known, floored by the scene's
+    scales, before the first step), the global error estimate, and the accept / reject /
+    land bookkeeping (:meth:`_landed`, :meth:`_accepted`). Subclasses estimate the errors."""
 
-    tol is relative: a step is accepted when one step and two half steps differ by less
-    than ``tol * scale * h / T`` in x and v (scale: the drive's amplitude and velocity; T:
-    its period), so the error committed per drive period stays near tol whatever the number
-    of steps, and by ``tol * (1 + |f|)`` in f.
-    """
-
-    name = "doubling"
     default_tol = 2e-4  # per-step error against the block's own motion, when nothing chooses it (tribofmu.checked does for simulate)
     default_step = 1e-4  # first try [s]
     controller = COUPLING_STEPS
-    state_names = ImplicitCoupling.state_names + ("h_ns", "rejected_last", "_v_scale", "_x_scale",
-                                                  "_F_scale", "_f_scale")
+    # h_ns is kept a multiple of this [ns] (step doubling: two equal halves)
+    step_granularity = 1
+    state_names = ImplicitCoupling.state_names + ("h_ns", "rejected_last")
+
+    def prepare(self, system, scales):
+        super().prepare(system, scales)
+        self._held = None  # (point, system, the slaves' states there): see states_at
+        g = self.step_granularity
+        self.min_ns = max(g, int(scales.period * MIN_STEP_PERIODS * NS) // g * g)
+        self.max_ns = max(self.min_ns, int(scales.period * MAX_STEP_PERIODS * NS) // g * g)
+        self.h_ns = min(max(self.step_ns // g * g, self.min_ns), self.max_ns)
+        self.estimate = GlobalErrorEstimate()
+        self.magnitudes = Magnitudes()
+        self.rejected_last = False  # the last step was rejected (its successor may not grow)
 
     def export_state(self) -> dict:
         state = super().export_state()
         state["estimate"] = [self.estimate.ex, self.estimate.ev, self.estimate.w2]
+        state["magnitudes"] = asdict(self.magnitudes)
         return state
 
     def import_state(self, state: dict) -> None:
-        if "estimate" not in state:
-            raise ValueError(f"{self.name} state lacks estimate")
+        missing = {"estimate", "magnitudes"} - set(state)
+        if missing:
+            raise ValueError(f"{self.name} state lacks {', '.join(sorted(missing))}")
         super().import_state(state)
         self.estimate.ex, self.estimate.ev, self.estimate.w2 = state["estimate"]
+        self.magnitudes = Magnitudes(**state["magnitudes"])
 
-    def prepare(self, system, scales):
-        super().prepare(system, scales)
-        self.min_ns = max(2, int(scales.period * 1e-7 * NS) & ~1)
-        self.max_ns = max(self.min_ns, int(scales.period / 20 * NS) & ~1)
-        self.h_ns = min(max(self.step_ns & ~1, self.min_ns), self.max_ns)
-        self._v_scale = self._x_scale = 0.0  # largest |v| [m/s] and |x| [m] of the block so far
-        self._F_scale = self._f_scale = 0.0  # largest |F| [N], |f| [1] so far
-        self.estimate = GlobalErrorEstimate()
-        self.rejected_last = False  # the last step was rejected (its successor may not grow)
+    # -- scales: pure, from the accepted points' magnitudes and the scene's floor ------------
+    def velocity_scale(self, *points: Point) -> float:
+        return max(self.magnitudes.v, *(abs(p.v) for p in points), SCALE_FLOOR * self.scales.velocity)
+
+    def position_scale(self, *points: Point) -> float:
+        return max(self.magnitudes.x, *(abs(p.x) for p in points), SCALE_FLOOR * self.scales.position)
+
+    def root_tolerance(self) -> float:
+        return self.root_tol_fraction * self.tol * self.velocity_scale()
+
+    # -- the bookkeeping of one tried step ---------------------------------------------------
+    def states_at(self, system: CoupledSystem, point: Point) -> States:
+        """Every slave's state at point, saved once however many tries a step from it takes
+        (a rejected or landed try restores them and the next try starts from the same point
+        object); the states of the point before are freed when the next point's are saved."""
+        held = self._held
+        if held is not None and held[0] is point and held[1] is system:
+            return held[2]
+        self.finish(system)
+        states = system.save()
+        self._held = (point, system, states)
+        return states
+
+    def finish(self, system: CoupledSystem) -> None:
+        held, self._held = getattr(self, "_held", None), None
+        if held is not None:
+            held[1].free(held[2])
+
+    def _landed(self, system: CoupledSystem, start: States, h_ns: int, event: float) -> bool:
+        """A stuck contact broke away at the fraction event of the tried step of h_ns: when
+        the landing is worth a step of its own, roll back and make it the next try (True)."""
+        g = self.step_granularity
+        landing = int(h_ns * event) // g * g
+        if event < 1.0 and landing >= max(g * self.min_ns, MIN_LANDING_FRACTION * h_ns):
+            system.restore(start)
+            self.counters.landed += 1
+            self.h_ns = landing
+            return True
+        return False
+
+    def _accepted(self, system: CoupledSystem, start: States, h_ns: int, error: float, order: int,
+                  min_ns: int, steps: int) -> bool:
+        """Accept the tried step of h_ns (``steps`` communication steps) when its error ratio
+        is <= 1 or it is no longer than min_ns, else roll back to start; either way the next
+        try's length follows from the controller (local error ~ h^(order + 1))."""
+        factor = self.controller.factor(error, order, self.rejected_last)
+        if error <= 1.0 or h_ns <= min_ns:
+            self.counters.forced += error > 1.0
+            self.counters.steps += steps
+            self.rejected_last = False
+            self.h_ns = int(min(max(h_ns * factor, self.min_ns), self.max_ns)) // self.step_granularity \
+                * self.step_granularity
+            return True
+        system.restore(start)
+        self.counters.rejected += 1
+        self.rejected_last = True
+        self.h_ns = max(int(h_ns * factor), self.min_ns) // self.step_granularity * self.step_granularity
+        return False
+
+
+class StepDoublingCoupling(ErrorControlledCoupling):
+    """Implicit steps under error control by step doubling (the adaptive coupling before
+    issue 31; registered as ``doubling`` for comparison, see coupling/embedded.py).
+
+    tol is relative: a step is accepted when one step and two half steps differ by less
+    than tol times the block's own motion (its largest |v| and |x|) in x and v, and, for a
+    friction with an internal state, by tol times the largest |F| and |f| in F and f.
+    """
+
+    name = "doubling"
+    step_granularity = 2
 
     def advance(self, system, point, stop_ns):
         h_ns = min(self.h_ns, stop_ns - point.t_ns)
@@ -286,19 +398,16 @@ class StepDoublingCoupling(ImplicitCoupling):
         if h_ns < 2:  # a last sliver of time: one plain implicit step
             self.counters.steps += 1
             last = self.solve_step(system, point, stop_ns - point.t_ns)
-            last.global_error = self.estimate.advance((last.t_ns - point.t_ns) / NS, 0.0, 0.0, 0.0, last.mode == 0)
+            last.global_error = self.estimate.advance((last.t_ns - point.t_ns) / NS, 0.0, 0.0, 0.0,
+                                                      last.mode.stuck)
+            self.magnitudes.accept(last)
             return [last]
         start = system.save()
         try:
             # the full step and the first half start where start was saved: they restore
             # from it instead of saving the block and friction again (2 saves and 2 frees less)
             full = self.solve_step(system, point, h_ns, saved=start)
-            landing = int(h_ns * full.event) & ~1
-            if full.event < 1.0 and landing >= 2 * self.min_ns and landing >= h_ns // 100:
-                # A stuck contact breaks away inside the step: end the step right there.
-                system.restore(start)
-                self.counters.landed += 1
-                self.h_ns = landing
+            if self._landed(system, start, h_ns, full.event):
                 return []
             system.restore(start)
             # The halves hold the force where the full step did: an estimate comparing a
@@ -306,57 +415,39 @@ class StepDoublingCoupling(ImplicitCoupling):
             mid = self.solve_step(system, point, h_ns // 2, full.ramped, saved=start)
             end = self.solve_step(system, mid, h_ns // 2, full.ramped)
             impulse = self._impulse_misses(point, mid, end)
+            v_scale = self.velocity_scale(full, end)
             err = max(self._error(point, full, end), self._interpolation_error(point, mid, end, h_ns),
-                      max(map(abs, impulse)) / (self.tol * self._v_scale or 1.0))
+                      max(map(abs, impulse)) / (self.tol * v_scale))
             end.est_error = mid.est_error = abs(full.v - end.v)  # m/s: step doubling's v estimate
             # local error ~ h^3 for a ramped step (order 2), h^2 for a held one (order 1)
-            factor = self.controller.factor(err, 2 if full.ramped else 1, self.rejected_last)
-            if err <= 1.0 or h_ns <= 2 * self.min_ns:
-                self.counters.forced += err > 1.0
-                self.counters.steps += 2
-                self.rejected_last = False
-                self.h_ns = int(min(max(h_ns * factor, self.min_ns), self.max_ns))
-                self._carry_error(point, full, mid, end, impulse)
-                return [mid, end]
-            system.restore(start)
-            self.counters.rejected += 1
-            self.rejected_last = True
-            self.h_ns = int(max(h_ns * factor, self.min_ns))
-            return []
+            if not self._accepted(system, start, h_ns, err, 2 if full.ramped else 1, 2 * self.min_ns, 2):
+                return []
+            self._carry_error(point, full, mid, end, impulse)
+            self.magnitudes.accept(mid)
+            self.magnitudes.accept(end)
+            return [mid, end]
         finally:
             system.free(start)
+
+    # A cubic Hermite over the whole step misses its midpoint 16 times more than over either
+    # half (error ~ h^4): the halves' interpolants are held to tol by allowing the whole
+    # step's 16 tol.
+    HALVES_INTERPOLATION = 16.0
 
     def _interpolation_error(self, start: Point, mid: Point, end: Point, h_ns: int) -> float:
         """How far cubic Hermite interpolation over the whole step misses the computed
         midpoint, relative to tol: results are sampled between communication points, and
-        this bounds that error (halves interpolate 16 times better)."""
+        this bounds that error."""
         h = h_ns / NS
         v_mid = hermite_mid(start.v, end.v, *velocity_slopes(start, end), h)
         x_mid = hermite_mid(start.x, end.x, start.v, end.v, h)
-        error = max(abs(v_mid - mid.v) / (16 * self.tol * self._v_scale or 1.0),
-                    abs(x_mid - mid.x) / (16 * self.tol * self._x_scale or 1.0))
-        if (start.mode != 0 and start.mode == mid.mode == end.mode
-                and self._grazes(start, mid, end, h, self.tol * self._v_scale)):
-            error = max(error, 4.0)  # halve: the step may hide a stick or a reversal
+        v_scale, x_scale = self.velocity_scale(mid, end), self.position_scale(mid, end)
+        error = max(abs(v_mid - mid.v) / (self.HALVES_INTERPOLATION * self.tol * v_scale),
+                    abs(x_mid - mid.x) / (self.HALVES_INTERPOLATION * self.tol * x_scale))
+        if (start.mode.slipping and start.mode == mid.mode == end.mode
+                and (grazes(start, mid, 0.5 * h, self.tol * v_scale) or grazes(mid, end, 0.5 * h, self.tol * v_scale))):
+            error = max(error, GRAZING_ERROR)  # halve: the step may hide a stick or a reversal
         return error
-
-    @staticmethod
-    def _grazes(start: Point, mid: Point, end: Point, h: float, margin: float) -> bool:
-        """Slipping one way at both ends and the middle, does the interpolated relative
-        velocity of either half cross 0 by more than margin [m/s] in between? (dv grazing 0
-        between communication points is a stick, or a reversal, that the step would miss;
-        a crossing within the tolerance is not worth a smaller step.)"""
-        for a, b in ((start, mid), (mid, end)):
-            for s in (0.25, 0.5, 0.75):
-                dv = (hermite(a.V, b.V, a.aX, b.aX, 0.5 * h, s)
-                      - hermite(a.v, b.v, a.a, b.a, 0.5 * h, s))
-                if dv * start.mode < -margin:
-                    return True
-        return False
-
-    def root_tolerance(self) -> float:
-        return self.root_tol_fraction * self.tol * self._v_scale
-
 
     def _carry_error(self, start: Point, full: Point, mid: Point, end: Point, impulse: list[float]) -> None:
         """Carry the global error estimate over the accepted halves (see coupling/estimate.py):
@@ -371,24 +462,25 @@ class StepDoublingCoupling(ImplicitCoupling):
         # deliver different impulses then: their difference, not divided by 2^p - 1 (an event
         # inside a step makes it first order), is the impulse error carried on.
         h_full = (end.t_ns - start.t_ns) / NS
-        if end.mode != 0 and end.f != 0.0 and full.F_mean == full.F_mean and mid.F_mean == mid.F_mean \
-                and end.F_mean == end.F_mean:
+        if (end.mode.slipping and end.f != 0.0
+                and None not in (full.F_mean, mid.F_mean, end.F_mean)):
             event = (full.F_mean - 0.5 * (mid.F_mean + end.F_mean)) * h_full * self.velocity_per_impulse
             impulse = [miss + 0.5 * event for miss in impulse]
         # the friction's slope over the mass, from the loop gain: (h/M) c held, (h/2M) c ramped
         damping = self.loop_gain / self.loop_gain_step * (2.0 if full.ramped else 1.0)
         h = (mid.t_ns - start.t_ns) / NS
+        x_scale, v_scale = self.position_scale(full, mid, end), self.velocity_scale(full, mid, end)
         estimate = self.estimate
         for point, miss in zip((mid, end), impulse):
-            estimate.observe(point.x, point.a, point.F, self.velocity_per_impulse, 1e-3 * self._x_scale)
-            point.global_error = estimate.advance(h, damping if point.mode != 0 else 0.0, local_x,
-                                                  local_v + miss, point.mode == 0, self._x_scale,
-                                                  self._v_scale)
+            estimate.observe(point.x, point.a, point.F, self.velocity_per_impulse, W2_POSITION_FLOOR * x_scale)
+            point.global_error = estimate.advance(h, 0.0 if point.mode.stuck else damping, local_x,
+                                                  local_v + miss, point.mode.stuck, x_scale, v_scale)
 
     def _error(self, start: Point, full: Point, halves: Point) -> float:
-        """The step's error relative to what tol allows: the difference between one step
-        and two halves in v and x, measured against the block's own motion so far (its
-        largest |v| and |x|, or the step's own values while the motion grows).
+        """The step's error relative to what tol allows (pure: nothing is stored): the
+        difference between one step and two halves in v and x, measured against the block's
+        own motion (its largest |v| and |x| so far, or the step's own values while the motion
+        grows).
 
         A friction with an internal state (f, the lubricant's excess volume) is also held
         to tol in the force it produces, against the largest |F| so far: f's error matters
@@ -397,18 +489,26 @@ class StepDoublingCoupling(ImplicitCoupling):
         F at all, while solid its small drift decides when it melts.) A law without state
         (f = 0) is not: its force jumps at stick and slip by design.
         """
-        # Floored at 1e-6 of the scene's scales: from complete rest the motion so far is
-        # round-off, and no step would pass.
-        self._v_scale = max(self._v_scale, abs(halves.v), abs(full.v), 1e-6 * self.scales.velocity)
-        self._x_scale = max(self._x_scale, abs(halves.x), abs(full.x), 1e-6 * self.scales.position)
-        error = max(abs(full.v - halves.v) / (self.tol * self._v_scale or 1.0),
-                    abs(full.x - halves.x) / (self.tol * self._x_scale or 1.0))
+        v_scale, x_scale = self.velocity_scale(halves, full), self.position_scale(halves, full)
+        error = max(abs(full.v - halves.v) / (self.tol * v_scale), abs(full.x - halves.x) / (self.tol * x_scale))
         if full.f != 0.0 or halves.f != 0.0:
-            self._F_scale = max(self._F_scale, abs(halves.F), abs(full.F))
-            error = max(error, abs(full.F - halves.F) / (self.tol * self._F_scale or 1.0))
-            self._f_scale = max(self._f_scale, abs(halves.f), abs(full.f))
-            error = max(error, abs(full.f - halves.f) / (self.tol * self._f_scale or 1.0))
+            F_scale = max(self.magnitudes.F, abs(halves.F), abs(full.F)) or 1.0
+            f_scale = max(self.magnitudes.f, abs(halves.f), abs(full.f)) or 1.0
+            error = max(error, abs(full.F - halves.F) / (self.tol * F_scale),
+                        abs(full.f - halves.f) / (self.tol * f_scale))
         return error
+
+
+def grazes(start: Point, end: Point, h: float, margin: float) -> bool:
+    """Slipping one way at both ends of a step of h [s], does the interpolated relative
+    velocity cross 0 by more than margin [m/s] in between? (A stick or a reversal that the
+    step would pass over; a crossing within the tolerance is not worth a smaller step.)"""
+    direction = start.mode.direction
+    for s in GRAZING_SAMPLES:
+        dv = hermite(start.V, end.V, start.aX, end.aX, h, s) - hermite(start.v, end.v, start.a, end.a, h, s)
+        if dv * direction < -margin:
+            return True
+    return False
 
 
 ALGORITHMS = {

@@ -49,6 +49,27 @@ RETRY_HELD_STIFF = RetryHeld("the loop is too stiff to ramp the force")
 RETRY_HELD_TRANSITION = RetryHeld("the contact sticks or reverses inside the step")
 
 
+class FrictionAnswer(NamedTuple):
+    """The friction's latest answer: at the relative velocity dv [m/s], the force F [N], the
+    state f [1], and its mean force over the step [N] (None for a trial, which does not step)."""
+
+    dv: float
+    F: float
+    f: float
+    F_mean: float | None
+
+
+class Probe(NamedTuple):
+    """The held step under the friction at +-delta: that force [N], the relative velocity
+    dv [m/s] and the position x [m] the block answered with at the step's end, and the
+    relative acceleration d(dv)/dt [m/s^2] there."""
+
+    F: float
+    dv: float
+    x: float
+    dv_slope: float
+
+
 class BlockAnswer(NamedTuple):
     """The block's state at the step's end under the force F0 + rate s (F_end at the end)."""
 
@@ -67,6 +88,18 @@ class BlockAnswer(NamedTuple):
 # model checked against it: a block that is not affine (to this many root tolerances) is
 # stepped for every iterate instead.
 MODEL_MISS_TOLERANCE = 1.0
+# The stick onset inside a step is located to this fraction of the step (1 ns in a 1 s step:
+# below the integer-nanosecond time grid of any step the controller takes).
+STICK_ONSET_XTOL = 1e-9
+# The stick ramp's Newton iterations on (dv, x) with secant slopes: the block's answer is
+# affine in (F0, rate), so two or three converge; more means the block is not linear.
+STICK_RAMP_ITERATIONS = 8
+# The stick ramp keeps x on the drive to this fraction of the scene's position scale
+# (round-off of x, ~1e-16 relative, times the few operations of one step).
+STICK_RAMP_POSITION_TOL = 1e-12
+# Aiming at the slip root with the last step's loop gain, the first iterate is placed this
+# fraction beyond the aim, so that it brackets the root when the gain is a little off.
+ROOT_AIM_BEYOND = 0.05
 
 
 @dataclass
@@ -111,22 +144,21 @@ class ImplicitStep:
         self.delta = settings.delta
         self.root_tol = max(self.delta, settings.root_tol)  # m/s
         self.report = StepReport()
-        self.friction_last = None  # (dv, F, f, F_mean) of the friction's latest answer (F_mean: nan for a trial)
+        self.friction_last: FrictionAnswer | None = None  # the friction's latest answer
         self.friction_stepped = False  # the friction has stepped (its state is at the step's end)
         self.friction_input = None  # [m/s] the dv the friction holds as its input (None: unknown)
         self.block_last: BlockAnswer | None = None  # the block's latest answer (real or modelled)
         self.block_real: BlockAnswer | None = None  # its latest real step (the FMU stands there)
         self.block_samples: list[BlockAnswer] = []  # real answers under block_under's family of forces
         self.use_model = True  # off once the block turned out not affine in the force
-        self.probes = {}  # side -> (friction at side * delta, block's dv and x under it, held)
-        self.probe_slopes = {}  # side -> the relative acceleration at the end under that probe
+        self.probes: dict[float, Probe] = {}  # side (+-1.0) -> the held step under the friction at side * delta
 
     # -- evaluations ----------------------------------------------------------------------
     def friction_at(self, dv: float) -> tuple[float, float]:
         """A trial: F [N], f [1] at the relative velocity dv [m/s] with the friction's state
         where it stands (its output's direct feedthrough; no step)."""
         F, f = self.system.friction_outputs(dv)
-        self.friction_last = (dv, F, f, math.nan)
+        self.friction_last = FrictionAnswer(dv, F, f, None)
         self.friction_input = dv
         return F, f
 
@@ -141,7 +173,7 @@ class ImplicitStep:
         F, f, F_mean = self.system.step_friction(dv, self.t, self.h, set_input=dv != self.friction_input)
         self.friction_input = dv
         self.friction_stepped = True
-        self.friction_last = (dv, F, f, F_mean)
+        self.friction_last = FrictionAnswer(dv, F, f, F_mean)
 
     def block_at(self, F0: float, rate: float) -> tuple[float, float]:
         """The block's relative velocity and position after the step under F0 + rate s
@@ -211,8 +243,8 @@ class ImplicitStep:
 
     def probe(self, side: float) -> float:
         value = self.loop(side * self.delta)
-        self.probes[side] = (self.friction_last[1], self.V - self.block_last[2], self.block_last[1])
-        self.probe_slopes[side] = self.aX - self.block_last[3]  # d(dv)/dt at the end [m/s^2]
+        block = self.block_last
+        self.probes[side] = Probe(self.friction_last.F, self.V - block.v, block.x, self.aX - block.a)
         return value
 
     # -- the machine ----------------------------------------------------------------------
@@ -228,16 +260,16 @@ class ImplicitStep:
                 event = self.solve_stuck(event)  # again, every iterate stepped
                 self.block_real_at(self.block_last.F_end)
             self.step_friction(0.0)
-            f, F_mean = self.friction_last[2], math.nan  # the block felt the stick force, not the friction's
+            f, F_mean = self.friction_last.f, None  # the block felt the stick force, not the friction's
         else:
             dv, gain = slip
             self.report.loop_gain = gain
             if self.ramp and gain >= self.settings.max_ramp_gain:
                 return RETRY_HELD_STIFF
             dv = self.settle(dv, gain, mode)
-            if not self.block_real_at(self.friction_last[1]):
+            if not self.block_real_at(self.friction_last.F):
                 dv = self.settle(dv, gain, mode)  # again, every iterate stepped
-                self.block_real_at(self.friction_last[1])
+                self.block_real_at(self.friction_last.F)
             _, F, f, F_mean = self.friction_last
         F, x, v, a, F0, F_rate = self.block_last
         return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
@@ -256,11 +288,11 @@ class ImplicitStep:
         moved the force, G(dv) = (the block's answer to the force after the friction stepped
         to dv) - dv is not yet 0: a secant on G (started with the loop's own slope,
         -(1 + gain)) finds its root, one friction step an iterate."""
-        direction, floor = float(mode), self.delta
+        direction, floor = mode.direction, self.delta
         dv_a = g_a = None
         for _ in range(self.max_settle_rounds):
             self.step_friction(dv)
-            g = self.block_under(self.friction_last[1]) - dv
+            g = self.block_under(self.friction_last.F) - dv
             if abs(g) <= self.root_tol:
                 return dv
             if dv_a is None or g == g_a:
@@ -271,7 +303,7 @@ class ImplicitStep:
             # stay on the slip side: the classification found slip
             dv = new if direction * new > floor else 0.5 * (dv + direction * floor)
         self.step_friction(dv)
-        self.block_under(self.friction_last[1])
+        self.block_under(self.friction_last.F)
         return dv
 
     def classify(self) -> tuple[Contact, tuple[float, float] | None, float] | RetryHeld:
@@ -291,7 +323,7 @@ class ImplicitStep:
                 if previous == Contact.STUCK and self.point.F_rate != 0.0:
                     # It was stuck, its force ramping toward the bound: it broke away when
                     # the ramp reached the bound, maybe well inside this step.
-                    reach = (self.probes[side][0] - self.point.F) / (self.point.F_rate * self.h)
+                    reach = (self.probes[side].F - self.point.F) / (self.point.F_rate * self.h)
                     event = reach if 0.0 < reach < 1.0 else 1.0
                 return Contact(int(side)), self.slip_root(side * delta, h_side, side), event
             if self.ramp:
@@ -302,7 +334,7 @@ class ImplicitStep:
         """Stuck at the step's end: the stick ramp (stuck all through), or the stick force
         (it was slipping, or nothing is known before); returns the event fraction."""
         self.report.stuck = True
-        F_pos, F_neg = self.probes[1.0][0], self.probes[-1.0][0]
+        F_pos, F_neg = self.probes[1.0].F, self.probes[-1.0].F
         self.report.bounds = (min(F_pos, F_neg), max(F_pos, F_neg))
         previous = self.previous
         if previous == Contact.STUCK:
@@ -313,7 +345,8 @@ class ImplicitStep:
             # the root of its cubic Hermite interpolant (a straight line lands short of a
             # curving dv, and the retried step then lands short again, and again).
             side = -1.0 if previous == Contact.BACKWARD else 1.0
-            event = self.stick_onset(self.probes[side][1], self.probe_slopes[side])
+            probe = self.probes[side]
+            event = self.stick_onset(probe.dv, probe.dv_slope)
         if event < 1.0 or previous != Contact.STUCK:
             self.stick_force()
         return event
@@ -329,7 +362,7 @@ class ImplicitStep:
         def dv(s: float) -> float:
             return hermite(dv0, dv_end, slope0, slope_end, h, s)
 
-        return min(1.0, max(0.0, illinois(dv, 0.0, 1.0, dv0, dv_end, xtol=1e-9, rtol=0.0)))
+        return min(1.0, max(0.0, illinois(dv, 0.0, 1.0, dv0, dv_end, xtol=STICK_ONSET_XTOL, rtol=0.0)))
 
     # -- the solvers ----------------------------------------------------------------------
     def predicted_slip(self, side: float) -> tuple[float, float] | None:
@@ -365,7 +398,7 @@ class ImplicitStep:
             # fixed-point pass from the nearer point lands beyond the root: the friction
             # there is at least as large, so the block answers with a smaller dv.
             gain = self.settings.expected_gain
-            for fraction in ((1.05 / (1.0 + gain), 1.0) if gain > 0 else (1.0,)):
+            for fraction in (((1.0 + ROOT_AIM_BEYOND) / (1.0 + gain), 1.0) if gain > 0 else (1.0,)):
                 hi = lo + fraction * h_lo
                 h_hi = loop(hi)
                 if direction * h_hi < 0 or h_hi == 0:
@@ -399,8 +432,9 @@ class ImplicitStep:
         It lies between the friction at -delta and at +delta (the probes already made);
         the secant on the block's answer starts from those two evaluations.
         """
-        (F_pos, a_pos, _), (F_neg, a_neg, _) = self.probes[1.0], self.probes[-1.0]
-        a, da, b, db = F_neg, a_neg, F_pos, a_pos
+        pos, neg = self.probes[1.0], self.probes[-1.0]
+        F_pos, F_neg = pos.F, neg.F
+        a, da, b, db = F_neg, neg.dv, F_pos, pos.dv
         if da == db:
             self.block_under(F_pos)
             return F_pos
@@ -430,7 +464,8 @@ class ImplicitStep:
         Returns the fraction of the step at which the ramp leaves the friction's bounds
         (the contact breaks away there), 1.0 if it stays stuck throughout.
         """
-        (F_pos, d_pos, x_pos), (F_neg, d_neg, x_neg) = self.probes[1.0], self.probes[-1.0]
+        pos, neg = self.probes[1.0], self.probes[-1.0]
+        F_pos, d_pos, x_pos, F_neg, d_neg, x_neg = pos.F, pos.dv, pos.x, neg.F, neg.dv, neg.x
         if F_pos == F_neg:
             return 0.0
         h = self.h
@@ -442,7 +477,7 @@ class ImplicitStep:
         F0, rate = F_neg, 0.0
         d0, x0 = d_neg, x_neg
         d_r, x_r = None, None
-        for _ in range(8):
+        for _ in range(STICK_RAMP_ITERATIONS):
             if d_r is None:
                 d1, x1 = self.block_at(F0, rate + rate_probe)
                 d_r, x_r = (d1 - d0) / rate_probe, (x1 - x0) / rate_probe
@@ -453,7 +488,7 @@ class ImplicitStep:
             rx = x0 - x_target
             F0, rate = F0 - (d0 * x_r - d_r * rx) / det, rate - (d_F * rx - x_F * d0) / det
             d0, x0 = self.block_at(F0, rate)
-            if abs(d0) <= self.delta and abs(x0 - x_target) <= 1e-12 * self.settings.position_scale:
+            if abs(d0) <= self.delta and abs(x0 - x_target) <= STICK_RAMP_POSITION_TOL * self.settings.position_scale:
                 break
         low, high = min(F_neg, F_pos), max(F_neg, F_pos)
         F1 = F0 + rate * h

@@ -34,23 +34,15 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-from .algorithms import ImplicitCoupling, StepDoublingCoupling
-from .interpolation import NS, hermite
+from .algorithms import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
+from .interpolation import NS
 from .system import Contact, CoupledSystem, Point
 
-# A step's error is measured against the block's own motion: its largest |v| and |x| so far,
-# floored at this fraction of the scene's scales (from complete rest the motion is round-off,
-# and no step would pass).
-SCALE_FLOOR = 1e-6
-# The smallest and largest step, as fractions of the scene's period: 1e-7 T resolves any
-# event the kinetics can produce; T/20 keeps the drive's own cosine resolved.
-MIN_STEP_PERIODS, MAX_STEP_PERIODS = 1e-7, 1.0 / 20.0
+# A cubic Hermite interpolant misses by up to h^4 / 384 of the function's fourth derivative.
+HERMITE_ERROR_DIVISOR = 384.0
 # A predicted breakaway closer than this fraction of the planned step to its start or end is
 # not worth a step of its own (the landing handles the rare miss).
 BREAKAWAY_MARGIN = 0.01
-# How much smaller than its allowance a grazing step's error is treated: > 1 rejects it (dv
-# dips past 0 between communication points: a stick or a reversal the step would pass over).
-GRAZING_ERROR = 4.0
 # A step is accepted when its estimated local errors in v and x are within ERROR_WEIGHT x tol
 # x the motion's scale. Step doubling accepted two halves on the difference of one step and
 # the halves, which is 2^p - 1 = 3 (ramped) times a half's error and more: this keeps the
@@ -97,21 +89,6 @@ class LocalError:
     stuck: bool = False  # stuck throughout: F is the stick force's miss (the breakaway's timing)
 
 
-@dataclass
-class Magnitudes:
-    """The largest |v| [m/s], |x| [m], |F| [N] of the accepted points so far: what a step's
-    error is measured against. Updated only when a step is accepted (:meth:`accept`)."""
-
-    v: float = 0.0
-    x: float = 0.0
-    F: float = 0.0
-    f: float = 0.0
-
-    def accept(self, point: Point) -> None:
-        self.v, self.x, self.F = max(self.v, abs(point.v)), max(self.x, abs(point.x)), max(self.F, abs(point.F))
-        self.f = max(self.f, abs(point.f))
-
-
 @dataclass(frozen=True)
 class ForceHistory:
     """The coupling force's slope over the last accepted step, for the predictor: valid only
@@ -119,62 +96,39 @@ class ForceHistory:
 
     slope: float = 0.0  # N/s, (F at its end - F at its start) / h
     h: float = 0.0  # s, its length (0: no history)
-    mode: int = int(Contact.UNKNOWN)
+    mode: Contact = Contact.UNKNOWN
     jerk: float = 0.0  # m/s^3, the block's (a at its end - a at its start) / h, any mode
     f_slope: float = 0.0  # 1/s, the friction's state f: (f at its end - f at its start) / h
     stuck_throughout: bool = False  # it was a stick ramp (its F_rate: the stick force's slope)
 
+    def __post_init__(self):  # (from a JSON snapshot the mode comes as a plain int)
+        object.__setattr__(self, "mode", Contact(self.mode))
 
-class EmbeddedCoupling(ImplicitCoupling):
+
+class EmbeddedCoupling(ErrorControlledCoupling):
     """Implicit steps under error control by an embedded estimate: one solve per step."""
 
     name = "adaptive"
-    default_tol = StepDoublingCoupling.default_tol  # per step; simulate chooses it (tribofmu.checked)
-    default_step = StepDoublingCoupling.default_step  # first try [s]
-    controller = StepDoublingCoupling.controller
-    state_names = ImplicitCoupling.state_names + ("h_ns", "rejected_last", "stick_bounds")
+    state_names = ErrorControlledCoupling.state_names + ("stick_bounds",)
 
     # -- state -----------------------------------------------------------------------------
     def export_state(self) -> dict:
         state = super().export_state()
         if self.stick_bounds is not None:
             state["stick_bounds"] = list(self.stick_bounds)
-        state["estimate"] = [self.estimate.ex, self.estimate.ev, self.estimate.w2]
-        state["magnitudes"] = asdict(self.magnitudes)
         state["history"] = asdict(self.history)
         return state
 
     def import_state(self, state: dict) -> None:
-        missing = {"estimate", "magnitudes", "history"} - set(state)
-        if missing:
-            raise ValueError(f"{self.name} state lacks {', '.join(sorted(missing))}")
+        if "history" not in state:
+            raise ValueError(f"{self.name} state lacks history")
         super().import_state(state)
         self.stick_bounds = tuple(self.stick_bounds) if self.stick_bounds is not None else None  # (JSON: a list)
-        self.estimate.ex, self.estimate.ev, self.estimate.w2 = state["estimate"]
-        self.magnitudes = Magnitudes(**state["magnitudes"])
         self.history = ForceHistory(**state["history"])
 
     def prepare(self, system, scales):
-        from .estimate import GlobalErrorEstimate
-
         super().prepare(system, scales)
-        self.min_ns = max(1, int(scales.period * MIN_STEP_PERIODS * NS))
-        self.max_ns = max(self.min_ns, int(scales.period * MAX_STEP_PERIODS * NS))
-        self.h_ns = min(max(self.step_ns, self.min_ns), self.max_ns)
-        self.estimate = GlobalErrorEstimate()
-        self.magnitudes = Magnitudes()
         self.history = ForceHistory()
-        self.rejected_last = False  # the last step was rejected (its successor may not grow)
-
-    # -- scales ----------------------------------------------------------------------------
-    def velocity_scale(self, *points: Point) -> float:
-        return max(self.magnitudes.v, *(abs(p.v) for p in points), SCALE_FLOOR * self.scales.velocity)
-
-    def position_scale(self, *points: Point) -> float:
-        return max(self.magnitudes.x, *(abs(p.x) for p in points), SCALE_FLOOR * self.scales.position)
-
-    def root_tolerance(self) -> float:
-        return self.root_tol_fraction * self.tol * self.velocity_scale()
 
     # -- the step --------------------------------------------------------------------------
     def planned_step(self, point: Point, stop_ns: int) -> int:
@@ -197,7 +151,7 @@ class EmbeddedCoupling(ImplicitCoupling):
         """Stuck, with the stick force ramping at F_rate: the time [s] at which the ramp
         reaches the friction's bound (the last stuck step's probes), or None."""
         bounds = self.stick_bounds
-        if Contact(point.mode) != Contact.STUCK or bounds is None or point.F_rate == 0.0:
+        if not point.mode.stuck or bounds is None or point.F_rate == 0.0:
             return None
         bound = bounds[1] if point.F_rate > 0.0 else bounds[0]
         reach = (bound - point.F) / point.F_rate
@@ -205,48 +159,30 @@ class EmbeddedCoupling(ImplicitCoupling):
 
     def advance(self, system: CoupledSystem, point: Point, stop_ns: int) -> list[Point]:
         h_ns = self.planned_step(point, stop_ns)
-        start = system.save()
-        try:
-            new = self.solve_step(system, point, h_ns, saved=start)
-            landing = int(h_ns * new.event)
-            if new.event < 1.0 and landing >= self.min_ns and landing >= h_ns // 100:
-                # A stuck contact breaks away inside the step: end the step right there.
-                system.restore(start)
-                self.counters.landed += 1
-                self.h_ns = landing
-                return []
-            h = h_ns / NS
-            local = self.local_error(point, new, h)
-            err = self.error_ratio(point, new, local, h)
-            # local error ~ h^(order + 1): ramped h^3, held h^2; a stick ramp's breakaway
-            # miss dF^2 with dF ~ h^2: h^4
-            order = 3 if local.stuck else (2 if new.ramped else 1)
-            factor = self.controller.factor(err, order, self.rejected_last)
-            if err <= 1.0 or h_ns <= self.min_ns:
-                self.counters.forced += err > 1.0
-                self.counters.steps += 1
-                self.rejected_last = False
-                self.h_ns = int(min(max(h_ns * factor, self.min_ns), self.max_ns))
-                self._carry_error(point, new, local, h)
-                self.history = self.next_history(point, new, h)
-                self.magnitudes.accept(new)
-                return [new]
-            system.restore(start)
-            self.counters.rejected += 1
-            self.rejected_last = True
-            self.h_ns = int(max(h_ns * factor, self.min_ns))
+        start = self.states_at(system, point)
+        new = self.solve_step(system, point, h_ns, saved=start)
+        if self._landed(system, start, h_ns, new.event):  # a breakaway inside: end the step there
             return []
-        finally:
-            system.free(start)
+        h = h_ns / NS
+        local = self.local_error(point, new, h)
+        err = self.error_ratio(point, new, local, h)
+        # local error ~ h^(order + 1): ramped h^3, held h^2; a stick ramp's breakaway
+        # miss dF^2 with dF ~ h^2: h^4
+        order = 3 if local.stuck else (2 if new.ramped else 1)
+        if not self._accepted(system, start, h_ns, err, order, self.min_ns, 1):
+            return []
+        self._carry_error(point, new, local, h)
+        self.history = self.next_history(point, new, h)
+        self.magnitudes.accept(new)
+        return [new]
 
     @staticmethod
     def next_history(point: Point, new: Point, h: float) -> ForceHistory:
         jerk = (new.a - point.a) / h
-        if Contact(new.mode).slipping and new.mode == point.mode:
-            return ForceHistory((new.F - point.F) / h, h, int(new.mode), jerk, (new.f - point.f) / h)
+        if new.mode.slipping and new.mode == point.mode:
+            return ForceHistory((new.F - point.F) / h, h, new.mode, jerk, (new.f - point.f) / h)
         # a step into slip from a stick or a reversal: its slope is a transition's, no predictor
-        stuck = Contact(new.mode) == Contact.STUCK and Contact(point.mode) == Contact.STUCK
-        return ForceHistory(0.0, 0.0, int(new.mode), jerk, stuck_throughout=stuck)
+        return ForceHistory(0.0, 0.0, new.mode, jerk, stuck_throughout=new.mode.stuck and point.mode.stuck)
 
     def interpolation_limit(self, point: Point) -> float:
         """The longest step [s] whose interpolants should stay within tol (see
@@ -255,9 +191,9 @@ class EmbeddedCoupling(ImplicitCoupling):
         w2 = self.estimate.w2
         if w2 <= 0.0:
             return math.inf
-        room_v = INTERPOLATION_SAFETY * 384.0 * self.tol * self.velocity_scale(point) / w2
-        room_x = INTERPOLATION_SAFETY * 384.0 * self.tol * self.position_scale(point) / w2
-        if not Contact(point.mode).slipping:
+        room_v = INTERPOLATION_SAFETY * HERMITE_ERROR_DIVISOR * self.tol * self.velocity_scale(point) / w2
+        room_x = INTERPOLATION_SAFETY * HERMITE_ERROR_DIVISOR * self.tol * self.position_scale(point) / w2
+        if not point.mode.slipping:
             return math.inf
         # the ends of a step as long as the block's own period can look alike (a slow dry
         # drive's slip phases: fig2's rig at omega = 10, 6.4e-2 nRMS(v) without this cap)
@@ -273,10 +209,10 @@ class EmbeddedCoupling(ImplicitCoupling):
         """The step's local errors from the solve's own outcome and the force history (see
         the module's docstring); pure: nothing is stored."""
         impulse = self._impulse_misses(point, new)[0]
-        if Contact(new.mode) == Contact.STUCK:
-            if Contact(point.mode) == Contact.STUCK and not self.history.stuck_throughout:
+        if new.mode.stuck:
+            if point.mode.stuck and not self.history.stuck_throughout:
                 return LocalError(impulse=impulse)  # the first stick ramp: no slope to predict from
-            if Contact(point.mode) == Contact.STUCK:
+            if point.mode.stuck:
                 # The stick ramp is exact in x and v; its force is a chord of the curving
                 # stick force, and where that reaches the friction's bound the contact breaks
                 # away: the end force's miss (half its distance from the last ramp's
@@ -324,7 +260,7 @@ class EmbeddedCoupling(ImplicitCoupling):
             error = max(error, FORCE_WEIGHT * abs(local.F) / (self.tol * F_scale))
             f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
             error = max(error, STATE_WEIGHT * abs(local.f) / (self.tol * f_scale))
-        if Contact(point.mode).slipping and point.mode == new.mode:
+        if point.mode.slipping and point.mode == new.mode:
             # (across a transition a jumps and the interpolants take one-sided slopes; stuck,
             # v is the drive's V, interpolated with the drive's acceleration)
             error = max(error, self.interpolation_error(point, new, h, v_scale, x_scale))
@@ -345,7 +281,7 @@ class EmbeddedCoupling(ImplicitCoupling):
         w2 = self.estimate.w2
         if w2 <= 0.0:
             return 0.0
-        scale = h ** 4 / 384.0 * w2
+        scale = h ** 4 / HERMITE_ERROR_DIVISOR * w2
         v_miss = scale * abs(new.a - point.a) / h  # h^4 w2 |jerk| / 384, as the limit plans
         x_miss = scale * max(abs(point.a), abs(new.a))
         return max(v_miss / (self.tol * v_scale), x_miss / (self.tol * x_scale))
@@ -354,8 +290,8 @@ class EmbeddedCoupling(ImplicitCoupling):
         """Carry the global error estimate over the accepted step (coupling/estimate.py)."""
         damping = self.loop_gain / self.loop_gain_step * (2.0 if new.ramped else 1.0)
         x_scale, v_scale = self.position_scale(point, new), self.velocity_scale(point, new)
-        stuck = Contact(new.mode) == Contact.STUCK
-        self.estimate.observe(new.x, new.a, new.F, self.velocity_per_impulse, 1e-3 * x_scale)
+        stuck = new.mode.stuck
+        self.estimate.observe(new.x, new.a, new.F, self.velocity_per_impulse, W2_POSITION_FLOOR * x_scale)
         state = 0.0
         if self.magnitudes.f > 0.0 and not stuck:
             # the friction's state off its path moves the force by about its share of the
@@ -364,19 +300,3 @@ class EmbeddedCoupling(ImplicitCoupling):
         new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, local.x,
                                                  local.v + local.impulse + state, stuck, x_scale, v_scale)
         new.est_error = abs(local.v)
-
-
-# Where between two communication points the interpolated relative velocity is checked for a
-# crossing of 0 (quarters: a dip shorter than a quarter step is below the step's resolution).
-GRAZING_SAMPLES = (0.25, 0.5, 0.75)
-
-
-def grazes(start: Point, end: Point, h: float, margin: float) -> bool:
-    """Slipping one way at both ends of a step of h [s], does the interpolated relative
-    velocity cross 0 by more than margin [m/s] in between? (A stick or a reversal that the
-    step would pass over; a crossing within the tolerance is not worth a smaller step.)"""
-    for s in GRAZING_SAMPLES:
-        dv = hermite(start.V, end.V, start.aX, end.aX, h, s) - hermite(start.v, end.v, start.a, end.a, h, s)
-        if dv * start.mode < -margin:
-            return True
-    return False

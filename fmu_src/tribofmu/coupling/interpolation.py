@@ -21,7 +21,7 @@ SAMPLES_PER_PERIOD = 1000
 def velocity_slopes(start, end) -> tuple[float, float]:
     """dv/dt [m/s^2] at both ends of the step start -> end, as results are interpolated:
     over a step that ends stuck, v follows V, so the slope is the drive's acceleration."""
-    return (start.aX, end.aX) if end.mode == 0 else (start.a, end.a)
+    return (start.aX, end.aX) if end.mode.stuck else (start.a, end.a)
 
 
 def hermite_basis(s):

@@ -61,6 +61,15 @@ class Contact(IntEnum):
     def slipping(self) -> bool:
         return self in (Contact.FORWARD, Contact.BACKWARD)
 
+    @property
+    def stuck(self) -> bool:
+        return self is Contact.STUCK
+
+    @property
+    def direction(self) -> float:
+        """The sign of dv while slipping (+1.0 forward, -1.0 backward), 0.0 otherwise."""
+        return 1.0 if self is Contact.FORWARD else (-1.0 if self is Contact.BACKWARD else 0.0)
+
 
 @dataclass
 class Point:
@@ -68,8 +77,9 @@ class Point:
 
     F is the force the block felt at the end of the step that led here; F_start and
     F_rate describe the force over that step (F_start + F_rate s), for energy audits.
-    mode: a :class:`Contact` (+1/-1 slipping with dv > 0 / < 0, 0 stuck: dv held at 0 by the
-    coupling, 2 unknown: the start).
+    mode: a :class:`Contact` (slipping forward or backward, stuck: dv held at 0 by the coupling,
+    or unknown: the start, before any step classified the contact; a plain int given, as from
+    a JSON snapshot, is read as the Contact it names).
     """
 
     t_ns: int
@@ -83,8 +93,8 @@ class Point:
     f: float = 0.0
     F_start: float = 0.0
     F_rate: float = 0.0
-    F_mean: float = math.nan  # N, the friction's own mean force over the step (nan: not reported)
-    mode: int = 0
+    F_mean: float | None = None  # N, the friction's own mean force over the step (None: not reported)
+    mode: Contact = Contact.UNKNOWN
     est_error: float = 0.0  # m/s, the algorithm's own estimate of this step's error in v (0: none)
     global_error: float = 0.0  # m/s, its estimate of the error in v carried to here (0: none)
     event: float = 1.0  # fraction of the step at which the contact broke away or stuck (1: none)
@@ -92,6 +102,10 @@ class Point:
     T: float = math.nan  # K, the friction's temperature input at this point (Thermal's output)
     n: float = math.nan  # Pa, the friction's normal stress input at this point
     Q: float = 0.0  # J, heat the Thermal slave received up to this point (0 without one)
+
+    def __post_init__(self):
+        if type(self.mode) is not Contact:
+            self.mode = Contact(self.mode)
 
     @property
     def dv(self) -> float:
@@ -130,8 +144,8 @@ class CoupledSystem:
         if friction is not None:
             fr = friction.refs
             self._dv = [fr["dv"]]
-            # the mean force over the step, where the friction reports it (F twice where not)
-            self._friction_out = [fr["F"], fr["f"], fr.get("F_mean", fr["F"])]
+            # F, f, and the mean force over the step where the friction reports it (no output read twice)
+            self._friction_out = [fr["F"], fr["f"]] + ([fr["F_mean"]] if "F_mean" in fr else [])
             fed = {"n"} if load is not None else set()
             fed |= {"T"} if thermal is not None else set()
             held = {k: v for k, v in (conditions or {}).items() if k not in fed}
@@ -187,16 +201,18 @@ class CoupledSystem:
         self.block.do_step(t, h)
         return self.block_outputs()
 
-    def step_friction(self, dv: float, t: float, h: float, set_input: bool = True) -> tuple[float, float, float]:
+    def step_friction(self, dv: float, t: float, h: float,
+                      set_input: bool = True) -> tuple[float, float, float | None]:
         """Step the friction to dv [m/s] at t + h; returns F, f at t + h and the mean force
-        [N] over the step (F where the friction does not report it). set_input=False: the
+        [N] over the step (None where the friction does not report it). set_input=False: the
         friction holds dv as its input already (the caller's last trial set it)."""
         if self.friction is None:
-            return 0.0, 0.0, 0.0
+            return 0.0, 0.0, None
         if set_input:
             self.friction.set_reals(self._dv, [dv])
         self.friction.do_step(t, h)
-        return tuple(self.friction.get_reals(self._friction_out))
+        F, f, *F_mean = self.friction.get_reals(self._friction_out)
+        return F, f, (F_mean[0] if F_mean else None)
 
     def finish_step(self, start: Point, end: Point, t: float, h: float) -> None:
         """Called once the coupled loop of a step t -> t + h [s] is solved (end holds its

@@ -14,6 +14,15 @@ class ValueAccessMixin:
     """Get and set by value reference, for every FMI type the models declare."""
 
     def _set(self, kind: type, vrs, values) -> None:
+        if kind is Real and self._mode == STEP:
+            # the hot path of a master (inputs between steps): a Real input passes every check
+            # of _may_not_set in step mode, so its setter (which still checks the value) is
+            # called straight away; anything else takes the checked path below
+            setters = self._real_input_setters()
+            if all(vr in setters for vr in vrs):
+                for vr, value in zip(vrs, values):
+                    setters[vr](value)
+                return
         call = f"Set{_TYPE_NAMES[kind]}"
         for vr, value in zip(vrs, values):
             var = self.vars.get(vr)
@@ -38,7 +47,29 @@ class ValueAccessMixin:
                     f"{_PREFIX}ExitInitializationMode ({_PREFIX}Reset to change it)")
         return None
 
+    def _real_input_setters(self) -> dict[int, Callable[[Any], None]]:
+        """Value reference -> setter of every Real input (variables are declared once)."""
+        setters = getattr(self, "_real_input_setter_cache", None)
+        if setters is None:
+            setters = self._real_input_setter_cache = {
+                vr: var.setter for vr, var in self.vars.items()
+                if isinstance(var, Real) and var.causality == Causality.input and var.setter is not None}
+        return setters
+
+    def _real_getters(self) -> dict[int, Callable[[], Any]]:
+        """Value reference -> getter of every Real variable."""
+        getters = getattr(self, "_real_getter_cache", None)
+        if getters is None:
+            getters = self._real_getter_cache = {vr: var.getter for vr, var in self.vars.items()
+                                                 if isinstance(var, Real)}
+        return getters
+
     def _get(self, kind: type, vrs, cast: Callable[[Any], Any], missing: Any) -> list:
+        if kind is Real and self._mode == STEP:
+            # the hot path: known Real variables read in step mode need none of the checks below
+            getters = self._real_getters()
+            if all(vr in getters for vr in vrs):
+                return [float(getters[vr]()) for vr in vrs]
         call = f"Get{_TYPE_NAMES[kind]}"
         if self._mode == INSTANTIATED and not self._describing:
             self._refuse(call, f"not allowed before {_PREFIX}EnterInitializationMode; "

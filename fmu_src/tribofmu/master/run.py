@@ -144,7 +144,7 @@ class GridRecorder:
         if len(self.buffer) >= 2:
             self._flush()
         elif self.first is not None and self.filled == 0 and len(self.grid):  # never stepped
-            self._store(0, {k: np.array([float(self.first.mode == 0) if k == "stuck" else getattr(self.first, k)])
+            self._store(0, {k: np.array([float(self.first.mode.stuck) if k == "stuck" else getattr(self.first, k)])
                             for k in self.signals})
             for audit in self.audits:
                 audit.add([self.first])
@@ -219,6 +219,11 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
     except (FloatingPointError, RunawayError) as exc:
         ok, message = False, str(exc)
         out_of_time = isinstance(exc, RunawayError)
+    finally:
+        try:
+            algorithm.finish(system)
+        except FMUCallError:  # a failed run's slaves may refuse: they are closed next anyway
+            pass
     recorder.finish()
     wall = _time.perf_counter() - begin
     c = algorithm.counters

@@ -29,6 +29,7 @@ import numpy as np
 
 from ..errors import NumericalError
 from ..coupling.interpolation import NS
+from ..coupling.contact import slip_mode
 from ..physics.block import BlockState, advance_block
 from ..physics.drive import drive
 from ..scene.scenario import Scenario, scales
@@ -341,12 +342,12 @@ def estimate_tracking(points, scenario: Scenario, window_only: bool = True) -> d
         if t0 < t_lo or t1 > t_hi:
             continue
         s = start.mode
-        if s == 0 or mid.mode != s or end.mode != s:
+        if not s.slipping or mid.mode != s or end.mode != s:
             skipped += 1
             continue
         h = t1 - t0
         if law.constant_slip_force:
-            exact = advance_block(BlockState(start.x, start.v), law.slip_force(0.0, n, float(s)), 0.0, h, M, K)
+            exact = advance_block(BlockState(start.x, start.v), law.slip_force(0.0, n, s.direction), 0.0, h, M, K)
             v_true = exact.v
         else:
             def rhs(t, y):
@@ -356,7 +357,7 @@ def estimate_tracking(points, scenario: Scenario, window_only: bool = True) -> d
                             atol=(1e-15 * A, 1e-15 * v_scale))
             v_true = float(sol.y[1, -1])
         dv_true = drive(t1, A, omega)[1] - v_true
-        if (dv_true > 0) - (dv_true < 0) != s:  # the true motion sticks or reverses inside
+        if slip_mode(dv_true, 0.0) != s:  # the true motion sticks or reverses inside
             skipped += 1
             continue
         true_err = abs(end.v - v_true)

@@ -70,7 +70,7 @@ class TriboPair(Fmi2Slave):
 
     def _show(self, point):
         self.x, self.v, self.a, self.F, self.f = point.x, point.v, point.a, point.F, point.f
-        self.dv, self.stuck = point.V - point.v, float(point.mode == 0)
+        self.dv, self.stuck = point.V - point.v, float(point.mode.stuck)
 
     @property
     def pair_state(self):
