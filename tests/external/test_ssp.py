@@ -16,7 +16,6 @@ shifted by one step here (see ``run_fmpy``).
 """
 from __future__ import annotations
 
-import importlib.util
 import io
 import json
 import math
@@ -177,75 +176,19 @@ def bound_parameters(root: ET.Element) -> dict[str, dict[str, tuple[str, str]]]:
 
 
 def reference_velocity(scenario, t: np.ndarray) -> np.ndarray:
-    """v(t) [m/s] of the converged monolithic solution (tribofmu.studies.reference when present)."""
-    if importlib.util.find_spec("tribofmu.studies.reference") is not None:
-        from tribofmu.studies.reference import reference_solution
+    """v(t) [m/s] of the converged monolithic solution (tribofmu.studies.reference)."""
+    from tribofmu.studies.reference import reference_solution
 
-        result = reference_solution(scenario, t)
-        assert result.ok, f"reference solution failed: {result.message}"
-        return np.asarray(result.v, dtype=float)
-    return _local_reference_velocity(scenario, t)
+    result = reference_solution(scenario, t)
+    assert result.ok, f"reference solution failed: {result.message}"
+    return np.asarray(result.v, dtype=float)
 
 
 def window_nrms(t: np.ndarray, v: np.ndarray, t_ref: np.ndarray, v_ref: np.ndarray, window) -> float:
-    """RMS(v - v_ref) over the window / max |v_ref| there (tribofmu.studies.reference.nrms when present)."""
-    if importlib.util.find_spec("tribofmu.studies.reference") is not None:
-        from tribofmu.studies.reference import nrms
+    """RMS(v - v_ref) over the window / max |v_ref| there."""
+    from tribofmu.studies.reference import nrms
 
-        return nrms(t, v, t_ref, v_ref, window)
-    inside = (t_ref >= window[0]) & (t_ref <= window[1])
-    diff = np.interp(t_ref[inside], t, v) - v_ref[inside]
-    return float(np.sqrt(np.mean(diff ** 2)) / np.max(np.abs(v_ref[inside])))
-
-
-def _local_reference_velocity(scenario, t: np.ndarray) -> np.ndarray:
-    """Stand-in until tribofmu.studies.reference lands: Newtonian fluid and dry friction only."""
-    from scipy.integrate import solve_ivp
-
-    A, w, M, K = scenario.drive.A, scenario.drive.omega, scenario.block.M, scenario.block.K
-    fr = scenario.friction
-    V = lambda s: -A * w * math.sin(w * s)  # noqa: E731
-    Vd = lambda s: -A * w * w * math.cos(w * s)  # noqa: E731
-    t_end = float(t[-1])
-    if fr.regime == "fluid" and fr.gamma == 0.0:
-        sol = solve_ivp(lambda s, y: [y[1], (fr.m * (V(s) - y[1]) - 2 * K * y[0]) / M], (0.0, t_end),
-                        [scenario.block.x0, scenario.block.v0], method="DOP853", rtol=1e-12,
-                        atol=[1e-12 * A, 1e-12 * A * w], dense_output=True)
-        return sol.sol(t)[1]
-    assert fr.regime == "dry", "local reference covers Newtonian fluid and dry friction only"
-    bound = fr.mu_friction * scenario.load
-    # Event-driven: slip with F = +-bound; stick (v = V) while |M V' + 2 K x| <= bound.
-    t0, x0, v0, segments = 0.0, scenario.block.x0, scenario.block.v0, []
-
-    def next_mode(s: float, x: float) -> int:
-        need = M * Vd(s) + 2 * K * x
-        return 0 if abs(need) <= bound else (1 if need > 0 else -1)
-
-    mode = next_mode(t0, x0) if v0 == V(t0) else (1 if V(t0) > v0 else -1)
-    while t0 < t_end:
-        if mode == 0:
-            rhs = lambda s, y: [V(s), Vd(s)]  # noqa: E731
-            event = lambda s, y: abs(M * Vd(s) + 2 * K * y[0]) - bound  # noqa: E731
-            event.direction = 1
-        else:
-            rhs = lambda s, y, sign=mode: [y[1], (sign * bound - 2 * K * y[0]) / M]  # noqa: E731
-            event = lambda s, y: V(s) - y[1]  # noqa: E731
-            event.direction = -mode
-        event.terminal = True
-        sol = solve_ivp(rhs, (t0, t_end), [x0, v0], method="DOP853", rtol=1e-11,
-                        atol=[1e-13, 1e-13], events=event, dense_output=True)
-        segments.append((t0, sol.t[-1], sol.sol))
-        if sol.status != 1:
-            break
-        t0, x0 = float(sol.t_events[0][0]), float(sol.y_events[0][0][0])
-        v0 = V(t0)
-        need = M * Vd(t0) + 2 * K * x0
-        mode = (1 if need > 0 else -1) if mode == 0 else next_mode(t0, x0)
-    v = np.empty(len(t))
-    for i, s in enumerate(t):
-        sol = next(f for a, b, f in segments if a <= s <= b)
-        v[i] = sol(s)[1]
-    return v
+    return nrms(t, v, t_ref, v_ref, window)
 
 
 def _report(master: str, what: str, **numbers) -> None:

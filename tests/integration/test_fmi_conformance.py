@@ -203,18 +203,36 @@ def _input_table(n: float) -> np.ndarray:
     return table
 
 
-REGIME_CASES = {
-    "dry": (dict(regime=0, mu_friction=0.5, S=1.0), -20.0),
-    "fluid": (dict(regime=1, m=25.0, gamma=0.0), -20.0),
-    "boundary": (BOUNDARY, -1e6),
+def _dry_force(F, dv, f, moving):  # |F| = mu L with L = -n S
+    assert np.all(np.abs(F[moving]) == 0.5 * 20.0)
+
+
+def _newtonian_force(F, dv, f, moving):  # F = m dv
+    np.testing.assert_allclose(F, 25.0 * dv, rtol=1e-15, atol=0)
+
+
+def _stribeck_force(F, dv, f, moving):  # between mu_c L and mu_s L, plus m dv
+    coulomb = np.abs(F[moving] - 4.0 * dv[moving])
+    assert np.all(coulomb >= 0.35 * 20.0 * (1 - 1e-12)) and np.all(coulomb <= 0.55 * 20.0 * (1 + 1e-12))
+    assert np.ptp(coulomb) > 0.1 * (0.55 - 0.35) * 20.0  # it does fall from mu_s toward mu_c
+
+
+def _lubricant_evolves(F, dv, f, moving):
+    assert np.ptp(f) > 0.0
+
+
+REGIME_CASES = {  # law: (parameters, n [Pa], what its force must satisfy)
+    "dry": (dict(regime=0, mu_friction=0.5, S=1.0), -20.0, _dry_force),
+    "fluid": (dict(regime=1, m=25.0, gamma=0.0), -20.0, _newtonian_force),
+    "boundary": (BOUNDARY, -1e6, _lubricant_evolves),
     "mixed": (dict(regime=3, mu_friction=0.35, mu_static=0.55, v_stribeck=0.015, stribeck_exponent=1.5,
-                   m=4.0, S=1.0), -20.0),
+                   m=4.0, S=1.0), -20.0, _stribeck_force),
 }
 
 
 @pytest.mark.parametrize("regime", REGIME_CASES)
 def test_friction_runs_alone_in_simulate_fmu_and_dissipates(fmu_paths, regime):
-    params, n = REGIME_CASES[regime]
+    params, n, law_holds = REGIME_CASES[regime]
     result = simulate_fmu(str(fmu_paths["Friction"]), start_time=0.0, stop_time=1.0,
                           output_interval=5e-3, start_values=params, input=_input_table(n),
                           output=["F", "f", "dv"], debug_logging=True)
@@ -225,13 +243,4 @@ def test_friction_runs_alone_in_simulate_fmu_and_dissipates(fmu_paths, regime):
     assert moving.sum() > 100 and (dv > 0).any() and (dv < 0).any()
     assert np.all(np.sign(F[moving]) == np.sign(dv[moving]))
     assert np.all(F * dv >= 0.0)
-    if regime == "dry":  # |F| = mu L with L = -n S
-        assert np.all(np.abs(F[moving]) == 0.5 * 20.0)
-    elif regime == "fluid":  # Newtonian: F = m dv
-        np.testing.assert_allclose(F, 25.0 * dv, rtol=1e-15, atol=0)
-    elif regime == "mixed":  # the Stribeck curve: between mu_c L and mu_s L, plus m dv
-        coulomb = np.abs(F[moving] - 4.0 * dv[moving])
-        assert np.all(coulomb >= 0.35 * 20.0 * (1 - 1e-12)) and np.all(coulomb <= 0.55 * 20.0 * (1 + 1e-12))
-        assert np.ptp(coulomb) > 0.1 * (0.55 - 0.35) * 20.0  # it does fall from mu_s toward mu_c
-    else:  # the lubricant state evolves
-        assert np.ptp(f) > 0.0
+    law_holds(F, dv, f, moving)
