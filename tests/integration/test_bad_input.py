@@ -270,3 +270,27 @@ def test_export_ssp_never_replaces_a_file_it_did_not_write(tmp_path, capsys, fmu
         code, err, _ = run(["export-ssp", str(FIG2), "--out", str(ours), "--fmu-dir", str(fmu_dir)], capsys)
         assert code == 0, err
     assert zipfile.ZipFile(ours).read("SystemStructure.ssd").count(b'generationTool="tribofmu ') == 1
+
+
+def test_an_fmu_from_an_older_build_is_one_line_naming_the_parameter(tmp_path, fmu_dir, capsys):
+    """--fmu-dir holding a Friction FMU built before a law's parameter existed (here: its
+    model description names no mu_static): exit 2, one line naming the parameter and the
+    rebuild, nothing written (before: a KeyError traceback from the setter)."""
+    import shutil
+    import zipfile
+
+    old = tmp_path / "fmus"
+    shutil.copytree(fmu_dir, old)
+    with zipfile.ZipFile(fmu_dir / "Friction.fmu") as src, \
+            zipfile.ZipFile(old / "Friction.fmu", "w", zipfile.ZIP_DEFLATED) as dst:
+        for item in src.infolist():
+            data = src.read(item)
+            if item.filename == "modelDescription.xml":
+                data = data.replace(b'name="mu_static"', b'name="unused_parameter"')
+            dst.writestr(item, data)
+    out = tmp_path / "out"
+    run = main("simulate", "mixed_stribeck", "--fmu-dir", old, "--out", out, "--no-plots", capsys=capsys)
+    assert run.returncode == 2, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and "'mu_static'" in lines[0] and "rebuild" in lines[0], run.stderr
+    assert not out.exists()

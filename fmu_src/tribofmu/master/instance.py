@@ -21,7 +21,7 @@ from typing import Any, Sequence
 
 from ..atomic import left_by_gone_process
 from ..coupling.system import CALL_KINDS
-from ..errors import STATUS_NAMES, FMUCallError, FMUError, FMUFileError  # noqa: F401 (re-exported)
+from ..errors import STATUS_NAMES, FMUCallError, FMUError, FMUFileError, FMUSetupError  # noqa: F401 (re-exported)
 
 
 # -- where FMUs are unzipped -------------------------------------------------------------
@@ -138,6 +138,10 @@ class FMUInstance:
         self.fmi_version = 3 if md.fmiVersion.startswith("3") else 2
         if md.coSimulation is None:
             raise FMUFileError(f"{instance}: {path} is not a co-simulation FMU")
+        unknown = sorted(set(parameters or ()) - set(self.variables))
+        if unknown:  # before anything is unzipped or instantiated: nothing to undo
+            raise FMUSetupError(f"{instance}: {path} has no parameter {', '.join(map(repr, unknown))}: an FMU "
+                                f"built by another tribofmu version? rebuild it (tribofmu build --out {path.parent})")
         self._prefix = f"fmi{self.fmi_version}"
         try:
             self._unzipped = extract(path)
@@ -274,7 +278,7 @@ class FMUInstance:
         for name, value in values.items():
             var = self.variables.get(name)
             if var is None:
-                raise KeyError(f"{self.instance}: no variable {name!r}")
+                raise FMUSetupError(f"{self.instance}: no variable {name!r} in this FMU")
             refs, vals = groups.setdefault(var.type, ([], []))
             refs.append(var.valueReference)
             vals.append(value)
