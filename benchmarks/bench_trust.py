@@ -3,7 +3,7 @@ run that misses it say so?
 
     python benchmarks/bench_trust.py [--tols default,1e-3,1e-4] [--only SUBSTRING] [--out FILE.json]
 
-At parameter points no scene uses (dry, fluid and boundary friction across docs/model.md's
+At parameter points no scene uses (dry, fluid, boundary and mixed friction across docs/model.md's
 ranges), each run of ``tribofmu.api.simulate`` (whole call, its checks included) is compared
 with the independent reference (``studies.reference``, rtol 1e-10). Printed per run: the tol
 asked (``default`` is the scene's own, 1e-3), the error reported
@@ -48,6 +48,10 @@ POINTS = [
     ("boundary gamma=1", "fig6_boundary", {"friction.gamma": 1.0}),
     ("boundary gamma=2", "fig6_boundary", {"friction.gamma": 2.0}),
     ("boundary omega=20", "fig6_boundary", {"drive.omega": 20.0}),
+    # mixed (Stribeck) friction: other frequency, coefficients, Stribeck velocity and exponent
+    ("mixed omega=18 mu_s=0.7", "mixed_stribeck", {"drive.omega": 18.0, "friction.mu_static": 0.7}),
+    ("mixed v_s=0.03 delta=1", "mixed_stribeck", {"friction.v_stribeck": 0.03, "friction.stribeck_exponent": 1.0}),
+    ("mixed M=0.3 m=0 mu_c=0.3", "mixed_stribeck", {"block.M": 0.3, "friction.m": 0.0, "friction.mu_friction": 0.3}),
 ]
 
 
