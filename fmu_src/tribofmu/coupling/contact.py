@@ -88,6 +88,28 @@ class BlockAnswer(NamedTuple):
 # model checked against it: a block that is not affine (to this many root tolerances) is
 # stepped for every iterate instead.
 MODEL_MISS_TOLERANCE = 1.0
+# A slip step's first real block step plus the block's slope d(v, x, a)/dF_end [per N] from the
+# last step of the same family (held or ramped) model its answer to the other forces the root
+# tries: one real trial instead of two. The slope of a linear block depends on the step alone;
+# from another step length it is scaled by h (v) and h^2 (x), the leading terms of a mass's
+# response (h/M held, h/2M ramped; h^2/2M, h^2/6M), exact as h -> 0: off by O(w2 h^2) of the
+# slope, which the final real step's check (MODEL_MISS_TOLERANCE) catches, and the step then
+# models from its two real answers instead.
+class BlockSlope(NamedTuple):
+    """The block's response to its end force over a step of ``h_ns`` [ns] held or ramped
+    (``ramp``): d v/dF_end [m/s/N], d x/dF_end [m/N], d a/dF_end [m/s^2/N]."""
+
+    h_ns: int
+    ramp: bool
+    v: float
+    x: float
+    a: float
+
+    def scaled(self, h_ns: int) -> "BlockSlope":
+        r = h_ns / self.h_ns
+        return BlockSlope(h_ns, self.ramp, self.v * r, self.x * r * r, self.a)
+
+
 # The stick onset inside a step is located to this fraction of the step (1 ns in a 1 s step:
 # below the integer-nanosecond time grid of any step the controller takes).
 STICK_ONSET_XTOL = 1e-9
@@ -112,6 +134,8 @@ class StepReport:
     iterations: int = 0  # evaluations of the coupling loop
     stuck: bool = False
     bounds: tuple[float, float] | None = None  # [N] the friction's force range at dv = 0 (stuck steps)
+    block_slope: BlockSlope | None = None  # measured from two real block steps of one family
+    force_drift_rate: float | None = None  # [N/s] the friction's force at the root moved by its state's step
 
 
 @dataclass(frozen=True)
@@ -134,7 +158,8 @@ class ImplicitStep:
     at the step's end (``drive`` = X, V, aX), the block and friction saved in ``saved``."""
 
     def __init__(self, settings: StepSettings, system: CoupledSystem, point: Point, saved: States,
-                 h_ns: int, drive: tuple[float, float, float], ramp: bool):
+                 h_ns: int, drive: tuple[float, float, float], ramp: bool,
+                 block_slope: BlockSlope | None = None, force_drift_rate: float = 0.0):
         self.settings, self.system, self.point, self.ramp = settings, system, point, ramp
         self.previous = Contact(point.mode)
         self.h_ns, self.t, self.h = h_ns, point.t_ns / NS, h_ns / NS
@@ -151,6 +176,14 @@ class ImplicitStep:
         self.block_real: BlockAnswer | None = None  # its latest real step (the FMU stands there)
         self.block_samples: list[BlockAnswer] = []  # real answers under block_under's family of forces
         self.use_model = True  # off once the block turned out not affine in the force
+        # the last step's slope of this family, for a model from one real answer (slip solves)
+        self.seed = block_slope.scaled(h_ns) if block_slope is not None and block_slope.ramp == ramp else None
+        self.seed_allowed = False  # on while a slip root is sought (probes and stick forces step for real)
+        self.last_seeded = False  # the latest modelled answer came from one real answer and the seed
+        # The slip root's trials hold the friction's state where it stands; stepping it moves
+        # the force at the root by about what it did over the last slip step (its drift rate
+        # times h): the trials add that, so that the friction's one step lands on the root.
+        self.force_drift = force_drift_rate * self.h
         self.probes: dict[float, Probe] = {}  # side (+-1.0) -> the held step under the friction at side * delta
 
     # -- evaluations ----------------------------------------------------------------------
@@ -210,12 +243,23 @@ class ImplicitStep:
     def block_model(self, F: float, F0: float, rate: float) -> BlockAnswer | None:
         """The block's answer to the end force F, affine in it through the last two real
         answers under distinct end forces (None: fewer than two, or the model is off)."""
-        if not self.use_model or len(self.block_samples) < 2:
+        samples = self.block_samples
+        if not self.use_model or not samples:
             return None
+        b = samples[-1]
+        if F == b.F_end:  # (a law whose force does not move with dv, as dry friction's in slip)
+            self.last_seeded = False
+            return b
+        if len(samples) < 2:
+            if self.seed is None or not self.seed_allowed:
+                return None
+            self.last_seeded = True
+            dF, seed = F - b.F_end, self.seed
+            return BlockAnswer(F, b.x + seed.x * dF, b.v + seed.v * dF, b.a + seed.a * dF, F0, rate)
+        self.last_seeded = False
         # the latest real answer and the one farthest from it in force (near ones amplify
         # the round-off of their difference)
-        b = self.block_samples[-1]
-        a = max(self.block_samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
+        a = max(samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
         if a.F_end == b.F_end:
             return None
         w = (F - a.F_end) / (b.F_end - a.F_end)
@@ -229,19 +273,38 @@ class ImplicitStep:
         if real is not None and real.F_end == F and self.block_last is real:
             return True
         modelled = self.block_last if self.block_last is not None and self.block_last.F_end == F else None
+        seeded = modelled is not None and self.last_seeded
         self.block_under(F, real=True)
         if modelled is not None and abs(modelled.v - self.block_real.v) > MODEL_MISS_TOLERANCE * self.root_tol:
-            self.use_model = False
+            # a seeded model is off by its slope's scaling: the two real answers model exactly
+            # from here; a model from two real answers that misses: the block is not affine
+            self.use_model = seeded
             return False
         return True
 
+    def measured_slope(self) -> BlockSlope | None:
+        """The block's slope from the two real answers farthest apart in force, if any."""
+        samples = self.block_samples
+        if len(samples) < 2:
+            return None
+        b = samples[-1]
+        a = max(samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
+        dF = b.F_end - a.F_end
+        if dF == 0.0:
+            return None
+        return BlockSlope(self.h_ns, self.ramp, (b.v - a.v) / dF, (b.x - a.x) / dF, (b.a - a.a) / dF)
+
     def loop(self, dv: float) -> float:
-        """H(dv): how far the block's answer is from the assumed dv."""
+        """H(dv): how far the block's answer is from the assumed dv (while a slip root is
+        sought, with the friction's force moved by its state's predicted drift)."""
         self.report.iterations += 1
         F, _ = self.friction_at(dv)
+        if self.seed_allowed:
+            F += self.force_drift
         return self.block_under(F) - dv
 
     def probe(self, side: float) -> float:
+        self.seed_allowed = False  # (the probes measure the friction's bounds and the block for real)
         value = self.loop(side * self.delta)
         block = self.block_last
         self.probes[side] = Probe(self.friction_last.F, self.V - block.v, block.x, self.aX - block.a)
@@ -271,6 +334,7 @@ class ImplicitStep:
                 dv = self.settle(dv, gain, mode)  # again, every iterate stepped
                 self.block_real_at(self.friction_last.F)
             _, F, f, F_mean = self.friction_last
+        self.report.block_slope = self.measured_slope()
         F, x, v, a, F0, F_rate = self.block_last
         return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
                      F_rate=F_rate, mode=mode, event=event, ramped=self.ramp, F_mean=F_mean)
@@ -290,8 +354,12 @@ class ImplicitStep:
         -(1 + gain)) finds its root, one friction step an iterate."""
         direction, floor = mode.direction, self.delta
         dv_a = g_a = None
+        trial = self.friction_last
         for _ in range(self.max_settle_rounds):
             self.step_friction(dv)
+            if trial is not None and trial.F_mean is None and trial.dv == dv:
+                self.report.force_drift_rate = (self.friction_last.F - trial.F) / self.h
+                trial = None
             g = self.block_under(self.friction_last.F) - dv
             if abs(g) <= self.root_tol:
                 return dv
@@ -376,6 +444,7 @@ class ImplicitStep:
         guess = point.dv + (point.aX - point.a) * self.h / (1.0 + self.settings.expected_gain)
         if not side * guess > delta:
             return None
+        self.seed_allowed = True
         h_guess = self.loop(guess)
         if side * h_guess > 0:  # the root lies beyond the guess: slip confirmed
             return self.slip_root(guess, h_guess, side)
@@ -393,6 +462,7 @@ class ImplicitStep:
         strongly the block's answer reacts to the assumed dv, measured on the bracket.
         """
         loop, delta, max_iterations = self.loop, self.delta, self.settings.max_iterations
+        self.seed_allowed = True  # slip is confirmed: the root's trials may model from one real answer
         if hi is None:
             # Aim at the root with the last step's loop gain; where that falls short, the
             # fixed-point pass from the nearer point lands beyond the root: the friction
