@@ -171,7 +171,6 @@ class ImplicitCoupling(CouplingAlgorithm):
         # the block's slope in its end force last measured, held (False) and ramped (True):
         # a cache of the solves' own measurements (see contact.BlockSlope), not state
         self.block_slopes: dict[bool, BlockSlope] = {}
-        self.force_drift_rate = 0.0  # [N/s] the last slip step's (see contact.ImplicitStep.force_drift)
 
     def expected_gain(self, h: float) -> float:
         """The loop gain a slip step of h [s] should meet: the last one's, scaled by the
@@ -188,7 +187,7 @@ class ImplicitCoupling(CouplingAlgorithm):
 
     # What the algorithm carries from step to step besides its settings (tol, step) and what
     # prepare() derives from the scales: its saved state (a pair FMU's FMU state) is these.
-    state_names = ("loop_gain", "loop_gain_step", "velocity_per_impulse", "force_drift_rate")
+    state_names = ("loop_gain", "loop_gain_step", "velocity_per_impulse")
 
     def export_state(self) -> dict:
         """The algorithm's state as plain values (JSON-able; floats round-trip exactly)."""
@@ -218,8 +217,7 @@ class ImplicitCoupling(CouplingAlgorithm):
         h = h_ns / NS
         settings = StepSettings(self.expected_gain(h), self.max_ramp_gain, self.root_tolerance(),
                                 ZERO_VELOCITY * self.scales.velocity, self.max_iterations, self.scales.position)
-        step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, self.block_slopes.get(ramp),
-                            self.force_drift_rate if Contact(point.mode).slipping else 0.0)
+        step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, self.block_slopes.get(ramp))
         new = step.solve()
         report = step.report
         self.counters.iterations += report.iterations
@@ -232,8 +230,6 @@ class ImplicitCoupling(CouplingAlgorithm):
             self.stick_bounds = report.bounds
         if report.block_slope is not None:
             self.block_slopes[ramp] = report.block_slope
-        if report.force_drift_rate is not None:
-            self.force_drift_rate = report.force_drift_rate
         return new
 
     def _impulse_misses(self, start: Point, *ends: Point) -> list[float]:

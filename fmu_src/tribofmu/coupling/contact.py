@@ -135,7 +135,6 @@ class StepReport:
     stuck: bool = False
     bounds: tuple[float, float] | None = None  # [N] the friction's force range at dv = 0 (stuck steps)
     block_slope: BlockSlope | None = None  # measured from two real block steps of one family
-    force_drift_rate: float | None = None  # [N/s] the friction's force at the root moved by its state's step
 
 
 @dataclass(frozen=True)
@@ -159,7 +158,7 @@ class ImplicitStep:
 
     def __init__(self, settings: StepSettings, system: CoupledSystem, point: Point, saved: States,
                  h_ns: int, drive: tuple[float, float, float], ramp: bool,
-                 block_slope: BlockSlope | None = None, force_drift_rate: float = 0.0):
+                 block_slope: BlockSlope | None = None):
         self.settings, self.system, self.point, self.ramp = settings, system, point, ramp
         self.previous = Contact(point.mode)
         self.h_ns, self.t, self.h = h_ns, point.t_ns / NS, h_ns / NS
@@ -180,10 +179,6 @@ class ImplicitStep:
         self.seed = block_slope.scaled(h_ns) if block_slope is not None and block_slope.ramp == ramp else None
         self.seed_allowed = False  # on while a slip root is sought (probes and stick forces step for real)
         self.last_seeded = False  # the latest modelled answer came from one real answer and the seed
-        # The slip root's trials hold the friction's state where it stands; stepping it moves
-        # the force at the root by about what it did over the last slip step (its drift rate
-        # times h): the trials add that, so that the friction's one step lands on the root.
-        self.force_drift = force_drift_rate * self.h
         self.probes: dict[float, Probe] = {}  # side (+-1.0) -> the held step under the friction at side * delta
 
     # -- evaluations ----------------------------------------------------------------------
@@ -295,12 +290,9 @@ class ImplicitStep:
         return BlockSlope(self.h_ns, self.ramp, (b.v - a.v) / dF, (b.x - a.x) / dF, (b.a - a.a) / dF)
 
     def loop(self, dv: float) -> float:
-        """H(dv): how far the block's answer is from the assumed dv (while a slip root is
-        sought, with the friction's force moved by its state's predicted drift)."""
+        """H(dv): how far the block's answer is from the assumed dv."""
         self.report.iterations += 1
         F, _ = self.friction_at(dv)
-        if self.seed_allowed:
-            F += self.force_drift
         return self.block_under(F) - dv
 
     def probe(self, side: float) -> float:
@@ -354,12 +346,8 @@ class ImplicitStep:
         -(1 + gain)) finds its root, one friction step an iterate."""
         direction, floor = mode.direction, self.delta
         dv_a = g_a = None
-        trial = self.friction_last
         for _ in range(self.max_settle_rounds):
             self.step_friction(dv)
-            if trial is not None and trial.F_mean is None and trial.dv == dv:
-                self.report.force_drift_rate = (self.friction_last.F - trial.F) / self.h
-                trial = None
             g = self.block_under(self.friction_last.F) - dv
             if abs(g) <= self.root_tol:
                 return dv
