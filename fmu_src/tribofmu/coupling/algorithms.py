@@ -27,7 +27,7 @@ import math
 from dataclasses import asdict, dataclass
 
 from ..physics.stepsize import COUPLING_STEPS
-from .contact import BlockSlope, ImplicitStep, RetryHeld, StepSettings, slip_mode
+from .contact import BlockSlope, ImplicitStep, StickJacobian, RetryHeld, StepSettings, slip_mode
 from .estimate import GlobalErrorEstimate
 from .interpolation import NS, hermite, hermite_mid, velocity_slopes
 from .system import Contact, CoupledSystem, Point, States
@@ -171,6 +171,7 @@ class ImplicitCoupling(CouplingAlgorithm):
         # the block's slope in its end force last measured, held (False) and ramped (True):
         # a cache of the solves' own measurements (see contact.BlockSlope), not state
         self.block_slopes: dict[bool, BlockSlope] = {}
+        self.stick_jacobian: StickJacobian | None = None  # the last stick ramp's (see contact.StickJacobian)
 
     def expected_gain(self, h: float) -> float:
         """The loop gain a slip step of h [s] should meet: the last one's, scaled by the
@@ -197,12 +198,13 @@ class ImplicitCoupling(CouplingAlgorithm):
         # (they seed the next solve's first guesses: its root lands within its tolerance
         # elsewhere without them, so a continued run would differ in the last digits)
         state["block_slopes"] = [list(slope) for slope in self.block_slopes.values()]
+        state["stick_jacobian"] = list(self.stick_jacobian) if self.stick_jacobian is not None else None
         return state
 
     def import_state(self, state: dict) -> None:
         """Continue from :meth:`export_state`'s values (call after prepare(), which it
         overrides); a state without one of the names is refused (another format)."""
-        missing = {*self.state_names, "scales", "counters", "block_slopes"} - set(state)
+        missing = {*self.state_names, "scales", "counters", "block_slopes", "stick_jacobian"} - set(state)
         if missing:
             raise ValueError(f"{self.name} state lacks {', '.join(sorted(missing))}")
         for name in self.state_names:
@@ -211,13 +213,16 @@ class ImplicitCoupling(CouplingAlgorithm):
         self.counters = Counters(**state["counters"])
         slopes = [BlockSlope(*slope) for slope in state["block_slopes"]]
         self.block_slopes = {slope.ramp: slope for slope in slopes}
+        jacobian = state["stick_jacobian"]
+        self.stick_jacobian = StickJacobian(*jacobian) if jacobian is not None else None
 
     def _solve(self, system, point, saved, h_ns, drive, ramp) -> Point | RetryHeld:
         """One ImplicitStep; keeps what it measured (the loop gain, the block's response)."""
         h = h_ns / NS
         settings = StepSettings(self.expected_gain(h), self.max_ramp_gain, self.root_tolerance(),
                                 ZERO_VELOCITY * self.scales.velocity, self.max_iterations, self.scales.position)
-        step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, self.block_slopes.get(ramp))
+        step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, self.block_slopes.get(ramp),
+                            self.stick_jacobian)
         new = step.solve()
         report = step.report
         self.counters.iterations += report.iterations
@@ -230,6 +235,8 @@ class ImplicitCoupling(CouplingAlgorithm):
             self.stick_bounds = report.bounds
         if report.block_slope is not None:
             self.block_slopes[ramp] = report.block_slope
+        if report.stick_jacobian is not None:
+            self.stick_jacobian = report.stick_jacobian
         return new
 
     def _impulse_misses(self, start: Point, *ends: Point) -> list[float]:

@@ -110,6 +110,21 @@ class BlockSlope(NamedTuple):
         return BlockSlope(h_ns, self.ramp, self.v * r, self.x * r * r, self.a)
 
 
+class StickJacobian(NamedTuple):
+    """A stuck step's block response over ``h_ns`` [ns] to the force F0 + rate s: d dv_end/dF0
+    [m/s/N], d x_end/dF0 [m/N], d (d(dv)/dt)_end/dF0 [1/(kg)] (held), and d dv_end/d rate,
+    d x_end/d rate [per N/s]. Affine for a linear block and a function of the step alone: the
+    next stuck step of the same length models its second probe and starts the stick ramp's
+    Newton from it instead of measuring it again (two real block steps fewer)."""
+
+    h_ns: int
+    d_F: float
+    x_F: float
+    slope_F: float
+    d_r: float
+    x_r: float
+
+
 # The stick onset inside a step is located to this fraction of the step (1 ns in a 1 s step:
 # below the integer-nanosecond time grid of any step the controller takes).
 STICK_ONSET_XTOL = 1e-9
@@ -135,6 +150,7 @@ class StepReport:
     stuck: bool = False
     bounds: tuple[float, float] | None = None  # [N] the friction's force range at dv = 0 (stuck steps)
     block_slope: BlockSlope | None = None  # measured from two real block steps of one family
+    stick_jacobian: StickJacobian | None = None  # measured by a stick ramp
 
 
 @dataclass(frozen=True)
@@ -158,7 +174,7 @@ class ImplicitStep:
 
     def __init__(self, settings: StepSettings, system: CoupledSystem, point: Point, saved: States,
                  h_ns: int, drive: tuple[float, float, float], ramp: bool,
-                 block_slope: BlockSlope | None = None):
+                 block_slope: BlockSlope | None = None, stick_jacobian: StickJacobian | None = None):
         self.settings, self.system, self.point, self.ramp = settings, system, point, ramp
         self.previous = Contact(point.mode)
         self.h_ns, self.t, self.h = h_ns, point.t_ns / NS, h_ns / NS
@@ -179,6 +195,8 @@ class ImplicitStep:
         self.seed = block_slope.scaled(h_ns) if block_slope is not None and block_slope.ramp == ramp else None
         self.seed_allowed = False  # on while a slip root is sought (probes and stick forces step for real)
         self.last_seeded = False  # the latest modelled answer came from one real answer and the seed
+        # the last stick ramp's, where it was of this length (exact for a linear block)
+        self.stick_jacobian = stick_jacobian if stick_jacobian is not None and stick_jacobian.h_ns == h_ns else None
         self.probes: dict[float, Probe] = {}  # side (+-1.0) -> the held step under the friction at side * delta
 
     # -- evaluations ----------------------------------------------------------------------
@@ -296,11 +314,23 @@ class ImplicitStep:
         return self.block_under(F) - dv
 
     def probe(self, side: float) -> float:
+        """H at side * delta, the held step under the friction there (:class:`Probe`); stuck
+        before, with the last stick ramp's Jacobian for this step and the other side probed
+        already, the block's answer is that probe's moved along the Jacobian (no step)."""
         self.seed_allowed = False  # (the probes measure the friction's bounds and the block for real)
-        value = self.loop(side * self.delta)
-        block = self.block_last
-        self.probes[side] = Probe(self.friction_last.F, self.V - block.v, block.x, self.aX - block.a)
-        return value
+        other, jacobian = self.probes.get(-side), self.stick_jacobian
+        if other is None or jacobian is None or self.previous != Contact.STUCK:
+            value = self.loop(side * self.delta)
+            block = self.block_last
+            self.probes[side] = Probe(self.friction_last.F, self.V - block.v, block.x, self.aX - block.a)
+            return value
+        self.report.iterations += 1
+        F, _ = self.friction_at(side * self.delta)
+        dF = F - other.F
+        probe = Probe(F, other.dv + jacobian.d_F * dF, other.x + jacobian.x_F * dF, other.dv_slope + jacobian.slope_F * dF)
+        self.probes[side] = probe
+        self.block_last = BlockAnswer(F, probe.x, self.V - probe.dv, self.aX - probe.dv_slope, F, 0.0)
+        return probe.dv - side * self.delta
 
     # -- the machine ----------------------------------------------------------------------
     def solve(self) -> Point | RetryHeld:
@@ -528,13 +558,20 @@ class ImplicitStep:
             return 0.0
         h = self.h
         x_target = self.point.x + self.X - self.point.X
-        # slopes in F0 from the two held probes, in rate from one more evaluation
+        jacobian = self.stick_jacobian
         dF = F_pos - F_neg
-        d_F, x_F = (d_pos - d_neg) / dF, (x_pos - x_neg) / dF
         rate_probe = dF / h
-        F0, rate = F_neg, 0.0
-        d0, x0 = d_neg, x_neg
-        d_r, x_r = None, None
+        if jacobian is not None:
+            # the last stick ramp's slopes; Newton from the probe the block really answered
+            d_F, x_F, d_r, x_r = jacobian.d_F, jacobian.x_F, jacobian.d_r, jacobian.x_r
+            real = self.probes[1.0] if self.block_real.F_end == F_pos else self.probes[-1.0]
+            F0, rate, d0, x0 = real.F, 0.0, real.dv, real.x
+        else:
+            # slopes in F0 from the two held probes, in rate from one more evaluation
+            d_F, x_F = (d_pos - d_neg) / dF, (x_pos - x_neg) / dF
+            F0, rate = F_neg, 0.0
+            d0, x0 = d_neg, x_neg
+            d_r, x_r = None, None
         for _ in range(STICK_RAMP_ITERATIONS):
             if d_r is None:
                 d1, x1 = self.block_at(F0, rate + rate_probe)
@@ -548,6 +585,8 @@ class ImplicitStep:
             d0, x0 = self.block_at(F0, rate)
             if abs(d0) <= self.delta and abs(x0 - x_target) <= STICK_RAMP_POSITION_TOL * self.settings.position_scale:
                 break
+        if jacobian is None and d_r is not None:
+            self.report.stick_jacobian = StickJacobian(self.h_ns, d_F, x_F, (pos.dv_slope - neg.dv_slope) / dF, d_r, x_r)
         low, high = min(F_neg, F_pos), max(F_neg, F_pos)
         F1 = F0 + rate * h
         if not low <= F0 <= high:
