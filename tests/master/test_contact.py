@@ -11,8 +11,9 @@ import math
 import pytest
 from scipy.optimize import brentq
 
-from tribofmu.coupling.contact import (RETRY_HELD_STIFF, RETRY_HELD_TRANSITION, RetryHeld,
+from tribofmu.coupling.contact import (RETRY_HELD_STIFF, RETRY_HELD_TRANSITION, ImplicitStep, RetryHeld,
                                        slip_mode)
+from tribofmu.coupling.interpolation import NS
 from tribofmu.coupling.system import Contact
 from tribofmu.physics import FluidLaw
 
@@ -364,3 +365,62 @@ def test_loop_gain_is_measured_even_when_the_guess_is_the_root(m, a):
     new = algorithm.solve_step(system, start, h_ns)
     assert not new.ramped
     assert algorithm.loop_gain == pytest.approx(h_ns * 1e-9 * m / M, rel=1e-2)
+
+
+# -- what a step reuses from the last: the block's slope, the stick ramp's Jacobian -------------
+
+def block_steps(system) -> int:
+    return system.block.calls_by_kind["doStep"]
+
+
+@pytest.mark.parametrize("K", [0.0, 3000.0])
+def test_slip_root_from_one_real_block_step_and_the_last_steps_slope(K):
+    """Quadratic fluid, held: with the block's slope measured by a step of another length
+    (scaled to this one: exact for a free mass, off by O(w2 h^2) on springs, which the final
+    real step catches), the step lands where it lands without it, in fewer block steps
+    where the slope holds."""
+    m, M, v0, V0, tol = 2e5, 1.0, 0.0, 0.1, 1e-12
+    outcomes = {}
+    for h, seeded in ((0.7e-3, False), (1e-3, False), (1e-3, True)):
+        system = rig(fluid(m, gamma=1.0), M=M, K=K, v0=v0, V0=V0)
+        start = point_at(system, Contact.FORWARD, m * V0 * V0)
+        h_ns = int(round(h * NS))
+        drive_end = system.step_drive(0.0, h)
+        saved = system.save(system.block, system.friction)
+        slope = outcomes[(0.7e-3, False)][1].report.block_slope if seeded else None
+        before = block_steps(system)
+        step = ImplicitStep(settings(root_tol=tol), system, start, saved, h_ns, drive_end, False, block_slope=slope)
+        outcomes[(h, seeded)] = (step.solve(), step, block_steps(system) - before)
+    assert outcomes[(0.7e-3, False)][1].report.block_slope is not None
+    plain, _, plain_steps = outcomes[(1e-3, False)]
+    seeded, _, seeded_steps = outcomes[(1e-3, True)]
+    assert abs(seeded.dv - plain.dv) <= 2 * tol
+    # (on springs the scaled slope misses this tight a root: the final real step and the
+    # first then model exactly, at no more block steps than without the slope)
+    assert seeded_steps < plain_steps if K == 0.0 else seeded_steps <= plain_steps
+    if K == 0.0:
+        g = 1e-3 * m / M
+        assert abs(seeded.dv - (-1 + math.sqrt(1 + 4 * g * (V0 - v0))) / (2 * g)) <= tol
+
+
+def test_stick_ramp_with_the_last_ramps_jacobian_is_as_exact_in_two_block_steps():
+    """A stuck step as long as the last stick ramp models its second probe and starts Newton
+    from the first with that ramp's Jacobian: the same exact ramp, two block steps not four."""
+    K, x0, V0, h = 2000.0, 1e-3, 0.05, 1e-3
+    step, _ = stuck_on_springs(x0, K, V0, h)
+    before = block_steps(step.system)
+    first = step.solve()
+    jacobian, first_steps = step.report.stick_jacobian, block_steps(step.system) - before
+    assert jacobian is not None and jacobian.h_ns == 1_000_000
+    again, _ = stuck_on_springs(x0, K, V0, h)
+    reused = ImplicitStep(again.settings, again.system, again.point,
+                          again.system.save(again.system.block, again.system.friction), again.h_ns,
+                          (again.X, again.V, again.aX), False, stick_jacobian=jacobian)
+    before = block_steps(reused.system)
+    new = reused.solve()
+    assert block_steps(reused.system) - before == 2 < first_steps
+    assert new.mode == Contact.STUCK and new.event == 1.0
+    assert abs(new.dv) <= 1e-10
+    assert new.x - new.X == pytest.approx(x0, abs=1e-12 * 1e-3)
+    assert new.F_start == pytest.approx(first.F_start, rel=1e-9)
+    assert new.F_rate == pytest.approx(first.F_rate, rel=1e-6)

@@ -27,7 +27,7 @@ import math
 from dataclasses import asdict, dataclass
 
 from ..physics.stepsize import COUPLING_STEPS
-from .contact import ImplicitStep, RetryHeld, StepSettings, slip_mode
+from .contact import BlockSlope, ImplicitStep, StickJacobian, RetryHeld, StepSettings, slip_mode
 from .estimate import GlobalErrorEstimate
 from .interpolation import NS, hermite, hermite_mid, velocity_slopes
 from .system import Contact, CoupledSystem, Point, States
@@ -168,6 +168,10 @@ class ImplicitCoupling(CouplingAlgorithm):
         self.loop_gain_step = 1.0  # ... whose length this was [s]
         self.velocity_per_impulse = 0.0  # [m/s / (N s)] the block's, last measured (0: not yet)
         self.stick_bounds = None  # [N] (low, high): the friction's force range at the last stick
+        # the block's slope in its end force last measured, held (False) and ramped (True):
+        # a cache of the solves' own measurements (see contact.BlockSlope), not state
+        self.block_slopes: dict[bool, BlockSlope] = {}
+        self.stick_jacobian: StickJacobian | None = None  # the last stick ramp's (see contact.StickJacobian)
 
     def expected_gain(self, h: float) -> float:
         """The loop gain a slip step of h [s] should meet: the last one's, scaled by the
@@ -191,25 +195,34 @@ class ImplicitCoupling(CouplingAlgorithm):
         state = {name: getattr(self, name) for name in self.state_names}
         state["scales"] = [self.scales.position, self.scales.velocity, self.scales.period]
         state["counters"] = asdict(self.counters)
+        # (they seed the next solve's first guesses: its root lands within its tolerance
+        # elsewhere without them, so a continued run would differ in the last digits)
+        state["block_slopes"] = [list(slope) for slope in self.block_slopes.values()]
+        state["stick_jacobian"] = list(self.stick_jacobian) if self.stick_jacobian is not None else None
         return state
 
     def import_state(self, state: dict) -> None:
         """Continue from :meth:`export_state`'s values (call after prepare(), which it
         overrides); a state without one of the names is refused (another format)."""
-        missing = {*self.state_names, "scales", "counters"} - set(state)
+        missing = {*self.state_names, "scales", "counters", "block_slopes", "stick_jacobian"} - set(state)
         if missing:
             raise ValueError(f"{self.name} state lacks {', '.join(sorted(missing))}")
         for name in self.state_names:
             setattr(self, name, state[name])
         self.scales = Scales(*state["scales"])
         self.counters = Counters(**state["counters"])
+        slopes = [BlockSlope(*slope) for slope in state["block_slopes"]]
+        self.block_slopes = {slope.ramp: slope for slope in slopes}
+        jacobian = state["stick_jacobian"]
+        self.stick_jacobian = StickJacobian(*jacobian) if jacobian is not None else None
 
     def _solve(self, system, point, saved, h_ns, drive, ramp) -> Point | RetryHeld:
         """One ImplicitStep; keeps what it measured (the loop gain, the block's response)."""
         h = h_ns / NS
         settings = StepSettings(self.expected_gain(h), self.max_ramp_gain, self.root_tolerance(),
                                 ZERO_VELOCITY * self.scales.velocity, self.max_iterations, self.scales.position)
-        step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp)
+        step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, self.block_slopes.get(ramp),
+                            self.stick_jacobian)
         new = step.solve()
         report = step.report
         self.counters.iterations += report.iterations
@@ -220,6 +233,10 @@ class ImplicitCoupling(CouplingAlgorithm):
             self.velocity_per_impulse = report.velocity_per_impulse
         if report.bounds is not None:
             self.stick_bounds = report.bounds
+        if report.block_slope is not None:
+            self.block_slopes[ramp] = report.block_slope
+        if report.stick_jacobian is not None:
+            self.stick_jacobian = report.stick_jacobian
         return new
 
     def _impulse_misses(self, start: Point, *ends: Point) -> list[float]:

@@ -88,6 +88,43 @@ class BlockAnswer(NamedTuple):
 # model checked against it: a block that is not affine (to this many root tolerances) is
 # stepped for every iterate instead.
 MODEL_MISS_TOLERANCE = 1.0
+# A slip step's first real block step plus the block's slope d(v, x, a)/dF_end [per N] from the
+# last step of the same family (held or ramped) model its answer to the other forces the root
+# tries: one real trial instead of two. The slope of a linear block depends on the step alone;
+# from another step length it is scaled by h (v) and h^2 (x), the leading terms of a mass's
+# response (h/M held, h/2M ramped; h^2/2M, h^2/6M), exact as h -> 0: off by O(w2 h^2) of the
+# slope, which the final real step's check (MODEL_MISS_TOLERANCE) catches, and the step then
+# models from its two real answers instead.
+class BlockSlope(NamedTuple):
+    """The block's response to its end force over a step of ``h_ns`` [ns] held or ramped
+    (``ramp``): d v/dF_end [m/s/N], d x/dF_end [m/N], d a/dF_end [m/s^2/N]."""
+
+    h_ns: int
+    ramp: bool
+    v: float
+    x: float
+    a: float
+
+    def scaled(self, h_ns: int) -> "BlockSlope":
+        r = h_ns / self.h_ns
+        return BlockSlope(h_ns, self.ramp, self.v * r, self.x * r * r, self.a)
+
+
+class StickJacobian(NamedTuple):
+    """A stuck step's block response over ``h_ns`` [ns] to the force F0 + rate s: d dv_end/dF0
+    [m/s/N], d x_end/dF0 [m/N], d (d(dv)/dt)_end/dF0 [1/(kg)] (held), and d dv_end/d rate,
+    d x_end/d rate [per N/s]. Affine for a linear block and a function of the step alone: the
+    next stuck step of the same length models its second probe and starts the stick ramp's
+    Newton from it instead of measuring it again (two real block steps fewer)."""
+
+    h_ns: int
+    d_F: float
+    x_F: float
+    slope_F: float
+    d_r: float
+    x_r: float
+
+
 # The stick onset inside a step is located to this fraction of the step (1 ns in a 1 s step:
 # below the integer-nanosecond time grid of any step the controller takes).
 STICK_ONSET_XTOL = 1e-9
@@ -112,6 +149,8 @@ class StepReport:
     iterations: int = 0  # evaluations of the coupling loop
     stuck: bool = False
     bounds: tuple[float, float] | None = None  # [N] the friction's force range at dv = 0 (stuck steps)
+    block_slope: BlockSlope | None = None  # measured from two real block steps of one family
+    stick_jacobian: StickJacobian | None = None  # measured by a stick ramp
 
 
 @dataclass(frozen=True)
@@ -134,7 +173,8 @@ class ImplicitStep:
     at the step's end (``drive`` = X, V, aX), the block and friction saved in ``saved``."""
 
     def __init__(self, settings: StepSettings, system: CoupledSystem, point: Point, saved: States,
-                 h_ns: int, drive: tuple[float, float, float], ramp: bool):
+                 h_ns: int, drive: tuple[float, float, float], ramp: bool,
+                 block_slope: BlockSlope | None = None, stick_jacobian: StickJacobian | None = None):
         self.settings, self.system, self.point, self.ramp = settings, system, point, ramp
         self.previous = Contact(point.mode)
         self.h_ns, self.t, self.h = h_ns, point.t_ns / NS, h_ns / NS
@@ -151,6 +191,12 @@ class ImplicitStep:
         self.block_real: BlockAnswer | None = None  # its latest real step (the FMU stands there)
         self.block_samples: list[BlockAnswer] = []  # real answers under block_under's family of forces
         self.use_model = True  # off once the block turned out not affine in the force
+        # the last step's slope of this family, for a model from one real answer (slip solves)
+        self.seed = block_slope.scaled(h_ns) if block_slope is not None and block_slope.ramp == ramp else None
+        self.seed_allowed = False  # on while a slip root is sought (probes and stick forces step for real)
+        self.last_seeded = False  # the latest modelled answer came from one real answer and the seed
+        # the last stick ramp's, where it was of this length (exact for a linear block)
+        self.stick_jacobian = stick_jacobian if stick_jacobian is not None and stick_jacobian.h_ns == h_ns else None
         self.probes: dict[float, Probe] = {}  # side (+-1.0) -> the held step under the friction at side * delta
 
     # -- evaluations ----------------------------------------------------------------------
@@ -210,12 +256,23 @@ class ImplicitStep:
     def block_model(self, F: float, F0: float, rate: float) -> BlockAnswer | None:
         """The block's answer to the end force F, affine in it through the last two real
         answers under distinct end forces (None: fewer than two, or the model is off)."""
-        if not self.use_model or len(self.block_samples) < 2:
+        samples = self.block_samples
+        if not self.use_model or not samples:
             return None
+        b = samples[-1]
+        if F == b.F_end:  # (a law whose force does not move with dv, as dry friction's in slip)
+            self.last_seeded = False
+            return b
+        if len(samples) < 2:
+            if self.seed is None or not self.seed_allowed:
+                return None
+            self.last_seeded = True
+            dF, seed = F - b.F_end, self.seed
+            return BlockAnswer(F, b.x + seed.x * dF, b.v + seed.v * dF, b.a + seed.a * dF, F0, rate)
+        self.last_seeded = False
         # the latest real answer and the one farthest from it in force (near ones amplify
         # the round-off of their difference)
-        b = self.block_samples[-1]
-        a = max(self.block_samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
+        a = max(samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
         if a.F_end == b.F_end:
             return None
         w = (F - a.F_end) / (b.F_end - a.F_end)
@@ -229,11 +286,26 @@ class ImplicitStep:
         if real is not None and real.F_end == F and self.block_last is real:
             return True
         modelled = self.block_last if self.block_last is not None and self.block_last.F_end == F else None
+        seeded = modelled is not None and self.last_seeded
         self.block_under(F, real=True)
         if modelled is not None and abs(modelled.v - self.block_real.v) > MODEL_MISS_TOLERANCE * self.root_tol:
-            self.use_model = False
+            # a seeded model is off by its slope's scaling: the two real answers model exactly
+            # from here; a model from two real answers that misses: the block is not affine
+            self.use_model = seeded
             return False
         return True
+
+    def measured_slope(self) -> BlockSlope | None:
+        """The block's slope from the two real answers farthest apart in force, if any."""
+        samples = self.block_samples
+        if len(samples) < 2:
+            return None
+        b = samples[-1]
+        a = max(samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
+        dF = b.F_end - a.F_end
+        if dF == 0.0:
+            return None
+        return BlockSlope(self.h_ns, self.ramp, (b.v - a.v) / dF, (b.x - a.x) / dF, (b.a - a.a) / dF)
 
     def loop(self, dv: float) -> float:
         """H(dv): how far the block's answer is from the assumed dv."""
@@ -242,10 +314,23 @@ class ImplicitStep:
         return self.block_under(F) - dv
 
     def probe(self, side: float) -> float:
-        value = self.loop(side * self.delta)
-        block = self.block_last
-        self.probes[side] = Probe(self.friction_last.F, self.V - block.v, block.x, self.aX - block.a)
-        return value
+        """H at side * delta, the held step under the friction there (:class:`Probe`); stuck
+        before, with the last stick ramp's Jacobian for this step and the other side probed
+        already, the block's answer is that probe's moved along the Jacobian (no step)."""
+        self.seed_allowed = False  # (the probes measure the friction's bounds and the block for real)
+        other, jacobian = self.probes.get(-side), self.stick_jacobian
+        if other is None or jacobian is None or self.previous != Contact.STUCK:
+            value = self.loop(side * self.delta)
+            block = self.block_last
+            self.probes[side] = Probe(self.friction_last.F, self.V - block.v, block.x, self.aX - block.a)
+            return value
+        self.report.iterations += 1
+        F, _ = self.friction_at(side * self.delta)
+        dF = F - other.F
+        probe = Probe(F, other.dv + jacobian.d_F * dF, other.x + jacobian.x_F * dF, other.dv_slope + jacobian.slope_F * dF)
+        self.probes[side] = probe
+        self.block_last = BlockAnswer(F, probe.x, self.V - probe.dv, self.aX - probe.dv_slope, F, 0.0)
+        return probe.dv - side * self.delta
 
     # -- the machine ----------------------------------------------------------------------
     def solve(self) -> Point | RetryHeld:
@@ -271,6 +356,7 @@ class ImplicitStep:
                 dv = self.settle(dv, gain, mode)  # again, every iterate stepped
                 self.block_real_at(self.friction_last.F)
             _, F, f, F_mean = self.friction_last
+        self.report.block_slope = self.measured_slope()
         F, x, v, a, F0, F_rate = self.block_last
         return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
                      F_rate=F_rate, mode=mode, event=event, ramped=self.ramp, F_mean=F_mean)
@@ -376,6 +462,7 @@ class ImplicitStep:
         guess = point.dv + (point.aX - point.a) * self.h / (1.0 + self.settings.expected_gain)
         if not side * guess > delta:
             return None
+        self.seed_allowed = True
         h_guess = self.loop(guess)
         if side * h_guess > 0:  # the root lies beyond the guess: slip confirmed
             return self.slip_root(guess, h_guess, side)
@@ -393,6 +480,7 @@ class ImplicitStep:
         strongly the block's answer reacts to the assumed dv, measured on the bracket.
         """
         loop, delta, max_iterations = self.loop, self.delta, self.settings.max_iterations
+        self.seed_allowed = True  # slip is confirmed: the root's trials may model from one real answer
         if hi is None:
             # Aim at the root with the last step's loop gain; where that falls short, the
             # fixed-point pass from the nearer point lands beyond the root: the friction
@@ -470,13 +558,20 @@ class ImplicitStep:
             return 0.0
         h = self.h
         x_target = self.point.x + self.X - self.point.X
-        # slopes in F0 from the two held probes, in rate from one more evaluation
+        jacobian = self.stick_jacobian
         dF = F_pos - F_neg
-        d_F, x_F = (d_pos - d_neg) / dF, (x_pos - x_neg) / dF
         rate_probe = dF / h
-        F0, rate = F_neg, 0.0
-        d0, x0 = d_neg, x_neg
-        d_r, x_r = None, None
+        if jacobian is not None:
+            # the last stick ramp's slopes; Newton from the probe the block really answered
+            d_F, x_F, d_r, x_r = jacobian.d_F, jacobian.x_F, jacobian.d_r, jacobian.x_r
+            real = self.probes[1.0] if self.block_real.F_end == F_pos else self.probes[-1.0]
+            F0, rate, d0, x0 = real.F, 0.0, real.dv, real.x
+        else:
+            # slopes in F0 from the two held probes, in rate from one more evaluation
+            d_F, x_F = (d_pos - d_neg) / dF, (x_pos - x_neg) / dF
+            F0, rate = F_neg, 0.0
+            d0, x0 = d_neg, x_neg
+            d_r, x_r = None, None
         for _ in range(STICK_RAMP_ITERATIONS):
             if d_r is None:
                 d1, x1 = self.block_at(F0, rate + rate_probe)
@@ -490,6 +585,8 @@ class ImplicitStep:
             d0, x0 = self.block_at(F0, rate)
             if abs(d0) <= self.delta and abs(x0 - x_target) <= STICK_RAMP_POSITION_TOL * self.settings.position_scale:
                 break
+        if jacobian is None and d_r is not None:
+            self.report.stick_jacobian = StickJacobian(self.h_ns, d_F, x_F, (pos.dv_slope - neg.dv_slope) / dF, d_r, x_r)
         low, high = min(F_neg, F_pos), max(F_neg, F_pos)
         F1 = F0 + rate * h
         if not low <= F0 <= high:

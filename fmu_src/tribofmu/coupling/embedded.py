@@ -75,6 +75,13 @@ STATE_WEIGHT = 0.3
 STATE_CARRY = 8.0
 
 
+# A stuck step's successor keeps its length when the controller would grow it by less than
+# this factor (as RADAU5 keeps h within [1, 1.2] to reuse its Jacobian): the next stick ramp
+# then reuses this one's Jacobian, exact for a step of the same length (contact.StickJacobian),
+# and steps the block twice instead of four times.
+STUCK_HOLD_GROWTH = 1.2
+
+
 @dataclass(frozen=True)
 class LocalError:
     """One step's estimated local errors (signed: they superpose in the carried estimate):
@@ -171,6 +178,8 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         order = 3 if local.stuck else (2 if new.ramped else 1)
         if not self._accepted(system, start, h_ns, err, order, self.min_ns, 1):
             return []
+        if local.stuck and h_ns <= self.h_ns <= STUCK_HOLD_GROWTH * h_ns:
+            self.h_ns = h_ns
         self._carry_error(point, new, local, h)
         self.history = self.next_history(point, new, h)
         self.magnitudes.accept(new)
