@@ -205,3 +205,27 @@ def test_dry_runs_keep_coulomb_s_law_at_every_point(algorithm, omega):
         else:
             assert p.F == p.mode * MU_L and p.dv * p.mode > 0
     assert modes == {Contact.STUCK, Contact.FORWARD, Contact.BACKWARD}
+
+
+@pytest.mark.parametrize("tol", [1e-4, 4e-7])
+def test_a_run_starting_stuck_is_not_charged_a_slip_into_stick_on_its_first_step(tol):
+    """Fig. 2's rig starts at rest, stuck: the first step from the start point (mode UNKNOWN,
+    F = 0, a force no block felt) is exact in v and needs no rejection. Charged the jump from
+    F = 0 to the stick force as a slip into stick, it shrank to the step floor, where the stick
+    ramp's force is round-off that the breakaway term rejected step after step (a tight
+    per-step tolerance then spent thousands of steps in the first stick)."""
+    from tribofmu.coupling.embedded import EmbeddedCoupling
+
+    scales, system = drive_scales(), fig2_system()
+    algorithm = EmbeddedCoupling(step=1e-4, tol=tol)
+    algorithm.prepare(system, scales)
+    first = algorithm.h_ns
+    point, stop = system.start_point(), round(scales.period / 20 * 1e9)  # stuck all through
+    new = algorithm.advance(system, point, stop)
+    assert [p.t_ns for p in new] == [first] and new[0].mode == Contact.STUCK
+    point = new[0]
+    while point.t_ns < stop:
+        new = algorithm.advance(system, point, stop)
+        point = new[-1] if new else point
+    c = algorithm.counters
+    assert point.mode == Contact.STUCK and c.rejected == 0 and c.forced == 0 and c.steps < 20

@@ -59,6 +59,10 @@ BLOCK_PERIOD_FRACTION = 0.125
 INTERPOLATION_SAFETY = 0.5
 # How the stick force's miss weighs against tol x the friction's bound (the breakaway's timing).
 STICK_FORCE_WEIGHT = 1.0
+# A stuck step's force miss counts for the breakaway's timing only where the step's end force
+# lies within this many misses of the friction's bound (the chord misses the curving stick
+# force by about the miss, so a force farther off cannot have crossed the bound in the step).
+BREAKAWAY_REACH = 4.0
 # How the force's own deviation (a friction with internal state) weighs against tol x |F|:
 # the force's curvature (ramped) or slope (held) against the largest |F| so far.
 FORCE_WEIGHT = 1.0
@@ -221,6 +225,15 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         if new.mode.stuck:
             if point.mode.stuck and not self.history.stuck_throughout:
                 return LocalError(impulse=impulse)  # the first stick ramp: no slope to predict from
+            if point.mode == Contact.UNKNOWN:
+                # The run's first step, stuck from the start: the start point's F is no force
+                # the block felt (0 before any solve), so F - point.F is not the stick force's
+                # change, and no slope is known yet (as for the first stick ramp). Charged as
+                # a slip into stick it forced the step to its floor (3 -> 0.02 us at per-step
+                # tol 3.9e-7 on mixed_stribeck delta = 1), where the stick ramp's force is
+                # round-off (x hardly answers the rate, h^3/6M) that the breakaway term then
+                # rejected for thousands of steps.
+                return LocalError(impulse=impulse)
             if point.mode.stuck:
                 # The stick ramp is exact in x and v; its force is a chord of the curving
                 # stick force, and where that reaches the friction's bound the contact breaks
@@ -259,7 +272,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         v_scale, x_scale = self.velocity_scale(point, new), self.position_scale(point, new)
         error = max(abs(local.v) / (allowance * v_scale), abs(local.x) / (allowance * x_scale),
                     abs(local.impulse) / (allowance * v_scale))
-        if local.stuck and new.F_rate != 0.0:
+        if local.stuck and new.F_rate != 0.0 and self._may_break_away(point, new, local.F):
             # A breakaway late by dt = dF / F_rate starts the slip late: the relative velocity
             # grows as (F_rate / M) s^2 / 2 after it, so v misses F_rate/M dt^2 / 2 = dF^2 / (2 M F_rate).
             late = 0.5 * self.velocity_per_impulse * local.F * local.F / abs(new.F_rate)
@@ -279,6 +292,19 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             if self.stick_bounds is not None and grazes(point, new, h, self.tol * v_scale):
                 error = max(error, GRAZING_ERROR)
         return error
+
+    def _may_break_away(self, point: Point, new: Point, F_miss: float) -> bool:
+        """Whether a stuck step from point to new, its force off the curve by about F_miss [N], can
+        have passed the friction's bound (the last stuck step's probes). The stick ramp is exact
+        in x and v whatever its force: the force's miss matters only through the breakaway's
+        timing. Far from the bound (a stick from rest, where the stick force's rate is near 0
+        and the miss a ramp's round-off) it moves nothing, and the breakaway term, which
+        divides by that rate, forced the step to its floor."""
+        bounds = self.stick_bounds
+        if bounds is None:
+            return True
+        margin = min(min(bounds[1] - F, F - bounds[0]) for F in (point.F, new.F))
+        return margin <= BREAKAWAY_REACH * abs(F_miss)
 
     def interpolation_error(self, point: Point, new: Point, h: float, v_scale: float, x_scale: float) -> float:
         """How far the cubic Hermite interpolants of v (slopes a) and x (slopes v) may miss
