@@ -59,10 +59,6 @@ BLOCK_PERIOD_FRACTION = 0.125
 INTERPOLATION_SAFETY = 0.5
 # How the stick force's miss weighs against tol x the friction's bound (the breakaway's timing).
 STICK_FORCE_WEIGHT = 1.0
-# A stuck step's force miss counts for the breakaway's timing only where the step's end force
-# lies within this many misses of the friction's bound (the chord misses the curving stick
-# force by about the miss, so a force farther off cannot have crossed the bound in the step).
-BREAKAWAY_REACH = 4.0
 # How the force's own deviation (a friction with internal state) weighs against tol x |F|:
 # the force's curvature (ramped) or slope (held) against the largest |F| so far.
 FORCE_WEIGHT = 1.0
@@ -272,7 +268,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         v_scale, x_scale = self.velocity_scale(point, new), self.position_scale(point, new)
         error = max(abs(local.v) / (allowance * v_scale), abs(local.x) / (allowance * x_scale),
                     abs(local.impulse) / (allowance * v_scale))
-        if local.stuck and new.F_rate != 0.0 and self._may_break_away(point, new, local.F):
+        if local.stuck and new.F_rate != 0.0:
             # A breakaway late by dt = dF / F_rate starts the slip late: the relative velocity
             # grows as (F_rate / M) s^2 / 2 after it, so v misses F_rate/M dt^2 / 2 = dF^2 / (2 M F_rate).
             late = 0.5 * self.velocity_per_impulse * local.F * local.F / abs(new.F_rate)
@@ -292,19 +288,6 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             if self.stick_bounds is not None and grazes(point, new, h, self.tol * v_scale):
                 error = max(error, GRAZING_ERROR)
         return error
-
-    def _may_break_away(self, point: Point, new: Point, F_miss: float) -> bool:
-        """Whether a stuck step from point to new, its force off the curve by about F_miss [N], can
-        have passed the friction's bound (the last stuck step's probes). The stick ramp is exact
-        in x and v whatever its force: the force's miss matters only through the breakaway's
-        timing. Far from the bound (a stick from rest, where the stick force's rate is near 0
-        and the miss a ramp's round-off) it moves nothing, and the breakaway term, which
-        divides by that rate, forced the step to its floor."""
-        bounds = self.stick_bounds
-        if bounds is None:
-            return True
-        margin = min(min(bounds[1] - F, F - bounds[0]) for F in (point.F, new.F))
-        return margin <= BREAKAWAY_REACH * abs(F_miss)
 
     def interpolation_error(self, point: Point, new: Point, h: float, v_scale: float, x_scale: float) -> float:
         """How far the cubic Hermite interpolants of v (slopes a) and x (slopes v) may miss
