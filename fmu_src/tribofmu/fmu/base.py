@@ -382,7 +382,8 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
     def changed(self, name: str) -> None:
         """Called after the host set a parameter or input (not when a state is restored).
 
-        Caches derived from parameters should key on ``self._parameter_token`` instead."""
+        Caches derived from parameters use :func:`.fmu_state.parameter_cached` instead (keyed on
+        ``self._parameter_token``, which a restored state sets too)."""
 
     def advance(self, t: float, h: float) -> str | None:
         """Advance the model from t to t + h [s]; return why the inputs cannot be stepped

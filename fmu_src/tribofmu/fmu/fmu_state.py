@@ -5,12 +5,29 @@ build is refused."""
 from __future__ import annotations
 
 import copy
+import functools
 import json
 import uuid
 from typing import Any
 
 from .fmi import (_STATE, INITIALIZATION, INSTANTIATED, STEP, TERMINATED, Boolean, Causality, Integer,
                   Real)
+
+
+def parameter_cached(method):
+    """A model's method of no argument whose answer depends on the parameters alone (a law, a
+    program, the parameters' values in a state): made once, and again only after a parameter
+    changed (``_parameter_token``)."""
+    slot = f"_cached_{method.__name__}"
+
+    @functools.wraps(method)
+    def cached(self):
+        token, value = getattr(self, slot, (None, None))
+        if token != self._parameter_token:
+            token, value = self._parameter_token, method(self)
+            setattr(self, slot, (token, value))
+        return value
+    return cached
 
 
 class OwnState(dict):
@@ -120,14 +137,11 @@ class FMUStateMixin:
         if token != self._parameter_token:  # a state of another instance (deserialized): its parameters
             self._new_parameters(token or f"{uuid.uuid4()}:0")
 
+    @parameter_cached
     def _parameter_values(self) -> dict[str, Any]:
-        """The parameters' values, taken once per parameter set (:attr:`_parameter_token`):
-        a state holds them all, but they change only through their setters."""
-        cached = getattr(self, "_parameter_cache", None)
-        if cached is None or cached[0] != self._parameter_token:
-            cached = self._parameter_token, {name: getattr(self, name) for name in self._parameter_names}
-            self._parameter_cache = cached
-        return cached[1]
+        """The parameters' values, taken once per parameter set: a state holds them all, but
+        they change only through their setters."""
+        return {name: getattr(self, name) for name in self._parameter_names}
 
     def _variable_names(self) -> list[str]:
         """The scalars of a state other than the parameters (inputs, stored outputs, time)."""

@@ -1,5 +1,5 @@
 """The declarations the FMUs share: the block's parameters and outputs, the friction law's
-parameters, and the models' caches of what their parameters make.
+parameters (and, from the framework, :func:`parameter_cached` for what the parameters make).
 
 BlockSpring and Friction declare their variables here, and TriboPair (block and friction in
 one FMU) declares both sets with the same calls: one list of names, units, descriptions and
@@ -7,11 +7,11 @@ checks, so the pair cannot drift from the separate FMUs.
 """
 from __future__ import annotations
 
-import functools
 from dataclasses import fields
 
 from tribofmu.fmu.base import OUTPUT, PARAMETER, non_negative, positive
 from tribofmu.fmu.effect_parameters import EFFECT_PARAMETERS
+from tribofmu.fmu.fmu_state import parameter_cached  # noqa: F401 (the models import it from here)
 from tribofmu.physics.friction import Effects, FrictionLaw, LubricantConstants
 from tribofmu.physics.laws import LAWS, law_parameters, make_law, regime_problem
 
@@ -49,21 +49,6 @@ def declare_block_outputs(slave) -> None:
     slave.declare("x", 0.0, OUTPUT, "m", "position of the lower block")
     slave.declare("v", 0.0, OUTPUT, "m/s", "velocity of the lower block")
     slave.declare("a", 0.0, OUTPUT, "m/s2", "acceleration of the lower block at the end of the step")
-
-
-def parameter_cached(method):
-    """A model's method of no argument whose answer depends on the parameters alone (a law, a
-    program): made once, and again only after a parameter changed (``_parameter_token``)."""
-    slot = f"_cached_{method.__name__}"
-
-    @functools.wraps(method)
-    def cached(self):
-        token, value = getattr(self, slot, (None, None))
-        if token != self._parameter_token:
-            token, value = self._parameter_token, method(self)
-            setattr(self, slot, (token, value))
-        return value
-    return cached
 
 
 def declare_friction_parameters(slave) -> None:

@@ -130,6 +130,12 @@ class FrictionLaw:
         The coupling compares it with the force ramp the block felt: a force that peaks
         inside a step (a lubricant re-solidifying as dv passes 0) shows there, not at the
         step's ends."""
+        if dv == dv_start:
+            return self.force(dv, n, f)
+        return self.path_mean_force(dv_start, dv, n, f)
+
+    def path_mean_force(self, dv_start: float, dv: float, n: float, f: float) -> float:
+        """:meth:`mean_force` over a path of non-zero width (dv != dv_start) [N]."""
         raise NotImplementedError
 
     def load(self, n: float) -> float:

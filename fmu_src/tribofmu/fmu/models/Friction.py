@@ -7,7 +7,7 @@ block's mass: a stuck contact is the coupling algorithm's business (sgn(0) = 0 h
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, INPUT, OUTPUT
-from tribofmu.fmu.parameters import declare_friction_parameters, friction_law
+from tribofmu.fmu.parameters import declare_friction_parameters, friction_law, parameter_cached
 from tribofmu.physics.friction import FrictionLaw
 
 class Friction(Fmi2Slave):
@@ -17,7 +17,6 @@ class Friction(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self._law = None
         self.dv_previous = None  # m/s, the input of the last step (None: none yet)
         declare_friction_parameters(self)
         self.declare("dv", 0.0, INPUT, "m/s", "relative velocity V - v of the rubbing surfaces")
@@ -35,10 +34,9 @@ class Friction(Fmi2Slave):
                      "mean friction force over the last step, dv moving linearly from the previous "
                      "step's input to this one (a force peaking inside the step shows here)")
 
+    @parameter_cached
     def law(self) -> FrictionLaw:
-        if self._law is None or self._law[0] != self._parameter_token:
-            self._law = self._parameter_token, friction_law(self)
-        return self._law[1]
+        return friction_law(self)
 
     def changed(self, name):
         if name == "f0":

@@ -57,9 +57,7 @@ class BoundaryLaw(FrictionLaw):
             F += self.viscous_force(dv)
         return F
 
-    def mean_force(self, dv_start: float, dv: float, n: float, f: float = 0.0) -> float:
-        if dv == dv_start:
-            return self.force(dv, n, f)
+    def path_mean_force(self, dv_start: float, dv: float, n: float, f: float) -> float:
         F = 0.0
         if self.effects.elastic:
             F += 2.0 * self.mu_eff(f) * self.shear_strain(0.5 * (dv + dv_start)) * self.S

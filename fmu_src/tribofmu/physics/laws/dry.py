@@ -23,9 +23,7 @@ class DryLaw(FrictionLaw):
     def force(self, dv: float, n: float, f: float = 0.0) -> float:
         return self.mu_friction * self.load(n) * sign(dv)
 
-    def mean_force(self, dv_start: float, dv: float, n: float, f: float = 0.0) -> float:
-        if dv == dv_start:
-            return self.force(dv, n, f)
+    def path_mean_force(self, dv_start: float, dv: float, n: float, f: float) -> float:
         return self.mu_friction * self.load(n) * power_mean(dv_start, dv, 0.0)
 
     def static_limit(self, n: float) -> float:

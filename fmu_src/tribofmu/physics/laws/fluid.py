@@ -18,9 +18,7 @@ class FluidLaw(FrictionLaw):
     def force(self, dv: float, n: float, f: float = 0.0) -> float:
         return self.viscous_force(dv)
 
-    def mean_force(self, dv_start: float, dv: float, n: float, f: float = 0.0) -> float:
-        if dv == dv_start:
-            return self.force(dv, n, f)
+    def path_mean_force(self, dv_start: float, dv: float, n: float, f: float) -> float:
         return self.m * power_mean(dv_start, dv, self.gamma + 1.0)
 
     def plot_items(self, fmt) -> list[str]:

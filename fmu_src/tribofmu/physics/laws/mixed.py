@@ -117,13 +117,11 @@ class MixedLaw(FrictionLaw):
             a, (speed / self.v_stribeck) ** self.stribeck_exponent)
         return self.mu_friction * speed + (self.mu_static - self.mu_friction) * decay
 
-    def mean_force(self, dv_start: float, dv: float, n: float, f: float = 0.0) -> float:
+    def path_mean_force(self, dv_start: float, dv: float, n: float, f: float) -> float:
         """Exact: the antiderivative of sgn(x) mu(|x|) is the integral of mu up to |x|."""
         width = dv - dv_start
         if abs(width) <= NARROW_PATH * (abs(dv) + abs(dv_start)) and dv * dv_start > 0.0:
             return self.force(0.5 * (dv + dv_start), n, f)
-        if width == 0.0:
-            return self.force(dv, n, f)
         coulomb = (self._coefficient_integral(abs(dv)) - self._coefficient_integral(abs(dv_start))) / width
         return coulomb * self.load(n) + self.m * 0.5 * (dv + dv_start)
 
