@@ -27,7 +27,13 @@ run's global estimate (:mod:`.estimate`) exactly as step doubling's were.
 
 Events: a stuck contact breaking away inside a step is landed on (the step is solved again to
 end there, counted as ``landed``), and the step before a breakaway the last stick ramp
-predicts ends at it, so the landing's extra solve is rarely needed.
+predicts ends at it, so the landing's extra solve is rarely needed. A stuck step's own force
+is a chord (a ramp, or held where the contact stuck inside the step); the force that keeps
+the block on the drive at the step's end is the chord's plus M (aX - a), the block's
+acceleration miss. When that force is past the friction's bound the contact broke away
+inside the step although the chord stayed within it (a micro-stick shorter than the step):
+the step is landed where that force, interpolated from its start, reaches the bound
+(:meth:`EmbeddedCoupling.missed_breakaway`).
 """
 from __future__ import annotations
 
@@ -75,6 +81,10 @@ STATE_WEIGHT = 0.3
 STATE_CARRY = 8.0
 
 
+# A stuck step's end force (see the module's docstring) past the friction's bound by more than
+# this fraction of the bound is a breakaway inside the step: below it, the end force's own
+# round-off (the stick solve keeps dv within delta) would land steps for nothing.
+MISSED_BREAKAWAY_RTOL = 1e-6
 # A stuck step's successor keeps its length when the controller would grow it by less than
 # this factor (as RADAU5 keeps h within [1, 1.2] to reuse its Jacobian): the next stick ramp
 # then reuses this one's Jacobian, exact for a step of the same length (contact.StickJacobian),
@@ -164,11 +174,39 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         reach = (bound - point.F) / point.F_rate
         return reach if reach > 0.0 else None
 
+    def missed_breakaway(self, point: Point, new: Point) -> float | None:
+        """Stuck at the end of the step from point to new, but the force that keeps the block
+        on the drive there, new.F + M (aX - a), is past the friction's bound: the fraction of
+        the step at which that force, linear from its value at the step's start (or from the
+        stick onset inside the step), reached the bound; None when it stays within (or
+        leaves only in the step's last BREAKAWAY_MARGIN, where the next step breaks away)."""
+        bounds = self.stick_bounds
+        if not new.mode.stuck or bounds is None or self.velocity_per_impulse <= 0.0:
+            return None
+        mass = 1.0 / self.velocity_per_impulse  # kg, as the block answers an impulse
+        low, high = bounds
+        end = new.F + (new.aX - new.a) * mass
+        slack = MISSED_BREAKAWAY_RTOL * max(abs(low), abs(high))
+        if low - slack <= end <= high + slack:
+            return None
+        bound = high if end > high else low
+        onset = 0.0 if point.mode.stuck else min(max(new.event, 0.0), 1.0)
+        start = point.F + (point.aX - point.a) * mass  # (at dv = 0: the stick onset or a stuck point)
+        if low <= start <= high and start != end:
+            fraction = (bound - start) / (end - start)
+        else:  # no start inside the bounds to interpolate from: halve the stuck part
+            fraction = 0.5 * (onset + 1.0)
+        fraction = min(max(fraction, onset), 1.0)
+        return fraction if fraction < 1.0 - BREAKAWAY_MARGIN else None
+
     def advance(self, system: CoupledSystem, point: Point, stop_ns: int) -> list[Point]:
         h_ns = self.planned_step(point, stop_ns)
         start = self.states_at(system, point)
         new = self.solve_step(system, point, h_ns, saved=start)
         if self._landed(system, start, h_ns, new.event):  # a breakaway inside: end the step there
+            return []
+        missed = self.missed_breakaway(point, new)
+        if missed is not None and self._landed(system, start, h_ns, missed):
             return []
         h = h_ns / NS
         local = self.local_error(point, new, h)
@@ -203,7 +241,12 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         room_v = INTERPOLATION_SAFETY * HERMITE_ERROR_DIVISOR * self.tol * self.velocity_scale(point) / w2
         room_x = INTERPOLATION_SAFETY * HERMITE_ERROR_DIVISOR * self.tol * self.position_scale(point) / w2
         if not point.mode.slipping:
-            return math.inf
+            breakaway = self.predicted_breakaway(point)
+            if breakaway is None or breakaway > self.h_ns / NS:
+                return math.inf
+            # stuck at (or near) the bound: the step will slip from its start, at most a
+            # fraction of the block's period (see error_ratio)
+            return BLOCK_PERIOD_FRACTION * 2.0 * math.pi / math.sqrt(w2)
         # the ends of a step as long as the block's own period can look alike (a slow dry
         # drive's slip phases: fig2's rig at omega = 10, 6.4e-2 nRMS(v) without this cap)
         limits = [BLOCK_PERIOD_FRACTION * 2.0 * math.pi / math.sqrt(w2)]
@@ -278,10 +321,15 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             error = max(error, FORCE_WEIGHT * abs(local.F) / (self.tol * F_scale))
             f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
             error = max(error, STATE_WEIGHT * abs(local.f) / (self.tol * f_scale))
-        if point.mode.slipping and point.mode == new.mode:
+        if new.mode.slipping and (point.mode == new.mode or point.mode.stuck):
             # (across a transition a jumps and the interpolants take one-sided slopes; stuck,
-            # v is the drive's V, interpolated with the drive's acceleration)
+            # v is the drive's V, interpolated with the drive's acceleration. A stuck step that
+            # slips at its end broke away at its start (a later breakaway is landed on), and
+            # slips all through from the stuck point's state: fig2's
+            # rig at omega = 3 took 8 ms there, a quarter of the block's period, unchecked,
+            # and its samples missed by 0.35 % of max|v|)
             error = max(error, self.interpolation_error(point, new, h, v_scale, x_scale))
+        if point.mode.slipping and point.mode == new.mode:
             # (only for a law that has stuck: with a jump at dv = 0 a dip is a stick the step
             # would pass over; a law without one, as a fluid's, slips through 0 continuously,
             # and a stiff one's creeping dv dipped in every held step: 90 % rejected)
