@@ -7,6 +7,7 @@ which the relative velocity reaches zero, the time at which the spring force nee
 stuck reaches the friction's bound.
 """
 import math
+from dataclasses import replace
 
 import pytest
 from scipy.optimize import brentq
@@ -290,8 +291,25 @@ def test_ramped_step_meeting_a_reversal_asks_for_the_held_retry():
     assert implicit_step(system, start, 1e-3, ramp=True).solve() is RETRY_HELD_TRANSITION
 
 
-def test_ramped_step_meeting_a_stick_asks_for_the_held_retry():
-    step, _ = slipping_block(1.4, 0.0, -0.01, 2e-3, ramp=True)
+def test_ramped_step_meeting_a_stick_goes_on_held_where_its_force_did_not_move():
+    """Dry friction's slip force is constant, so the ramp's first probe (rate 0) is the held
+    step's own: the solve goes on held instead of asking for the held retry, and gives the
+    held step's answer with one block step fewer (before: RETRY_HELD_TRANSITION, and the
+    retry stepped the same probe again)."""
+    ramped, _ = slipping_block(1.4, 0.0, -0.01, 2e-3, ramp=True)
+    held, _ = slipping_block(1.4, 0.0, -0.01, 2e-3)
+    from_ramp, from_held = ramped.solve(), held.solve()
+    assert not isinstance(from_ramp, RetryHeld)
+    assert not from_ramp.ramped and from_ramp.mode == from_held.mode == Contact.STUCK
+    assert (from_ramp.F, from_ramp.v, from_ramp.x, from_ramp.event) == (from_held.F, from_held.v, from_held.x, from_held.event)
+    assert len(ramped.block_samples) == len(held.block_samples)
+
+
+def test_ramped_step_meeting_a_stick_asks_for_the_held_retry_where_its_force_moved():
+    """A ramp whose real steps had a rate (the force at the step's start differs from the
+    friction's at the probe) is not the held step's: the held retry is asked for."""
+    step, start = slipping_block(1.4, 0.0, -0.01, 2e-3, ramp=True)
+    step.point = replace(start, F=0.5 * MU_L)  # the force moved since the step's start
     assert step.solve() is RETRY_HELD_TRANSITION
 
 

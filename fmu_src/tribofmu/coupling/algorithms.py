@@ -349,12 +349,15 @@ class ErrorControlledCoupling(ImplicitCoupling):
     def states_at(self, system: CoupledSystem, point: Point) -> States:
         """Every slave's state at point, saved once however many tries a step from it takes
         (a rejected or landed try restores them and the next try starts from the same point
-        object); the states of the point before are freed when the next point's are saved."""
+        object); the next point's are saved over the point before's (freed by :meth:`finish`)."""
         held = self._held
         if held is not None and held[0] is point and held[1] is system:
             return held[2]
-        self.finish(system)
-        states = system.save()
+        if held is not None and held[1] is system:
+            states = system.save_over(held[2])
+        else:
+            self.finish(system)
+            states = system.save()
         self._held = (point, system, states)
         return states
 

@@ -192,6 +192,7 @@ class ImplicitStep:
         self.block_samples: list[BlockAnswer] = []  # real answers under block_under's family of forces
         self.use_model = True  # off once the block turned out not affine in the force
         # the last step's slope of this family, for a model from one real answer (slip solves)
+        self.block_slope = block_slope
         self.seed = block_slope.scaled(h_ns) if block_slope is not None and block_slope.ramp == ramp else None
         self.seed_allowed = False  # on while a slip root is sought (probes and stick forces step for real)
         self.last_seeded = False  # the latest modelled answer came from one real answer and the seed
@@ -413,8 +414,19 @@ class ImplicitStep:
                     event = reach if 0.0 < reach < 1.0 else 1.0
                 return Contact(int(side)), self.slip_root(side * delta, h_side, side), event
             if self.ramp:
-                return RETRY_HELD_TRANSITION
+                if not all(sample.rate == 0.0 for sample in self.block_samples):
+                    return RETRY_HELD_TRANSITION
+                # The ramp's rate was 0 in every real step so far (a force that did not move,
+                # as dry friction's in slip): they are the held step's own, so the solve goes
+                # on held instead of starting again (which stepped the same probe twice).
+                self.hold()
         return Contact.STUCK, None, 1.0
+
+    def hold(self) -> None:
+        """Go on as a held step (the force held at its end value) from here."""
+        self.ramp = False
+        block_slope = self.block_slope
+        self.seed = block_slope.scaled(self.h_ns) if block_slope is not None and not block_slope.ramp else None
 
     def solve_stuck(self, event: float) -> float:
         """Stuck at the step's end: the stick ramp (stuck all through), or the stick force

@@ -238,6 +238,17 @@ class CoupledSystem:
     def save(self, *slaves: SlaveLike) -> States:
         return States({s.instance: (s, s.save()) for s in (slaves or self.slaves) if s is not None})
 
+    def save_over(self, states: States) -> States:
+        """The slaves' current states in place of ``states`` (saved by this system before):
+        overwritten where a slave can (an optional ``save_into(handle) -> bool``: one call),
+        else freed and saved anew. Returns ``states``."""
+        for name, (slave, handle) in list(states.handles.items()):
+            save_into = getattr(slave, "save_into", None)
+            if save_into is None or not save_into(handle):
+                slave.free_state(handle)
+                states.handles[name] = (slave, slave.save())
+        return states
+
     def loop_states(self, states: States) -> States:
         """The part of states an implicit step restores between its evaluations: the block's
         and the friction's (the drive, load and thermal stay where the step put them)."""

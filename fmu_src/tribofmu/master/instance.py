@@ -167,6 +167,11 @@ class FMUInstance:
             # builder's binaries) would shadow the installed one in this process.
             sys.path[:] = [entry for entry in sys.path if entry != resources]
         release_pythonfmu_guard_at_exit(getattr(self._fmu, "dll", None))
+        # Behind the native loader a saved state can be overwritten in place (FMI's get into a
+        # non-NULL state): one call where a free and a save were two. pythonfmu's own binary
+        # (it exports finalizePythonInterpreter, the loader does not) would leak the old state.
+        dll = getattr(self._fmu, "dll", None)
+        self.overwrites_states = dll is not None and getattr(dll, "finalizePythonInterpreter", None) is None
         if self.fmi_version == 3:  # FMI 3.0 has no setupExperiment: the start time comes here
             self.call("enterInitializationMode", startTime=start_time)
         else:
@@ -325,6 +330,17 @@ class FMUInstance:
         mark = len(self.messages)
         self._check(self._names["save"], self._c["save"](self._component, ctypes.byref(state)), mark)
         return state
+
+    def save_into(self, state) -> bool:
+        """Overwrite ``state`` (saved by this instance before) with the current state; False,
+        and nothing done, where the binary cannot (see ``overwrites_states``)."""
+        if not self.overwrites_states:
+            return False
+        self.calls += 1
+        self.calls_by_kind["save"] += 1
+        mark = len(self.messages)
+        self._check(self._names["save"], self._c["save"](self._component, ctypes.byref(state)), mark)
+        return True
 
     def restore(self, state) -> None:
         self.calls += 1
