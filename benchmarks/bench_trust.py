@@ -3,12 +3,12 @@ run that misses it say so?
 
     python benchmarks/bench_trust.py [--tols default,1e-3,1e-4] [--only SUBSTRING] [--out FILE.json]
 
-At parameter points no scene uses (dry, fluid, boundary and mixed friction across docs/model.md's
-ranges), each run of ``tribofmu.api.simulate`` (whole call, its checks included) is compared
-with the independent reference (``studies.reference``, rtol 1e-10). Printed per run: the tol
-asked (``default`` is the scene's own, 1e-3), the error reported
-(``stats["estimated_error"]["nrms_v"]``), the true nRMS(v) on the window, their ratio,
-``ok``, the wall time, the per-step tolerances run. Then the targets:
+At Fig. 2's and Fig. 6's scenes and at parameter points no scene uses (dry, fluid, boundary and
+mixed friction across docs/model.md's ranges), each run of ``tribofmu.api.simulate`` (whole
+call, its checks included) is compared with the independent reference (``studies.reference``,
+rtol 1e-10). Printed per run: the tol asked (``default`` is the scene's own, 1e-3), the error
+reported (``stats["estimated_error"]["nrms_v"]``), the true nRMS(v) on the window, their
+ratio, ``ok``, the wall time, the per-step tolerances run. Then the targets:
 
 - silent misses: runs with true error past 3x tol that end ok (target: 0);
 - reported / true within [0.5, 10] (or both below tol/10);
@@ -31,6 +31,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 POINTS = [
+    # the paper's scenes themselves (the band target names them)
+    ("fig2 scene", "fig2_dry", {}),
+    ("fig6 scene", "fig6_boundary", {}),
     # dry friction: slow drives, light and heavy blocks, another friction coefficient
     ("dry omega=3", "fig2_dry", {"drive.omega": 3.0}),
     ("dry M=0.05", "fig2_dry", {"block.M": 0.05}),
