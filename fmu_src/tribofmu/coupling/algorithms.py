@@ -233,8 +233,8 @@ class ImplicitCoupling(CouplingAlgorithm):
             self.velocity_per_impulse = report.velocity_per_impulse
         if report.bounds is not None:
             self.stick_bounds = report.bounds
-        if report.block_slope is not None:
-            self.block_slopes[ramp] = report.block_slope
+        if report.block_slope is not None:  # (of the family the step ended in: it may go on held)
+            self.block_slopes[report.block_slope.ramp] = report.block_slope
         if report.stick_jacobian is not None:
             self.stick_jacobian = report.stick_jacobian
         return new
