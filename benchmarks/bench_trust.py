@@ -64,7 +64,13 @@ def main(argv=None) -> int:
     parser.add_argument("--only", default=None, help="run only the points whose label holds this")
     parser.add_argument("--max-wall", type=float, default=300.0, help="each run's budget [s]")
     parser.add_argument("--out", default=None)
+    parser.add_argument("--table", default=None, metavar="ROWS.json[,ROWS.json]",
+                        help="print the markdown summary of rows saved by --out, run nothing")
     args = parser.parse_args(argv)
+    if args.table:
+        rows = [row for path in args.table.split(",") for row in json.loads(Path(path).read_text())]
+        print(summary_table(rows))
+        return 0
 
     from tribofmu import api
     from tribofmu.fmu_cache import find_fmus
@@ -115,9 +121,41 @@ def main(argv=None) -> int:
         print(f"defaults meeting 1e-3: {len(met)} of {len(defaults)}; slowest "
               f"{max(r['wall'] for r in defaults):.1f} s")
     print(f"# load at the end {os.getloadavg()[0]:.1f}")
+    print("\n" + summary_table(rows))
     if args.out:
         Path(args.out).write_text(json.dumps(rows, indent=2) + "\n")
     return 0
+
+
+def family(label: str) -> str:
+    """The friction a point runs: the label's first word, the three fluids as one."""
+    word = label.split()[0]
+    return "fluid" if word in ("pseudoplastic", "dilatant", "newtonian") else word
+
+
+def summary_table(rows: list[dict]) -> str:
+    """One markdown row per tol asked and friction: points, silent misses, the runs not met
+    (ok false, said), reported / true and true / tol over the ok runs, wall times."""
+    def span(values, fmt):
+        if not values:
+            return "–"
+        low, high = fmt.format(min(values)), fmt.format(max(values))
+        return low if low == high else f"{low}–{high}"
+
+    lines = ["| tol | friction | points | silent misses | not met (said) | reported / true | true / tol | wall s |",
+             "|---|---|---|---|---|---|---|---|"]
+    order = ["fig2", "fig6", "dry", "fluid", "boundary", "mixed"]
+    keys = sorted({(r["tol"], family(r["point"])) for r in rows},
+                  key=lambda k: (-k[0], order.index(k[1]) if k[1] in order else len(order)))
+    for tol, fam in keys:
+        group = [r for r in rows if r["tol"] == tol and family(r["point"]) == fam]
+        ok = [r for r in group if r["ok"]]
+        silent = sum(1 for r in group if r["ok"] and r["true"] > 3 * r["tol"])
+        ratios = [r["reported"] / r["true"] for r in ok if r["reported"] and r["true"]]
+        lines.append(f"| {tol:g} | {fam} | {len(group)} | {silent} | {len(group) - len(ok)} | "
+                     f"{span(ratios, '{:.2g}')} | {span([r['true'] / r['tol'] for r in ok], '{:.2g}')} | "
+                     f"{span([r['wall'] for r in group], '{:.1f}')} |")
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
