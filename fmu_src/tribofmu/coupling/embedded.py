@@ -246,7 +246,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         if not point.mode.slipping:
             breakaway = self.predicted_breakaway(point)
             if breakaway is None or breakaway > self.h_ns / NS:
-                return math.inf
+                return self.stuck_interpolation_limit(point)
             # stuck at (or near) the bound: the step will slip from its start, at most a
             # fraction of the block's period (see error_ratio)
             return BLOCK_PERIOD_FRACTION * 2.0 * math.pi / math.sqrt(w2)
@@ -258,6 +258,39 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         if point.a != 0.0:
             limits.append((room_x / abs(point.a)) ** 0.25)
         return min(limits)
+
+    def drive_w2(self) -> float:
+        """The drive's angular frequency squared [1/s^2], from the scene's period."""
+        return (2.0 * math.pi / self.scales.period) ** 2
+
+    def stuck_interpolation_limit(self, point: Point) -> float:
+        """The longest stuck step [s] whose interpolants of the drive's motion (see
+        :meth:`stuck_interpolation_error`) stay within tol, planned from the point (a harmonic
+        drive's jerk is -w^2 V, the fourth derivative of its X is -w^2 aX)."""
+        if not point.mode.stuck:
+            return math.inf
+        w2 = self.drive_w2()
+        room = INTERPOLATION_SAFETY * HERMITE_ERROR_DIVISOR * self.tol / (w2 * w2)
+        limits = [math.inf]
+        if point.V != 0.0:
+            limits.append((room * self.velocity_scale(point) / abs(point.V)) ** 0.25)
+        if point.aX != 0.0:
+            limits.append((room * w2 * self.position_scale(point) / abs(point.aX)) ** 0.25)
+        return min(limits)
+
+    def stuck_interpolation_error(self, point: Point, new: Point, h: float, v_scale: float,
+                                  x_scale: float) -> float:
+        """Stuck all through, v is the drive's V interpolated with the drive's acceleration and
+        x moves with the drive's X (slopes V): the cubic Hermite bound, h^4/384 of the fourth
+        derivative (w^2 |d aX/dt| for V, w^2 |aX| for X, w the drive's own frequency),
+        relative to tol. (The breakaway's timing, which bounded these steps too, counts only
+        near the friction's bound: far from it a stick kept its steps at the longest, T/20, in
+        both runs of a check, which then agreed on 1e-5 of interpolation error and reported 0.)"""
+        w2 = self.drive_w2()
+        scale = h ** 4 / HERMITE_ERROR_DIVISOR * w2
+        v_miss = scale * abs(new.aX - point.aX) / h
+        x_miss = scale * max(abs(point.aX), abs(new.aX))
+        return max(v_miss / (self.tol * v_scale), x_miss / (self.tol * x_scale))
 
     # -- the embedded estimate --------------------------------------------------------------
     def local_error(self, point: Point, new: Point, h: float) -> LocalError:
@@ -314,11 +347,15 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         v_scale, x_scale = self.velocity_scale(point, new), self.position_scale(point, new)
         error = max(abs(local.v) / (allowance * v_scale), abs(local.x) / (allowance * x_scale),
                     abs(local.impulse) / (allowance * v_scale))
-        if local.stuck and new.F_rate != 0.0 and self.breakaway_within_reach(point, new, local.F, h):
-            # A breakaway late by dt = dF / F_rate starts the slip late: the relative velocity
-            # grows as (F_rate / M) s^2 / 2 after it, so v misses F_rate/M dt^2 / 2 = dF^2 / (2 M F_rate).
-            late = 0.5 * self.velocity_per_impulse * local.F * local.F / abs(new.F_rate)
-            error = max(error, STICK_FORCE_WEIGHT * late / (allowance * v_scale))
+        if point.mode.stuck and new.mode.stuck:
+            error = max(error, self.stuck_interpolation_error(point, new, h, v_scale, x_scale))
+        if local.stuck and new.F_rate != 0.0:
+            # (the stick force is the block's, not the friction's: the force terms below are not its)
+            if self.breakaway_within_reach(point, new, local.F, h):
+                # A breakaway late by dt = dF / F_rate starts the slip late: the relative velocity
+                # grows as (F_rate / M) s^2 / 2 after it, so v misses F_rate/M dt^2 / 2 = dF^2 / (2 M F_rate).
+                late = 0.5 * self.velocity_per_impulse * local.F * local.F / abs(new.F_rate)
+                error = max(error, STICK_FORCE_WEIGHT * late / (allowance * v_scale))
         elif new.f != 0.0 or point.f != 0.0:
             F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
             error = max(error, FORCE_WEIGHT * abs(local.F) / (self.tol * F_scale))
