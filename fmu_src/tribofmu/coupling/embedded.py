@@ -351,11 +351,11 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             error = max(error, self.stuck_interpolation_error(point, new, h, v_scale, x_scale))
         if local.stuck and new.F_rate != 0.0:
             # (the stick force is the block's, not the friction's: the force terms below are not its)
-            if self.breakaway_within_reach(point, new, local.F, h):
-                # A breakaway late by dt = dF / F_rate starts the slip late: the relative velocity
-                # grows as (F_rate / M) s^2 / 2 after it, so v misses F_rate/M dt^2 / 2 = dF^2 / (2 M F_rate).
-                late = 0.5 * self.velocity_per_impulse * local.F * local.F / abs(new.F_rate)
-                error = max(error, STICK_FORCE_WEIGHT * late / (allowance * v_scale))
+            # A breakaway late by dt = dF / F_rate starts the slip late: the relative velocity
+            # grows as (F_rate / M) s^2 / 2 after it, so v misses F_rate/M dt^2 / 2 = dF^2 / (2 M F_rate).
+            late = 0.5 * self.velocity_per_impulse * local.F * local.F / abs(new.F_rate)
+            reach = self.breakaway_reach(point, new, local.F, h)
+            error = max(error, STICK_FORCE_WEIGHT * reach * late / (allowance * v_scale))
         elif new.f != 0.0 or point.f != 0.0:
             F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
             error = max(error, FORCE_WEIGHT * abs(local.F) / (self.tol * F_scale))
@@ -377,21 +377,25 @@ class EmbeddedCoupling(ErrorControlledCoupling):
                 error = max(error, GRAZING_ERROR)
         return error
 
-    def breakaway_within_reach(self, point: Point, new: Point, F_miss: float, h: float) -> bool:
-        """Whether the stick force of the stuck step from point to new (ramping at new.F_rate
-        [N/s], off its curve by about F_miss [N]) can reach the friction's bound within
-        BREAKAWAY_REACH steps of h [s], along its ramp or by its curvature. The stick ramp is
-        exact in x and v whatever its force: the force's miss matters only through the
-        breakaway's timing, which divides by the force's rate. Far from the bound that term
-        read the ramp's round-off as error: from rest (rate ~0) it forced the steps to their
-        floor (mixed friction, delta = 1, at per-step 2e-7: 346 steps in the first 0.1 % of the
-        run, and the run's pace then stopped it). A breakaway the gated steps pass over is
+    def breakaway_reach(self, point: Point, new: Point, F_miss: float, h: float) -> float:
+        """How much the breakaway's timing counts for the stuck step from point to new, its
+        stick force ramping at new.F_rate [N/s] and off its curve by about F_miss [N]: 1 where
+        the force can reach the friction's bound within BREAKAWAY_REACH steps of h [s] (along
+        its ramp or by its curvature), falling as the square of that reach over the distance
+        to the bound farther off. The stick ramp is exact in x and v whatever its force: its
+        miss matters only through the breakaway's timing, which divides by the force's rate.
+        Far from the bound, counted in full, it read the ramp's round-off as error: from rest
+        (rate ~0) it forced the steps to their floor (mixed friction, delta = 1, at per-step
+        2e-7: 346 steps in the first 0.1 % of the run, and the run's pace then stopped it).
+        (Counted or not, with no fall between, the steps grown far from the bound were
+        rejected where it came back: fig2 29 % rejected.) A breakaway the steps pass over is
         landed on (:meth:`missed_breakaway`)."""
         bounds = self.stick_bounds
         if bounds is None:
-            return True
+            return 1.0
         margin = min(min(bounds[1] - F, F - bounds[0]) for F in (point.F, new.F))
-        return margin <= BREAKAWAY_REACH * (abs(new.F_rate) * h + abs(F_miss))
+        reach = BREAKAWAY_REACH * (abs(new.F_rate) * h + abs(F_miss))
+        return 1.0 if margin <= reach else (reach / margin) ** 2
 
     def interpolation_error(self, point: Point, new: Point, h: float, v_scale: float, x_scale: float) -> float:
         """How far the cubic Hermite interpolants of v (slopes a) and x (slopes v) may miss
