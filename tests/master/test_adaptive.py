@@ -275,8 +275,8 @@ def test_a_stick_from_rest_far_from_the_bound_is_not_held_to_the_breakaway_timin
     """Mixed friction (mu_s = 0.6, delta = 1) on Fig. 2's rig starts at rest, stuck, its stick
     force ~1 N against a bound of 12 N and ramping at a few N/s. The breakaway-timing term
     divides by that rate and read the stick ramp's round-off as error: at per-step 2e-7 the
-    first 1 % of a period took 987 steps, 257 rejected, down to the 20 ns floor. Out of the
-    bound's reach the term does not count: a handful of steps."""
+    first 1 % of a period took 987 steps, 257 rejected, down to the 20 ns floor. Far out of
+    the bound's reach the term counts as little as the breakaway is near: a handful of steps."""
     from tribofmu.coupling.embedded import EmbeddedCoupling
     from tribofmu.master.run import run
     from tribofmu.physics.laws.mixed import MixedLaw
