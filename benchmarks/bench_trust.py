@@ -65,10 +65,14 @@ def main(argv=None) -> int:
     parser.add_argument("--max-wall", type=float, default=300.0, help="each run's budget [s]")
     parser.add_argument("--out", default=None)
     parser.add_argument("--table", default=None, metavar="ROWS.json[,ROWS.json]",
-                        help="print the markdown summary of rows saved by --out, run nothing")
+                        help="print the markdown summary of rows saved by --out (a point in a later file "
+                             "replaces its row in an earlier one), run nothing")
     args = parser.parse_args(argv)
     if args.table:
-        rows = [row for path in args.table.split(",") for row in json.loads(Path(path).read_text())]
+        # a point measured again in a later file replaces its earlier row
+        latest = {(row["point"], row["tol"]): row for path in args.table.split(",")
+                  for row in json.loads(Path(path).read_text())}
+        rows = list(latest.values())
         print(summary_table(rows))
         return 0
 
