@@ -65,8 +65,8 @@ BLOCK_PERIOD_FRACTION = 0.125
 INTERPOLATION_SAFETY = 0.5
 # How the stick force's miss weighs against tol x the friction's bound (the breakaway's timing).
 STICK_FORCE_WEIGHT = 1.0
-# The breakaway's timing counts for a stuck step whose force could reach the friction's bound
-# within this many steps (see EmbeddedCoupling.breakaway_within_reach).
+# The breakaway's timing counts in full for a stuck step whose force could reach the friction's
+# bound within this many steps, less and less farther off (see EmbeddedCoupling.breakaway_reach).
 BREAKAWAY_REACH = 4.0
 # How the force's own deviation (a friction with internal state) weighs against tol x |F|:
 # the force's curvature (ramped) or slope (held) against the largest |F| so far.
@@ -349,8 +349,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
                     abs(local.impulse) / (allowance * v_scale))
         if point.mode.stuck and new.mode.stuck:
             error = max(error, self.stuck_interpolation_error(point, new, h, v_scale, x_scale))
-        if local.stuck and new.F_rate != 0.0:
-            # (the stick force is the block's, not the friction's: the force terms below are not its)
+        if local.stuck and new.F_rate != 0.0:  # (the block's stick force: not the terms below)
             # A breakaway late by dt = dF / F_rate starts the slip late: the relative velocity
             # grows as (F_rate / M) s^2 / 2 after it, so v misses F_rate/M dt^2 / 2 = dF^2 / (2 M F_rate).
             late = 0.5 * self.velocity_per_impulse * local.F * local.F / abs(new.F_rate)
@@ -387,8 +386,8 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         Far from the bound, counted in full, it read the ramp's round-off as error: from rest
         (rate ~0) it forced the steps to their floor (mixed friction, delta = 1, at per-step
         2e-7: 346 steps in the first 0.1 % of the run, and the run's pace then stopped it).
-        (Counted or not, with no fall between, the steps grown far from the bound were
-        rejected where it came back: fig2 29 % rejected.) A breakaway the steps pass over is
+        (Switched off beyond the reach instead, the steps grown far from the bound were
+        rejected where it switched on: fig2 29 % rejected.) A breakaway the steps pass over is
         landed on (:meth:`missed_breakaway`)."""
         bounds = self.stick_bounds
         if bounds is None:
