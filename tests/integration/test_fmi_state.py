@@ -470,3 +470,34 @@ def test_simulate_fmu_with_a_bad_parameter_raises(fmu_dir, fmu3_dir, fmi):
     with pytest.raises(FMICallException, match="status 3"):
         simulate_fmu(str(path), start_values={"M": -1.0}, stop_time=0.01, output_interval=1e-3,
                      logger=lambda *args: None)
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_a_state_saved_over_is_the_new_state_and_the_same_handle(fmi, fmu_dir, fmu3_dir):
+    """The master saves each communication point's state over the last point's (one call where
+    a free and a save were two): behind the native loader FMI's get into a non-NULL state
+    overwrites it in place. Restoring it then gives the new state exactly, the handle is the
+    same, and freeing it once frees it."""
+    from tribofmu.master.instance import FMUInstance
+
+    folder = fmu_dir if fmi == 2 else fmu3_dir
+    slave = FMUInstance(folder / "BlockSpring.fmu", instance="block", parameters={"M": 0.7, "K": 1300.0})
+    try:
+        assert slave.overwrites_states  # the native loader, not pythonfmu's own binary
+        r = slave.refs
+        slave.set_reals([r["F"], r["F_rate"]], [0.4, -2.0])
+        slave.do_step(0.0, 1e-3)
+        saved = slave.save()
+        handle = saved.value
+        slave.set_reals([r["F"]], [0.1])
+        slave.do_step(1e-3, 2e-3)
+        at_new_point = slave.get_reals([r["F"], r["x"], r["v"], r["a"]])
+        assert slave.save_into(saved) and saved.value == handle
+        slave.set_reals([r["F"]], [-3.0])
+        slave.do_step(3e-3, 1e-3)
+        slave.restore(saved)
+        assert slave.get_reals([r["F"], r["x"], r["v"], r["a"]]) == at_new_point
+        assert slave.calls_by_kind["free"] == 0
+        slave.free_state(saved)
+    finally:
+        slave.close()
