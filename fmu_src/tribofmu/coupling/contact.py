@@ -193,7 +193,7 @@ class ImplicitStep:
         self.use_model = True  # off once the block turned out not affine in the force
         # the last step's slope of this family, for a model from one real answer (slip solves)
         self.block_slope = block_slope
-        self.seed = block_slope.scaled(h_ns) if block_slope is not None and block_slope.ramp == ramp else None
+        self.seed = self.seed_of_family()
         self.seed_allowed = False  # on while a slip root is sought (probes and stick forces step for real)
         self.last_seeded = False  # the latest modelled answer came from one real answer and the seed
         # the last stick ramp's, where it was of this length (exact for a linear block)
@@ -271,11 +271,10 @@ class ImplicitStep:
             dF, seed = F - b.F_end, self.seed
             return BlockAnswer(F, b.x + seed.x * dF, b.v + seed.v * dF, b.a + seed.a * dF, F0, rate)
         self.last_seeded = False
-        # the latest real answer and the one farthest from it in force (near ones amplify
-        # the round-off of their difference)
-        a = max(samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
-        if a.F_end == b.F_end:
+        spanning = self.spanning_samples()
+        if spanning is None:
             return None
+        a, b = spanning
         w = (F - a.F_end) / (b.F_end - a.F_end)
         return BlockAnswer(F, a.x + w * (b.x - a.x), a.v + w * (b.v - a.v), a.a + w * (b.a - a.a), F0, rate)
 
@@ -296,16 +295,23 @@ class ImplicitStep:
             return False
         return True
 
-    def measured_slope(self) -> BlockSlope | None:
-        """The block's slope from the two real answers farthest apart in force, if any."""
+    def spanning_samples(self) -> tuple[BlockAnswer, BlockAnswer] | None:
+        """The real answer farthest in force from the latest one, and the latest (near ones
+        amplify the round-off of their difference); None with fewer than two or no spread."""
         samples = self.block_samples
         if len(samples) < 2:
             return None
         b = samples[-1]
         a = max(samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
-        dF = b.F_end - a.F_end
-        if dF == 0.0:
+        return None if a.F_end == b.F_end else (a, b)
+
+    def measured_slope(self) -> BlockSlope | None:
+        """The block's slope from the two real answers farthest apart in force, if any."""
+        spanning = self.spanning_samples()
+        if spanning is None:
             return None
+        a, b = spanning
+        dF = b.F_end - a.F_end
         return BlockSlope(self.h_ns, self.ramp, (b.v - a.v) / dF, (b.x - a.x) / dF, (b.a - a.a) / dF)
 
     def loop(self, dv: float) -> float:
@@ -425,8 +431,13 @@ class ImplicitStep:
     def hold(self) -> None:
         """Go on as a held step (the force held at its end value) from here."""
         self.ramp = False
-        block_slope = self.block_slope
-        self.seed = block_slope.scaled(self.h_ns) if block_slope is not None and not block_slope.ramp else None
+        self.seed = self.seed_of_family()
+
+    def seed_of_family(self) -> BlockSlope | None:
+        """The last step's block slope, scaled to this step, where it was of this step's
+        family (held or ramped); else None."""
+        slope = self.block_slope
+        return slope.scaled(self.h_ns) if slope is not None and slope.ramp == self.ramp else None
 
     def solve_stuck(self, event: float) -> float:
         """Stuck at the step's end: the stick ramp (stuck all through), or the stick force

@@ -95,6 +95,18 @@ MISSED_BREAKAWAY_RTOL = 1e-6
 STUCK_HOLD_GROWTH = 1.2
 
 
+def hermite_miss(w2: float, a_start: float, a_end: float, h: float, v_allowed: float,
+                 x_allowed: float) -> float:
+    """How far the cubic Hermite interpolants of v (slopes a) and x (slopes v) over a step of
+    h [s] may miss, relative to what is allowed in v [m/s] and x [m], for a motion whose
+    acceleration a (a_start to a_end [m/s^2]) answers its position at w2 [1/s^2]: h^4/384 of
+    the fourth derivative, d4v/dt4 ~ w2 (a_end - a_start)/h and d4x/dt4 ~ w2 a."""
+    scale = h ** 4 / HERMITE_ERROR_DIVISOR * w2
+    v_miss = scale * abs(a_end - a_start) / h  # h^4 w2 |jerk| / 384, as the limits plan
+    x_miss = scale * max(abs(a_start), abs(a_end))
+    return max(v_miss / v_allowed, x_miss / x_allowed)
+
+
 @dataclass(frozen=True)
 class LocalError:
     """One step's estimated local errors (signed: they superpose in the carried estimate):
@@ -286,11 +298,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         relative to tol. (The breakaway's timing, which bounded these steps too, counts only
         near the friction's bound: far from it a stick kept its steps at the longest, T/20, in
         both runs of a check, which then agreed on 1e-5 of interpolation error and reported 0.)"""
-        w2 = self.drive_w2()
-        scale = h ** 4 / HERMITE_ERROR_DIVISOR * w2
-        v_miss = scale * abs(new.aX - point.aX) / h
-        x_miss = scale * max(abs(point.aX), abs(new.aX))
-        return max(v_miss / (self.tol * v_scale), x_miss / (self.tol * x_scale))
+        return hermite_miss(self.drive_w2(), point.aX, new.aX, h, self.tol * v_scale, self.tol * x_scale)
 
     # -- the embedded estimate --------------------------------------------------------------
     def local_error(self, point: Point, new: Point, h: float) -> LocalError:
@@ -406,10 +414,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         w2 = self.estimate.w2
         if w2 <= 0.0:
             return 0.0
-        scale = h ** 4 / HERMITE_ERROR_DIVISOR * w2
-        v_miss = scale * abs(new.a - point.a) / h  # h^4 w2 |jerk| / 384, as the limit plans
-        x_miss = scale * max(abs(point.a), abs(new.a))
-        return max(v_miss / (self.tol * v_scale), x_miss / (self.tol * x_scale))
+        return hermite_miss(w2, point.a, new.a, h, self.tol * v_scale, self.tol * x_scale)
 
     def _carry_error(self, point: Point, new: Point, local: LocalError, h: float) -> None:
         """Carry the global error estimate over the accepted step (coupling/estimate.py)."""

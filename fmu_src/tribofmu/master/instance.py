@@ -166,11 +166,11 @@ class FMUInstance:
             # once imported it is not needed, and its bundled pythonfmu copy (without the
             # builder's binaries) would shadow the installed one in this process.
             sys.path[:] = [entry for entry in sys.path if entry != resources]
-        release_pythonfmu_guard_at_exit(getattr(self._fmu, "dll", None))
+        dll = getattr(self._fmu, "dll", None)
+        release_pythonfmu_guard_at_exit(dll)
         # Behind the native loader a saved state can be overwritten in place (FMI's get into a
         # non-NULL state): one call where a free and a save were two. pythonfmu's own binary
         # (it exports finalizePythonInterpreter, the loader does not) would leak the old state.
-        dll = getattr(self._fmu, "dll", None)
         self.overwrites_states = dll is not None and getattr(dll, "finalizePythonInterpreter", None) is None
         if self.fmi_version == 3:  # FMI 3.0 has no setupExperiment: the start time comes here
             self.call("enterInitializationMode", startTime=start_time)
@@ -324,11 +324,8 @@ class FMUInstance:
         self._check(self._names["step"], status, mark)
 
     def save(self):
-        self.calls += 1
-        self.calls_by_kind["save"] += 1
         state = self._state_type()
-        mark = len(self.messages)
-        self._check(self._names["save"], self._c["save"](self._component, ctypes.byref(state)), mark)
+        self._get_state(state)
         return state
 
     def save_into(self, state) -> bool:
@@ -336,11 +333,15 @@ class FMUInstance:
         and nothing done, where the binary cannot (see ``overwrites_states``)."""
         if not self.overwrites_states:
             return False
+        self._get_state(state)
+        return True
+
+    def _get_state(self, state) -> None:
+        """FMI's get FMU state into ``state`` (a new one where it holds NULL)."""
         self.calls += 1
         self.calls_by_kind["save"] += 1
         mark = len(self.messages)
         self._check(self._names["save"], self._c["save"](self._component, ctypes.byref(state)), mark)
-        return True
 
     def restore(self, state) -> None:
         self.calls += 1
