@@ -18,7 +18,7 @@ from tribofmu.coupling.interpolation import NS
 from tribofmu.coupling.system import Contact
 from tribofmu.physics import FluidLaw
 
-from fakes import DRY_LAW, MU_L, block_after, implicit_step, point_at, rig, settings
+from fakes import DRY_LAW, MU_L, N_STRESS, block_after, implicit_step, point_at, rig, settings
 
 
 
@@ -380,6 +380,64 @@ def test_slipping_on_stays_ramped_and_second_order():
         exact = V0 - (V0 - v0) * math.exp(-m / M * span_ns * 1e-9)
         errors.append(abs(point.v - exact))
     assert 3.5 < errors[0] / errors[1] < 4.5 and 3.5 < errors[1] / errors[2] < 4.5
+
+
+@pytest.mark.parametrize("ramp", [False, True])
+def test_stepped_trials_land_on_the_trials_root(ramp):
+    """Slipping on with a loop gain (quadratic fluid, a block on springs): the root sought
+    with the friction stepped from its first trial is the trials' root within the root
+    tolerance (held: backward Euler's closed form), and the friction stands stepped to the
+    root the point reports. (Its call count: test_adaptive, on a lubricant, where the trials'
+    root moves with the state.)"""
+    m, M, K, h, v0, V0, tol = 2e5, 10.0, 500.0, 1e-3, 0.08, 0.1, 1e-12
+    outcomes = {}
+    for stepped in (False, True):
+        system = rig(fluid(m, gamma=1.0), M=M, K=K, v0=v0, V0=V0)
+        start = point_at(system, Contact.FORWARD, m * (V0 - v0) ** 2)
+        step = implicit_step(system, start, h, ramp=ramp,
+                             step_settings=replace(settings(5.0, root_tol=tol), stepped_trials=stepped))
+        new = outcomes[stepped] = step.solve()
+        assert new.mode == Contact.FORWARD and new.ramped == ramp
+        assert (step.settled_dv is not None) == stepped  # (found by the stepped rounds)
+        friction_dv, = system.friction.get_reals(system._dv)
+        assert system.friction.law.force(friction_dv, N_STRESS, 0.0) == pytest.approx(new.F, rel=1e-12)
+        assert abs(friction_dv - new.dv) <= step.root_tol  # (max(delta, root_tol))
+        assert V0 - system.block.get_reals([system._block_out[1]])[0] == new.dv  # the block stands there
+    root_tol = step.root_tol
+    assert abs(outcomes[True].dv - outcomes[False].dv) <= 2 * root_tol
+    if not ramp:
+        A = block_after(M, K, 0.0, v0, 0.0, 0.0, h)[1]
+        B = block_after(M, K, 0.0, v0, 1.0, 0.0, h)[1] - A
+        root = (-1 + math.sqrt(1 + 4 * B * m * (V0 - A))) / (2 * B * m)  # dv = V0 - A - B m dv^2
+        assert outcomes[True].dv == pytest.approx(root, abs=root_tol)
+
+
+def test_stepped_trials_leaving_the_slip_side_give_the_trials_answer(monkeypatch):
+    """A reversal (a law without a jump through dv = 0) that the predicted dv does not see
+    (the step expects a stiff loop): the stepped rounds would leave the slip side, so the
+    friction goes back to the step's start and the trials and probes decide, as without
+    them: BACKWARD, backward Euler's answer."""
+    m, M, K, x0, v0, h = 10.0, 1.0, 3000.0, -1e-3, -3e-3, 1e-3
+    stepped_outcomes = []
+    original = ImplicitStep.stepped_slip
+
+    def spy(self, guess, side):
+        stepped_outcomes.append(original(self, guess, side))
+        return stepped_outcomes[-1]
+
+    monkeypatch.setattr(ImplicitStep, "stepped_slip", spy)
+    answers = []
+    for stepped in (False, True):
+        system, start = reversing_rig(m, M, K, x0, v0)
+        step_settings = replace(settings(5.0, root_tol=1e-14), stepped_trials=stepped)
+        step = implicit_step(system, start, h, step_settings=step_settings)
+        new = step.solve()
+        assert new.mode == Contact.BACKWARD and new.event == 1.0 and step.settled_dv is None
+        assert new.v == pytest.approx(held_linear_answer(m, M, K, x0, v0, h), abs=1e-10)
+        answers.append(new)
+    assert stepped_outcomes == [None]  # tried once, and left the slip side
+    assert answers[1].v == pytest.approx(answers[0].v, abs=1e-12)
+    assert answers[1].F == pytest.approx(answers[0].F, abs=m * 1e-12)
 
 
 @pytest.mark.xfail(strict=True, reason="slip_root measures the loop gain on the bracket it happened "

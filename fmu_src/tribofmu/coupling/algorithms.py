@@ -161,6 +161,9 @@ class ImplicitCoupling(CouplingAlgorithm):
     # which rings toward -1 as g grows: above this gain the force is held instead. Measured
     # on fig6 (stiff solid lubricant): 30 rather than 3 cut rejections 7x at equal error.
     max_ramp_gain = 30.0
+    # A slip going on is sought with the friction stepped from its first trial while the law has
+    # not stuck (contact.ImplicitStep.stepped_slip): on fig6 29 -> 23 FMU calls a step.
+    stepped_trials = True
 
     def __init__(self, step=None, tol=None):
         super().__init__(step, tol)
@@ -220,7 +223,8 @@ class ImplicitCoupling(CouplingAlgorithm):
         """One ImplicitStep; keeps what it measured (the loop gain, the block's response)."""
         h = h_ns / NS
         settings = StepSettings(self.expected_gain(h), self.max_ramp_gain, self.root_tolerance(),
-                                ZERO_VELOCITY * self.scales.velocity, self.max_iterations, self.scales.position)
+                                ZERO_VELOCITY * self.scales.velocity, self.max_iterations, self.scales.position,
+                                stepped_trials=self.stepped_trials and self.stick_bounds is None)
         step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, self.block_slopes.get(ramp),
                             self.stick_jacobian)
         new = step.solve()

@@ -158,7 +158,9 @@ class StepSettings:
     """How one step solves: ``expected_gain`` the loop gain a slip step of this length should
     meet (0: unknown), ``max_ramp_gain`` above which a ramp would ring, ``root_tol`` [m/s]
     how far the slip root may miss, ``delta`` [m/s] the "zero" relative velocity,
-    ``max_iterations`` of any iteration, ``position_scale`` [m] for the stick ramp's fit."""
+    ``max_iterations`` of any iteration, ``position_scale`` [m] for the stick ramp's fit;
+    ``stepped_trials``: a slip going on is sought with the friction stepped from its first
+    trial (:meth:`ImplicitStep.stepped_slip`), for a law that has not stuck."""
 
     expected_gain: float
     max_ramp_gain: float
@@ -166,6 +168,7 @@ class StepSettings:
     delta: float
     max_iterations: int
     position_scale: float
+    stepped_trials: bool = False
 
 
 class ImplicitStep:
@@ -186,6 +189,7 @@ class ImplicitStep:
         self.report = StepReport()
         self.friction_last: FrictionAnswer | None = None  # the friction's latest answer
         self.friction_stepped = False  # the friction has stepped (its state is at the step's end)
+        self.stepped_answer: FrictionAnswer | None = None  # its latest step's answer
         self.friction_input = None  # [m/s] the dv the friction holds as its input (None: unknown)
         self.block_last: BlockAnswer | None = None  # the block's latest answer (real or modelled)
         self.block_real: BlockAnswer | None = None  # its latest real step (the FMU stands there)
@@ -198,6 +202,7 @@ class ImplicitStep:
         self.last_seeded = False  # the latest modelled answer came from one real answer and the seed
         # the last stick ramp's, where it was of this length (exact for a linear block)
         self.stick_jacobian = stick_jacobian if stick_jacobian is not None and stick_jacobian.h_ns == h_ns else None
+        self.settled_dv: float | None = None  # [m/s] a slip root found with the friction stepped to it
         self.probes: dict[float, Probe] = {}  # side (+-1.0) -> the held step under the friction at side * delta
 
     # -- evaluations ----------------------------------------------------------------------
@@ -212,6 +217,10 @@ class ImplicitStep:
     def step_friction(self, dv: float) -> None:
         """The friction's step to dv [m/s] at the step's end (from the step's start again if
         it stepped before): its state (the lubricant's f) moves along the way."""
+        stepped = self.stepped_answer
+        if self.friction_stepped and stepped is not None and stepped.dv == dv:
+            self.friction_last = stepped  # (it stands there already)
+            return
         if self.friction_stepped:
             for slave, handle in self.friction_state:
                 slave.restore(handle)
@@ -220,7 +229,7 @@ class ImplicitStep:
         F, f, F_mean = self.system.step_friction(dv, self.t, self.h, set_input=dv != self.friction_input)
         self.friction_input = dv
         self.friction_stepped = True
-        self.friction_last = FrictionAnswer(dv, F, f, F_mean)
+        self.friction_last = self.stepped_answer = FrictionAnswer(dv, F, f, F_mean)
 
     def block_at(self, F0: float, rate: float) -> tuple[float, float]:
         """The block's relative velocity and position after the step under F0 + rate s
@@ -358,7 +367,8 @@ class ImplicitStep:
             self.report.loop_gain = gain
             if self.ramp and gain >= self.settings.max_ramp_gain:
                 return RETRY_HELD_STIFF
-            dv = self.settle(dv, gain, mode)
+            if self.settled_dv != dv:
+                dv = self.settle(dv, gain, mode)
             if not self.block_real_at(self.friction_last.F):
                 dv = self.settle(dv, gain, mode)  # again, every iterate stepped
                 self.block_real_at(self.friction_last.F)
@@ -379,25 +389,38 @@ class ImplicitStep:
         direct feedthrough, no step): stepping the friction to dv integrates the state (the
         lubricant kinetics, the costly part) once, instead of once a trial. Where the state
         moved the force, G(dv) = (the block's answer to the force after the friction stepped
-        to dv) - dv is not yet 0: a secant on G (started with the loop's own slope,
-        -(1 + gain)) finds its root, one friction step an iterate."""
-        direction, floor = mode.direction, self.delta
+        to dv) - dv is not yet 0: :meth:`secant_rounds` find its root."""
+        dv, _, settled = self.secant_rounds(dv, gain, mode.direction, keep_side=True)
+        if not settled:
+            self.step_friction(dv)
+            self.block_under(self.friction_last.F)
+        return dv
+
+    def secant_rounds(self, dv: float, gain: float, direction: float,
+                      keep_side: bool) -> tuple[float, float, bool]:
+        """A secant on G(dv) (see :meth:`settle`), started with the loop's own slope
+        -(1 + gain), one friction step an iterate, at most max_settle_rounds. An iterate that
+        would leave the slip side (``direction`` * dv <= delta) is pulled back halfway to it
+        (keep_side) or ends the rounds. Returns (dv, the gain the secant measured, whether G(dv)
+        is within the root tolerance there, the friction stepped to dv)."""
+        floor = self.delta
         dv_a = g_a = None
         for _ in range(self.max_settle_rounds):
+            self.report.iterations += 1
             self.step_friction(dv)
             g = self.block_under(self.friction_last.F) - dv
+            if dv_a is not None and g != g_a:
+                gain = max(0.0, -(g - g_a) / (dv - dv_a) - 1.0)
             if abs(g) <= self.root_tol:
-                return dv
-            if dv_a is None or g == g_a:
-                new = dv + g / (1.0 + gain)
-            else:
-                new = dv - g * (dv - dv_a) / (g - g_a)
+                return dv, gain, True
+            new = dv + g / (1.0 + gain) if dv_a is None or g == g_a else dv - g * (dv - dv_a) / (g - g_a)
             dv_a, g_a = dv, g
-            # stay on the slip side: the classification found slip
-            dv = new if direction * new > floor else 0.5 * (dv + direction * floor)
-        self.step_friction(dv)
-        self.block_under(self.friction_last.F)
-        return dv
+            if not direction * new > floor:
+                if not keep_side:
+                    return dv, gain, False
+                new = 0.5 * (dv + direction * floor)
+            dv = new
+        return dv, gain, False
 
     def classify(self) -> tuple[Contact, tuple[float, float] | None, float] | RetryHeld:
         """The step's contact mode, its slip root (dv [m/s], loop gain) when slipping, and the
@@ -486,6 +509,10 @@ class ImplicitStep:
         if not side * guess > delta:
             return None
         self.seed_allowed = True
+        if self.settings.stepped_trials:
+            slip = self.stepped_slip(guess, side)
+            if slip is not None:
+                return slip
         h_guess = self.loop(guess)
         if side * h_guess > 0:  # the root lies beyond the guess: slip confirmed
             return self.slip_root(guess, h_guess, side)
@@ -493,6 +520,26 @@ class ImplicitStep:
         if not side * h_lo > 0:
             return None
         return self.slip_root(side * delta, h_lo, side, guess, h_guess)
+
+    def stepped_slip(self, guess: float, side: float) -> tuple[float, float] | None:
+        """Slipping on, for a law that has not stuck: the root sought with the friction stepped
+        from the first trial (:meth:`settle`'s rounds from the predicted dv), without the
+        trials at the friction's start state. Those find a root that the state's move over the
+        step shifts again (a lubricant's f: two or three friction steps followed anyway), and
+        each came with a block answer. Returns (dv, gain); None, with the friction back at the
+        step's start, where the rounds leave the slip side or do not settle (a reversal: the
+        trials and probes decide).
+
+        (A law that sticks can have a loop function that is not monotone near dv = 0, with a
+        root beyond delta that is not the answer: its trials bracket the root first.)"""
+        dv, gain, settled = self.secant_rounds(guess, self.settings.expected_gain, side, keep_side=False)
+        if settled:
+            self.settled_dv = dv
+            return dv, gain
+        for slave, handle in self.friction_state:
+            slave.restore(handle)
+        self.friction_stepped, self.friction_input = False, None
+        return None
 
     def slip_root(self, lo: float, h_lo: float, direction: float, hi: float | None = None,
                   h_hi: float | None = None) -> tuple[float, float]:
