@@ -440,6 +440,72 @@ def test_stepped_trials_leaving_the_slip_side_give_the_trials_answer(monkeypatch
     assert answers[1].F == pytest.approx(answers[0].F, abs=m * 1e-12)
 
 
+def stribeck(mu_static, v_stribeck, exponent):
+    from tribofmu.physics.laws.mixed import MixedLaw
+
+    return MixedLaw(mu_friction=0.3, mu_static=mu_static, v_stribeck=v_stribeck, stribeck_exponent=exponent,
+                    m=0.0, S=1.0)
+
+
+def test_stepped_trials_of_a_law_that_has_not_stuck_yet_stick_where_the_trials_do():
+    """A Stribeck law whose block sticks inside the step, before the run saw it stick: its force
+    rests at the floor mu_c L = 6 N for the first two stepped rounds (6.0 and, an ulp apart,
+    6.000000000000001 N), which must not model the block (an affine model through round-off
+    read G = 0 at 0.0142 m/s and the step slipped FORWARD to dv = -0.066 m/s); the rounds see
+    G rise (the force falls with dv) and leave the answer to the trials: STUCK inside the
+    step, as without the stepped rounds."""
+    law = stribeck(0.8, 0.01, 2.0)
+    M, v0, V0, h = 0.043694635054121606, 0.03962088856374048, 0.10203128544873584, 0.0003511476004226441
+    answers = []
+    for stepped in (False, True):
+        system = rig(law, M=M, v0=v0, V0=V0)
+        start = point_at(system, Contact.FORWARD, law.force(V0 - v0, N_STRESS, 0.0))
+        step = implicit_step(system, start, h, step_settings=replace(settings(50.0, root_tol=1e-12),
+                                                                     stepped_trials=stepped))
+        new = step.solve()
+        assert new.mode == Contact.STUCK and 0.5 < new.event < 0.6 and step.settled_dv is None
+        answers.append(new)
+    assert answers[1].F == pytest.approx(answers[0].F, rel=1e-12) and answers[1].event == answers[0].event
+
+
+def test_block_answers_an_ulp_apart_in_force_make_no_model():
+    """Two real answers under forces a last bit apart are one answer to the model: a third
+    force is stepped for real, not extrapolated from their round-off."""
+    system, start = linear_fluid_rig(50.0)
+    step = implicit_step(system, start, 1e-3)
+    step.block_under(6.0, real=True)
+    step.block_under(6.000000000000001, real=True)
+    assert step.spanning_samples() is None and step.measured_slope() is None
+    assert step.block_model(7.3, 7.3, 0.0) is None  # (stepped for real, not extrapolated)
+    step.block_under(7.3, real=True)
+    assert step.spanning_samples() is not None
+
+
+def test_secant_rounds_stay_between_the_iterate_and_the_block_s_answer():
+    """The root of G lies between an iterate dv and the block's answer there, dv + G(dv) (a
+    force rising with dv brakes the block more beyond it). A secant through a G that a
+    Stribeck curve bends leaves that bracket (here to 7.3 m/s, a slip 60 times the drive's
+    speed); the rounds step with the loop gain instead."""
+    law = stribeck(0.4965329863676463, 0.003109558205562363, 0.5)
+    M, v0, V0, h = 0.05874196496891645, 0.04077178654137947, 0.12600520789398914, 0.006411970959951463
+    system = rig(law, M=M, v0=v0, V0=V0)
+    step = implicit_step(system, point_at(system, Contact.FORWARD, law.force(V0 - v0, N_STRESS, 0.0)), h,
+                         step_settings=settings(0.5, root_tol=1e-12))
+    rounds = []
+    block_under = step.block_under
+
+    def recorded(F, real=False):
+        answer = block_under(F, real)
+        rounds.append((step.friction_last.dv, answer - step.friction_last.dv))
+        return answer
+
+    step.block_under = recorded
+    step.secant_rounds(0.011780137170126374, 0.5, 1.0, keep_side=True)
+    assert len(rounds) >= 4
+    for (dv, g), (following, _) in zip(rounds, rounds[1:]):
+        assert min(dv, dv + g) <= following <= max(dv, dv + g)
+
+
 @pytest.mark.xfail(strict=True, reason="slip_root measures the loop gain on the bracket it happened "
                    "to find; when the predicted dv is already the root (a steady slip), that bracket "
                    "is ~1e-18 m/s wide and the secant slope is round-off: 0.85-0.96 of the true gain")

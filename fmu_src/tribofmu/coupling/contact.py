@@ -88,6 +88,11 @@ class BlockAnswer(NamedTuple):
 # model checked against it: a block that is not affine (to this many root tolerances) is
 # stepped for every iterate instead.
 MODEL_MISS_TOLERANCE = 1.0
+# End forces this close (relative) are one force to the block's model: two real answers a few
+# ulps apart differ by round-off, and an affine model through them extrapolates round-off
+# (a Stribeck force at its floor, 6.0 and 6.000000000000001 N: a slip root where the block
+# sticks).
+SAME_FORCE_RTOL = 1e-12
 # A slip step's first real block step plus the block's slope d(v, x, a)/dF_end [per N] from the
 # last step of the same family (held or ramped) model its answer to the other forces the root
 # tries: one real trial instead of two. The slope of a linear block depends on the step alone;
@@ -270,9 +275,11 @@ class ImplicitStep:
         if not self.use_model or not samples:
             return None
         b = samples[-1]
-        if F == b.F_end:  # (a law whose force does not move with dv, as dry friction's in slip)
+        if abs(F - b.F_end) <= SAME_FORCE_RTOL * abs(b.F_end):
+            # (a law whose force does not move with dv, as dry friction's in slip; a last bit
+            # of round-off apart, a second real answer would make a model of round-off)
             self.last_seeded = False
-            return b
+            return b if F == b.F_end else b._replace(F_end=F)
         if len(samples) < 2:
             if self.seed is None or not self.seed_allowed:
                 return None
@@ -312,7 +319,7 @@ class ImplicitStep:
             return None
         b = samples[-1]
         a = max(samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
-        return None if a.F_end == b.F_end else (a, b)
+        return None if abs(a.F_end - b.F_end) <= SAME_FORCE_RTOL * abs(b.F_end) else (a, b)
 
     def measured_slope(self) -> BlockSlope | None:
         """The block's slope from the two real answers farthest apart in force, if any."""
@@ -410,10 +417,21 @@ class ImplicitStep:
             self.step_friction(dv)
             g = self.block_under(self.friction_last.F) - dv
             if dv_a is not None and g != g_a:
-                gain = max(0.0, -(g - g_a) / (dv - dv_a) - 1.0)
+                measured = -(g - g_a) / (dv - dv_a) - 1.0
+                if measured < 0.0 and not keep_side and direction * g < 0.0:
+                    # G rises on the way toward delta: a force falling with dv (velocity
+                    # weakening, a Stribeck curve) can give G more roots than one there, or
+                    # none and a stick; the trials' bracket from delta decides
+                    return dv, gain, False
+                gain = max(0.0, measured)
             if abs(g) <= self.root_tol:
                 return dv, gain, True
             new = dv + g / (1.0 + gain) if dv_a is None or g == g_a else dv - g * (dv - dv_a) / (g - g_a)
+            if not min(dv, dv + g) <= new <= max(dv, dv + g):
+                # The root lies between dv and the block's answer dv + g (a force that rises
+                # with dv brakes the block more beyond dv): a secant through a curving G that
+                # leaves it (a gamma = 1 lubricant: 3e159 m/s) steps with the gain instead.
+                new = dv + g / (1.0 + gain)
             dv_a, g_a = dv, g
             if not direction * new > floor:
                 if not keep_side:
