@@ -481,6 +481,21 @@ def test_block_answers_an_ulp_apart_in_force_make_no_model():
     assert step.spanning_samples() is not None
 
 
+def test_block_answers_that_differ_by_round_off_in_v_make_no_slope():
+    """Forces of 1e-13 N that differ by 3e-16 N (a lubricant at a reversal) move the block by
+    less than its velocity's last bits: no slope is measured from them (one read -0.05
+    (m/s)/N, and the next step's modelled trials ran dv out to 1e206 m/s)."""
+    system, start = linear_fluid_rig(50.0, v0=3e-5, V0=3e-5)
+    step = implicit_step(system, start, 5e-6, ramp=True)
+    step.block_under(2.5369349e-13, real=True)
+    step.block_under(2.5383656e-13, real=True)
+    assert step.block_samples[0].v == step.block_samples[1].v  # (round-off: the same v)
+    assert step.spanning_samples() is None and step.measured_slope() is None
+    step.block_under(1e-3, real=True)  # a force that moves it
+    slope = step.measured_slope()
+    assert slope is not None and slope.v > 0.0
+
+
 def test_secant_rounds_stay_between_the_iterate_and_the_block_s_answer():
     """The root of G lies between an iterate dv and the block's answer there, dv + G(dv) (a
     force rising with dv brakes the block more beyond it). A secant through a G that a

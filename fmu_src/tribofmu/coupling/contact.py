@@ -319,7 +319,15 @@ class ImplicitStep:
             return None
         b = samples[-1]
         a = max(samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
-        return None if abs(a.F_end - b.F_end) <= SAME_FORCE_RTOL * abs(b.F_end) else (a, b)
+        if abs(a.F_end - b.F_end) <= SAME_FORCE_RTOL * abs(b.F_end):
+            return None
+        # More force, more speed: answers whose v differ by round-off (forces of 1e-13 N
+        # that differ by 1e-16 N, at a reversal) or the wrong way are no slope (one read
+        # -0.05 (m/s)/N, and the next step's modelled trials ran dv out to 1e206 m/s).
+        dv = b.v - a.v
+        if dv * (b.F_end - a.F_end) <= 0.0 or abs(dv) <= SAME_FORCE_RTOL * max(abs(a.v), abs(b.v)):
+            return None
+        return a, b
 
     def measured_slope(self) -> BlockSlope | None:
         """The block's slope from the two real answers farthest apart in force, if any."""
