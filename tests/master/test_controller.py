@@ -5,20 +5,23 @@ import pytest
 
 from tribofmu.physics.stepsize import COUPLING_STEPS, KINETICS_SUBSTEPS, StepSizeController
 
+PLAIN = StepSizeController()  # the coupling's rule without its PI term
+
 
 @pytest.mark.parametrize("error, order", [(0.5, 2), (0.5, 1), (2.0, 2), (2.0, 1), (0.9, 3)])
 def test_factor_is_safety_times_the_error_to_the_minus_one_over_order_plus_one(error, order):
     expected = 0.9 * error ** (-1.0 / (order + 1))
-    assert COUPLING_STEPS.factor(error, order) == pytest.approx(expected, rel=1e-15)
+    assert PLAIN.factor(error, order) == pytest.approx(expected, rel=1e-15)
 
 
 def test_the_order_sets_how_hard_an_error_shrinks_the_step():
     """Error 8: a second-order step (local error ~ h^3) halves, a first-order one (h^2)
     shrinks by sqrt(8): with the safety factor 0.45 and 0.318."""
-    assert COUPLING_STEPS.factor(8.0, 2) == pytest.approx(0.45, rel=1e-15)
-    assert COUPLING_STEPS.factor(8.0, 1) == pytest.approx(0.9 / math.sqrt(8.0), rel=1e-15)
+    assert PLAIN.factor(8.0, 2) == pytest.approx(0.45, rel=1e-15)
+    assert PLAIN.factor(8.0, 1) == pytest.approx(0.9 / math.sqrt(8.0), rel=1e-15)
     # and a step that hit its tolerance exactly is retried at the safety factor whatever the order
-    assert COUPLING_STEPS.factor(1.0, 1) == COUPLING_STEPS.factor(1.0, 2) == 0.9
+    assert PLAIN.factor(1.0, 1) == PLAIN.factor(1.0, 2) == 0.9
+    assert COUPLING_STEPS.factor(1.0, 1, previous_error=1.0) == COUPLING_STEPS.factor(1.0, 2) == 0.9
 
 
 def test_factor_is_clipped_to_its_growth_and_shrink_limits():
@@ -33,10 +36,28 @@ def test_growth_is_capped_right_after_a_rejection():
     """The coupling's step does not grow just after a rejection (the kinetics' sub-steps
     may); shrinking is not affected."""
     assert COUPLING_STEPS.factor(1e-3, 2, after_reject=True) == 1.0
-    assert COUPLING_STEPS.factor(8.0, 2, after_reject=True) == pytest.approx(0.45, rel=1e-15)
+    assert PLAIN.factor(8.0, 2, after_reject=True) == pytest.approx(0.45, rel=1e-15)
     assert KINETICS_SUBSTEPS.factor(0.01, 1, after_reject=True) == pytest.approx(9.0, rel=1e-15)
     custom = StepSizeController(safety=0.8, min_factor=0.2, max_factor=5.0, max_factor_after_reject=1.5)
     assert custom.factor(1e-6, 1, after_reject=True) == 1.5
     assert custom.factor(1e-6, 1) == 5.0
     assert custom.factor(1e6, 1) == 0.2
     assert custom.factor(0.25, 1) == pytest.approx(1.6, rel=1e-15)
+
+
+def test_pi_term_answers_a_growing_error_harder_and_is_off_at_beta_zero():
+    """beta = 0 is the plain rule whatever the last accepted error; with beta the factor is
+    safety error^-(1/(order+1) - 0.75 beta) previous^beta (DOPRI5's Lund stabilisation),
+    the previous error floored at MIN_PREVIOUS_ERROR."""
+    from tribofmu.physics.stepsize import MIN_PREVIOUS_ERROR
+
+    plain, pi = PLAIN, COUPLING_STEPS
+    assert pi.beta == 0.06
+    assert plain.factor(0.5, 2, previous_error=1e-3) == plain.factor(0.5, 2)
+    for error, previous, order in ((0.5, 0.1, 2), (0.2, 0.9, 1), (0.9, 0.05, 3)):
+        expected = 0.9 * error ** -(1.0 / (order + 1) - 0.045) * previous ** 0.06
+        assert pi.factor(error, order, previous_error=previous) == pytest.approx(expected, rel=1e-14)
+    # an error that rose from 0.1 to 0.5 grows the step less than one that fell from 0.9 to 0.5
+    assert pi.factor(0.5, 2, previous_error=0.1) < pi.factor(0.5, 2, previous_error=0.9)
+    assert pi.factor(0.5, 2, previous_error=0.0) == pi.factor(0.5, 2, previous_error=MIN_PREVIOUS_ERROR)
+    assert pi.factor(1e-12, 2, previous_error=0.5) == 4.0  # still clipped

@@ -312,7 +312,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
     controller = COUPLING_STEPS
     # h_ns is kept a multiple of this [ns] (step doubling: two equal halves)
     step_granularity = 1
-    state_names = ImplicitCoupling.state_names + ("h_ns", "rejected_last")
+    state_names = ImplicitCoupling.state_names + ("h_ns", "rejected_last", "accepted_error")
 
     def prepare(self, system, scales):
         super().prepare(system, scales)
@@ -324,6 +324,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
         self.estimate = GlobalErrorEstimate()
         self.magnitudes = Magnitudes()
         self.rejected_last = False  # the last step was rejected (its successor may not grow)
+        self.accepted_error = 1.0  # the last accepted step's error ratio (the controller's PI term)
 
     def export_state(self) -> dict:
         state = super().export_state()
@@ -387,11 +388,12 @@ class ErrorControlledCoupling(ImplicitCoupling):
         """Accept the tried step of h_ns (``steps`` communication steps) when its error ratio
         is <= 1 or it is no longer than min_ns, else roll back to start; either way the next
         try's length follows from the controller (local error ~ h^(order + 1))."""
-        factor = self.controller.factor(error, order, self.rejected_last)
+        factor = self.controller.factor(error, order, self.rejected_last, self.accepted_error)
         if error <= 1.0 or h_ns <= min_ns:
             self.counters.forced += error > 1.0
             self.counters.steps += steps
             self.rejected_last = False
+            self.accepted_error = error
             self.h_ns = int(min(max(h_ns * factor, self.min_ns), self.max_ns)) // self.step_granularity \
                 * self.step_granularity
             return True

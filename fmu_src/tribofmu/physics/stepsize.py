@@ -16,22 +16,42 @@ class StepSizeController:
     (the step just failed at a larger size: growing again at once invites another).
 
     error: the step's error relative to what is allowed (<= 1: accept); order: the
-    method's order, its local error ~ h^(order + 1)."""
+    method's order, its local error ~ h^(order + 1).
+
+    With beta > 0 the rule is PI (Gustafsson's controller in the form of DOPRI5's "Lund
+    stabilisation", Hairer, Norsett & Wanner, Solving ODEs I, IV.2): factor = safety
+    error^-(1/(order + 1) - 0.75 beta) previous^beta, previous the last accepted step's
+    error (floored at MIN_PREVIOUS_ERROR). An error that grew since the last step is answered
+    harder, one that fell more gently, so the steps stop rocking between growth and
+    rejection."""
 
     safety: float = 0.9
     min_factor: float = 0.1
     max_factor: float = 4.0
     max_factor_after_reject: float = 1.0
+    beta: float = 0.0
 
-    def factor(self, error: float, order: int, after_reject: bool = False) -> float:
+    def factor(self, error: float, order: int, after_reject: bool = False,
+               previous_error: float = 1.0) -> float:
         grow = self.max_factor_after_reject if after_reject else self.max_factor
-        raw = self.safety * max(error, 1e-300) ** (-1.0 / (order + 1))
+        exponent = 1.0 / (order + 1) - 0.75 * self.beta
+        raw = self.safety * max(error, 1e-300) ** -exponent
+        if self.beta:
+            raw *= max(previous_error, MIN_PREVIOUS_ERROR) ** self.beta
         return min(max(raw, self.min_factor), grow)
+
+
+# A step far within its tolerance does not grow the next by more through the PI term.
+MIN_PREVIOUS_ERROR = 1e-4
 
 
 # The coupling's: growth of 4 per accepted step (a slip phase after a transition), shrink to
 # a tenth at most (a rejected step at an event is landed by the event logic, not by this).
-COUPLING_STEPS = StepSizeController()
+# Its PI term, beta = 0.06 (DOPRI5's default is 0.04): rejected steps went from up to 28 % of
+# accepted (mixed friction; 22-23 % on boundary_heating and fig2's rig at omega = 3) to at most
+# 18 % on the shipped scenes and bench_floor's off-scene points, with 12 % fewer FMU calls in
+# all (0.04 left mixed friction at 20 %). Measured 2026-11-26 by each scene's checked run.
+COUPLING_STEPS = StepSizeController(beta=0.06)
 # The kinetics': sub-steps grow tenfold where f settles on its equilibrium (rates fall from
 # 1e7 to nothing within a step), and a rejection does not hold growth back (sub-steps are
 # cheap: the next one may grow at once).
