@@ -3,6 +3,7 @@ its measured value, interleaved in one process.
 
     python benchmarks/bench_floor.py [--repeat 3] [--algorithms adaptive,doubling] [--cases fig2,fig6]
                                      [--span] [--out FILE.json]
+    python benchmarks/bench_floor.py --rejections [--betas 0,0.06]
 
 Per case and algorithm (every case and algorithm once per round, ``--repeat`` rounds, median
 wall times), measured with ``tribofmu.api.simulate`` (the whole call: an adaptive run's check
@@ -18,6 +19,12 @@ FMUs built from this source:
 ``--algorithms`` compares couplings in the same process (``doubling`` is the step-doubling
 coupling this issue replaces, kept registered for this comparison). ``--span`` also runs Fig. 2
 at 1x, 4x and 16x its periods for "wall time linear in the span" and the peak RSS growth.
+
+``--rejections`` runs instead every shipped scene and the off-scene ``CASES`` once each (the
+whole checked call) and prints the reported run's rejected / accepted and FMU calls per step,
+the check's runs and the FMU calls of all its runs: the target "rejected <= 20 % on every scene
+and off-scene point". ``--betas`` repeats that with the coupling's step-size rule at other PI
+weights (``physics/stepsize.py``; 0 is the plain rule) for comparison.
 
 Load-independent numbers (calls, solves, rejections) are the ones to compare across runs on
 a shared machine; the wall-time ratios hold only within one run (interleaved).
@@ -74,6 +81,41 @@ def ours(scenario, ref, algorithm: str) -> dict:
             "estimated_nrms_v": (s.get("estimated_error") or {}).get("nrms_v")}
 
 
+def rejections(betas: list[float]) -> int:
+    """Every shipped scene and off-scene case once per PI weight: rejections, calls, runs."""
+    from dataclasses import replace
+
+    from tribofmu import api
+    from tribofmu.coupling import algorithms
+    from tribofmu.scene.library import resolve_scene, scene_names
+
+    cases = [(name, resolve_scene(name), {}) for name in scene_names()]
+    cases += [(name, SCENES / f"{scene}.toml", overrides) for name, (scene, overrides) in CASES.items() if overrides]
+    shipped = algorithms.ErrorControlledCoupling.controller
+    print(f"bench_floor --rejections: {load_avg()}, PI weights {betas} (shipped: {shipped.beta})", flush=True)
+    print("beta   case                  rejected/accepted  calls/step  runs  calls in all runs  ok")
+    try:
+        for beta in betas:
+            algorithms.ErrorControlledCoupling.controller = replace(shipped, beta=beta)
+            worst, total = 0.0, 0
+            for name, path, overrides in cases:
+                result = api.simulate(api.load(path, overrides or None), max_wall=300.0)
+                s = result.stats
+                steps = s["communication_steps"] or 1
+                runs = (s.get("check") or {}).get("runs", [])
+                rejected = s["rejected_steps"] / steps
+                calls = sum(run["fmu_calls_total"] for run in runs)
+                worst, total = max(worst, rejected), total + calls
+                print(f"{beta:<6g} {name:22s} {rejected:17.2f}  {s['fmu_calls_per_step']['total']:10.1f}  "
+                      f"{len(runs):4d}  {calls:17d}  {result.ok}", flush=True)
+            print(f"{beta:<6g} largest rejected/accepted {worst:.2f} "
+                  f"({'MET' if worst <= REJECTED_FRACTION else 'MISSED'} <= {REJECTED_FRACTION:.0%}), "
+                  f"FMU calls of all runs {total}", flush=True)
+    finally:
+        algorithms.ErrorControlledCoupling.controller = shipped
+    return 0
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeat", type=int, default=3)
@@ -81,7 +123,13 @@ def main() -> int:
     parser.add_argument("--cases", default=",".join(CASES))
     parser.add_argument("--span", action="store_true")
     parser.add_argument("--out", default=None)
+    parser.add_argument("--rejections", action="store_true", help="every scene and off-scene case once: rejections")
+    parser.add_argument("--betas", default=None, help="with --rejections: PI weights to compare (default: the shipped)")
     args = parser.parse_args()
+    if args.rejections:
+        from tribofmu.physics.stepsize import COUPLING_STEPS
+
+        return rejections([float(b) for b in args.betas.split(",")] if args.betas else [COUPLING_STEPS.beta])
     from tribofmu import api
     from tribofmu.studies.reference import reference_solution
 

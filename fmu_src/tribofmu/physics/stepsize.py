@@ -50,7 +50,8 @@ MIN_PREVIOUS_ERROR = 1e-4
 # Its PI term, beta = 0.06 (DOPRI5's default is 0.04): rejected steps went from up to 28 % of
 # accepted (mixed friction; 22-23 % on boundary_heating and fig2's rig at omega = 3) to at most
 # 18 % on the shipped scenes and bench_floor's off-scene points, with 12 % fewer FMU calls in
-# all (0.04 left mixed friction at 20 %). Measured 2026-11-26 by each scene's checked run.
+# all (0.04 left mixed friction at 20 %): `python benchmarks/bench_floor.py --rejections
+# --betas 0,0.06`, 2026-11-26.
 COUPLING_STEPS = StepSizeController(beta=0.06)
 # The kinetics': sub-steps grow tenfold where f settles on its equilibrium (rates fall from
 # 1e7 to nothing within a step), and a rejection does not hold growth back (sub-steps are
