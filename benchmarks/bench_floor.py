@@ -52,6 +52,8 @@ CASES = {
     "fig6 gamma=1": ("fig6_boundary", {"friction.gamma": 1.0}),
     "fig2 omega=3": ("fig2_dry", {"drive.omega": 3.0}),
     "fig2 M=0.05": ("fig2_dry", {"block.M": 0.05}),
+    # near the pseudoplastic law's singular limit (gamma -> -1): its slip steps graze dv = 0
+    "pseudo gamma=-0.9": ("fig5_pseudoplastic", {"friction.gamma": -0.9}),
 }
 # issue 31's targets
 FIG6_NRMS, FIG6_RATIO = 1e-3, 8.0  # <= 1e-3 nRMS(v) in <= 8x LSODA rtol 1e-4
