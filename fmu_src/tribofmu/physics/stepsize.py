@@ -18,8 +18,8 @@ class StepSizeController:
     error: the step's error relative to what is allowed (<= 1: accept); order: the
     method's order, its local error ~ h^(order + 1).
 
-    With beta > 0 the rule is PI (Gustafsson's controller in the form of DOPRI5's "Lund
-    stabilisation", Hairer, Norsett & Wanner, Solving ODEs I, IV.2): factor = safety
+    With beta > 0 the rule is PI (Gustafsson's controller, in the form of the "Lund
+    stabilisation" of Hairer's DOPRI5, whose beta defaults to 0.04): factor = safety
     error^-(1/(order + 1) - 0.75 beta) previous^beta, previous the last accepted step's
     error (floored at MIN_PREVIOUS_ERROR). An error that grew since the last step is answered
     harder, one that fell more gently, so the steps stop rocking between growth and
