@@ -193,8 +193,9 @@ class ImplicitStep:
         self.root_tol = max(self.delta, settings.root_tol)  # m/s
         self.report = StepReport()
         self.friction_last: FrictionAnswer | None = None  # the friction's latest answer
-        self.friction_stepped = False  # the friction has stepped (its state is at the step's end)
-        self.stepped_answer: FrictionAnswer | None = None  # its latest step's answer
+        # the friction's latest step's answer (its state is at the step's end); None: not
+        # stepped since the step's start
+        self.stepped_answer: FrictionAnswer | None = None
         self.friction_input = None  # [m/s] the dv the friction holds as its input (None: unknown)
         self.block_last: BlockAnswer | None = None  # the block's latest answer (real or modelled)
         self.block_real: BlockAnswer | None = None  # its latest real step (the FMU stands there)
@@ -223,18 +224,21 @@ class ImplicitStep:
         """The friction's step to dv [m/s] at the step's end (from the step's start again if
         it stepped before): its state (the lubricant's f) moves along the way."""
         stepped = self.stepped_answer
-        if self.friction_stepped and stepped is not None and stepped.dv == dv:
-            self.friction_last = stepped  # (it stands there already)
-            return
-        if self.friction_stepped:
-            for slave, handle in self.friction_state:
-                slave.restore(handle)
-            self.friction_input = None  # (the step's start's)
+        if stepped is not None:
+            if stepped.dv == dv:
+                self.friction_last = stepped  # (it stands there already)
+                return
+            self.restore_friction()
         # (the last trial's dv is still the friction's input: no second set)
         F, f, F_mean = self.system.step_friction(dv, self.t, self.h, set_input=dv != self.friction_input)
         self.friction_input = dv
-        self.friction_stepped = True
         self.friction_last = self.stepped_answer = FrictionAnswer(dv, F, f, F_mean)
+
+    def restore_friction(self) -> None:
+        """The friction back at the step's start (state and input)."""
+        for slave, handle in self.friction_state:
+            slave.restore(handle)
+        self.stepped_answer = self.friction_input = None
 
     def block_at(self, F0: float, rate: float) -> tuple[float, float]:
         """The block's relative velocity and position after the step under F0 + rate s
@@ -553,8 +557,8 @@ class ImplicitStep:
         trials at the friction's start state. Those find a root that the state's move over the
         step shifts again (a lubricant's f: two or three friction steps followed anyway), and
         each came with a block answer. Returns (dv, gain); None, with the friction back at the
-        step's start, where the rounds leave the slip side or do not settle (a reversal: the
-        trials and probes decide).
+        step's start, where the rounds leave the slip side, see G rise on the way toward delta
+        or do not settle (a reversal, a stick: the trials and probes decide).
 
         (A law that sticks can have a loop function that is not monotone near dv = 0, with a
         root beyond delta that is not the answer: its trials bracket the root first.)"""
@@ -562,9 +566,7 @@ class ImplicitStep:
         if settled:
             self.settled_dv = dv
             return dv, gain
-        for slave, handle in self.friction_state:
-            slave.restore(handle)
-        self.friction_stepped, self.friction_input = False, None
+        self.restore_friction()
         return None
 
     def slip_root(self, lo: float, h_lo: float, direction: float, hi: float | None = None,
