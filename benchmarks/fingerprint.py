@@ -101,7 +101,8 @@ def main(argv=None) -> int:
     parser.add_argument("--no-scenes", action="store_true", help="only the in-process runs")
     args = parser.parse_args(argv)
     try:
-        import doubling  # noqa: F401  (registers "doubling" beside the package's algorithms)
+        import doubling
+        doubling.register()  # ("doubling" beside the package's algorithms)
     except ImportError:  # (a tree from before it moved out of the package)
         pass
     from tribofmu.coupling.algorithms import ALGORITHMS

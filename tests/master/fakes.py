@@ -118,7 +118,7 @@ class FakeFriction(FakeSlave):
 
 import math as _math
 
-from tribofmu.coupling.contact import ImplicitStep, StepSettings
+from tribofmu.coupling.contact import StepSettings, solve_step
 from tribofmu.coupling.inprocess import BlockPart, FollowedDrive, FrictionPart
 from tribofmu.coupling.interpolation import NS
 from tribofmu.coupling.system import Contact, CoupledSystem, Point
@@ -164,13 +164,46 @@ def settings(expected_gain: float = 0.0, root_tol: float = 1e-12, delta: float =
     return StepSettings(expected_gain, max_ramp_gain, root_tol, delta, 60, position_scale)
 
 
-def implicit_step(system: CoupledSystem, point: Point, h: float, ramp: bool = False,
-                  step_settings: StepSettings | None = None) -> ImplicitStep:
-    """One ImplicitStep of h [s] from point, set up as ImplicitCoupling.solve_step does."""
+def solve(system: CoupledSystem, point: Point, h: float, ramp: bool = False,
+          step_settings: StepSettings | None = None, block_slope=None, stick_jacobian=None):
+    """One implicit step of h [s] from point through the step's contract
+    (:func:`~tribofmu.coupling.contact.solve_step`), set up as ImplicitCoupling.solve_step does:
+    (the new point or RETRY_HELD, the step's report)."""
     h_ns = int(round(h * NS))
     drive_end = system.step_drive(point.t_ns / NS, h_ns / NS)
     saved = system.save(system.block, system.friction)
-    return ImplicitStep(step_settings or settings(), system, point, saved, h_ns, drive_end, ramp)
+    return solve_step(step_settings or settings(), system, point, saved, h_ns, drive_end, ramp, block_slope,
+                      stick_jacobian)
+
+
+def call_log(slave) -> list[str]:
+    """The kinds of the calls made to an in-process part from now on, in order (set, get,
+    doStep, save, restore, free)."""
+    log = []
+    for method, kind in (("set_reals", "set"), ("get_reals", "get"), ("do_step", "doStep"),
+                         ("save", "save"), ("restore", "restore"), ("free_state", "free")):
+        original = getattr(slave, method)
+
+        def logged(*args, _original=original, _kind=kind):
+            log.append(_kind)
+            return _original(*args)
+
+        setattr(slave, method, logged)
+    return log
+
+
+def start_state_reads(log: list[str]) -> int:
+    """The reads of the friction's force at its state of the step's start (trials: a get with
+    no doStep since the step began or since the last restore)."""
+    reads, stepped = 0, False
+    for kind in log:
+        if kind == "doStep":
+            stepped = True
+        elif kind == "restore":
+            stepped = False
+        elif kind == "get" and not stepped:
+            reads += 1
+    return reads
 
 
 def block_after(M: float, K: float, x0: float, v0: float, F: float, F_rate: float, t: float):

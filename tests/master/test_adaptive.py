@@ -1,12 +1,21 @@
-"""The adaptive coupling's accept / reject / landing logic and its counters."""
+"""The adaptive coupling's accept / reject / landing logic and its counters (the shared
+bookkeeping on the step-doubling coupling, which benchmarks/doubling.py keeps for comparison:
+two points an accepted step make its halves and landings visible)."""
+import sys
+from dataclasses import replace
+from pathlib import Path
+
 import pytest
 
-from tribofmu.coupling.algorithms import StepDoublingCoupling as AdaptiveCoupling, Scales
+from tribofmu.coupling.algorithms import Scales
 from tribofmu.coupling.system import Contact
 from tribofmu.physics import FluidLaw
 from tribofmu.physics.stepsize import COUPLING_STEPS
 
 from fakes import DRY_LAW, MU_L, drive_scales, fig2_system, point_at, rig
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from doubling import StepDoublingCoupling as AdaptiveCoupling  # noqa: E402
 
 SCALES = Scales(position=1e-3, velocity=0.1, period=0.1)  # min step 10 ns, max 5 ms
 
@@ -326,7 +335,7 @@ def test_stepped_trials_follow_a_lubricant_in_fewer_calls():
         system = CoupledSystem(BlockPart("block", 0.7, 1300.0, 0.0, 0.0), FollowedDrive("drive", 0.0, V, 0.0),
                                FrictionPart("friction", law, 0.0, n, 290.0), {"n": n, "T": 290.0})
         algorithm = EmbeddedCoupling(tol=tol)
-        algorithm.stepped_trials = stepped
+        algorithm.settings = replace(algorithm.settings, stepped_trials=stepped)
         algorithm.prepare(system, Scales(position=1e-6, velocity=V, period=0.1))
         points = [system.start_point()]
         while points[-1].t_ns < stop_ns:

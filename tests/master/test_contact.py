@@ -1,4 +1,7 @@
-"""The contact state machine of one implicit step (coupling/contact.py) against closed forms.
+"""The contact state machine of one implicit step (coupling/contact.py) against closed forms,
+through the step's contract (``solve_step``: a point in, the new point or RETRY_HELD and the
+step's report out, the FMU calls it made counted on the in-process parts), and its pure solvers
+(coupling/solvers.py) and block model (coupling/blocks.py) through theirs.
 
 Every rig is a block on springs (or a free mass) under a drive at constant acceleration, so
 what a step should give is known exactly: the held or ramped force's response of a linear
@@ -12,13 +15,15 @@ from dataclasses import replace
 import pytest
 from scipy.optimize import brentq
 
-from tribofmu.coupling.contact import (RETRY_HELD_STIFF, RETRY_HELD_TRANSITION, ImplicitStep, RetryHeld,
-                                       slip_mode)
-from tribofmu.coupling.interpolation import NS
+from tribofmu.coupling.blocks import BlockAnswer, BlockResponse
+from tribofmu.coupling.contact import RETRY_HELD_STIFF, RETRY_HELD_TRANSITION, RetryHeld, slip_mode
+from tribofmu.coupling.inprocess import BlockPart
+from tribofmu.coupling.settings import SETTINGS
+from tribofmu.coupling.solvers import secant_rounds, stick_onset
 from tribofmu.coupling.system import Contact
 from tribofmu.physics import FluidLaw
 
-from fakes import DRY_LAW, MU_L, N_STRESS, block_after, implicit_step, point_at, rig, settings
+from fakes import DRY_LAW, MU_L, N_STRESS, block_after, call_log, point_at, rig, settings, solve, start_state_reads
 
 
 
@@ -43,7 +48,7 @@ def test_first_step_from_unknown_slips_with_the_drive(V0):
     system = rig(DRY_LAW, M=M, V0=V0)
     start = system.start_point()
     assert start.mode == Contact.UNKNOWN
-    new = implicit_step(system, start, h).solve()
+    new, _ = solve(system, start, h)
     side = math.copysign(1.0, V0)
     assert new.mode == (Contact.FORWARD if V0 > 0 else Contact.BACKWARD)
     assert new.F == side * MU_L and new.F_rate == 0.0 and not new.ramped
@@ -58,9 +63,8 @@ def test_first_step_from_unknown_sticks_under_the_bound(K):
     makes v(h) = V(h) = a h: F = a h M w / sin(w h) (M a for a free mass), within mu L."""
     h, M, a = 2e-3, 1.0, 2.0
     system = rig(DRY_LAW, M=M, K=K, a_drive=a)
-    step = implicit_step(system, system.start_point(), h)
-    new = step.solve()
-    assert new.mode == Contact.STUCK and step.report.stuck
+    new, report = solve(system, system.start_point(), h)
+    assert new.mode == Contact.STUCK and report.stuck
     w = math.sqrt(2 * K / M)
     expected = M * a if K == 0 else a * h * M * w / math.sin(w * h)
     assert new.F == pytest.approx(expected, rel=1e-8)
@@ -71,7 +75,7 @@ def test_first_step_from_unknown_sticks_under_the_bound(K):
 def test_first_step_from_unknown_slips_when_the_stick_force_exceeds_the_bound():
     h, M, a = 2e-3, 1.0, 25.0  # M a = 25 N > mu L = 10 N: the block lags the drive
     system = rig(DRY_LAW, M=M, a_drive=a)
-    new = implicit_step(system, system.start_point(), h).solve()
+    new, _ = solve(system, system.start_point(), h)
     assert new.mode == Contact.FORWARD and new.F == MU_L
     assert new.v == pytest.approx(MU_L * h / M, rel=1e-14)
     assert new.dv == pytest.approx((a - MU_L / M) * h, rel=1e-12)
@@ -79,20 +83,19 @@ def test_first_step_from_unknown_slips_when_the_stick_force_exceeds_the_bound():
 
 # -- slip -> stick --------------------------------------------------------------------------
 
-def slipping_block(M, K, v0, h, ramp=False):
+def slipping_block(M, K, v0, F=MU_L):
     """A block moving backward at v0 < 0 under a resting drive: forward slip (dv = -v0 > 0),
-    the friction +mu L braking it; returns the step and its start point."""
+    the friction +mu L braking it (the block last felt F [N]); returns the rig and its start
+    point."""
     system = rig(DRY_LAW, M=M, K=K, v0=v0)
-    start = point_at(system, Contact.FORWARD, MU_L)
-    return implicit_step(system, start, h, ramp), start
+    return system, point_at(system, Contact.FORWARD, F)
 
 
 def test_stick_onset_of_a_free_mass_is_where_the_braking_stops_it():
     """Free mass: v(t) = v0 + mu L t / M reaches 0 at t* = -v0 M / mu L; the step ends stuck
     with the held force that stops the block over the whole step, -M v0 / h."""
     M, v0, h = 1.4, -0.01, 2e-3
-    step, _ = slipping_block(M, 0.0, v0, h)
-    new = step.solve()
+    new, _ = solve(*slipping_block(M, 0.0, v0), h)
     assert new.mode == Contact.STUCK
     assert new.event == pytest.approx(-v0 * M / MU_L / h, abs=1e-9)  # 0.7
     assert new.F == pytest.approx(-M * v0 / h, rel=1e-8) and abs(new.F) < MU_L
@@ -104,8 +107,8 @@ def test_stick_onset_on_springs_is_the_cubic_root_not_the_secant():
     interpolant of dv (ends and slopes), within its O(h^4) error of the exact crossing,
     where a straight line between the ends misses by far more."""
     M, K, v0, h = 1.0, 3000.0, -0.03, 6e-3
-    step, start = slipping_block(M, K, v0, h)
-    new = step.solve()
+    system, start = slipping_block(M, K, v0)
+    new, _ = solve(system, start, h)
     assert new.mode == Contact.STUCK
     t_star = brentq(lambda t: block_after(M, K, 0.0, v0, MU_L, 0.0, t)[1], 0.0, h, xtol=1e-15)
     exact = t_star / h
@@ -118,32 +121,36 @@ def test_stick_onset_on_springs_is_the_cubic_root_not_the_secant():
 
 
 def test_stick_onset_needs_a_crossing():
-    """stick_onset gives 1 (no event) where dv keeps its sign, or does not move."""
-    step, start = slipping_block(1.0, 0.0, -0.01, 1e-3)
-    assert step.stick_onset(0.5 * start.dv, 0.0) == 1.0
-    assert step.stick_onset(start.dv, 0.0) == 1.0
-    assert 0.0 < step.stick_onset(-start.dv, 0.0) < 1.0
+    """stick_onset gives 1 (no event) where dv keeps its sign, or does not move; across 0 the
+    root of the cubic Hermite interpolant (a straight line here: both slopes the secant's, so
+    the root is where the line crosses)."""
+    dv0, h, xtol = 0.01, 1e-3, SETTINGS.stick_onset_xtol
+    assert stick_onset(dv0, 0.0, 0.5 * dv0, 0.0, h, xtol) == 1.0
+    assert stick_onset(dv0, 0.0, dv0, 0.0, h, xtol) == 1.0
+    assert 0.0 < stick_onset(dv0, 0.0, -dv0, 0.0, h, xtol) < 1.0
+    slope = (-3 * dv0 - dv0) / h  # a line from dv0 to -3 dv0 crosses 0 at a quarter of the step
+    assert stick_onset(dv0, slope, -3 * dv0, slope, h, xtol) == pytest.approx(0.25, abs=xtol)
 
 
 # -- stick -> slip ----------------------------------------------------------------------------
 
-def stuck_on_springs(x0, K, V0, h, M=1.0):
+def stuck_on_springs(x0, K, V0, M=1.0):
     """The block stuck to a drive at constant V0: the force that keeps it stuck is the spring
     force 2K x(t) = 2K (x0 + V0 t), exactly linear in time; it reaches mu L at
     t_b = (mu L - 2K x0) / (2K V0)."""
     system = rig(DRY_LAW, M=M, K=K, x0=x0, v0=V0, V0=V0)
     start = point_at(system, Contact.STUCK, 2 * K * x0, F_rate=2 * K * V0)
     t_break = (MU_L - 2 * K * x0) / (2 * K * V0)
-    return implicit_step(system, start, h), t_break
+    return system, start, t_break
 
 
 def test_stick_ramp_follows_the_drive_exactly():
     """Stuck all through: the ramp F0 + rate s ends with dv = 0 and x - X as at the start;
     here it is the exact spring force 2K (x0 + V0 s), so both hold to round-off."""
     K, x0, V0, h = 2000.0, 1e-3, 0.05, 1e-3  # 2K x from 4 N to 4.2 N: inside the bound
-    step, t_break = stuck_on_springs(x0, K, V0, h)
+    system, start, t_break = stuck_on_springs(x0, K, V0)
     assert t_break > h
-    new = step.solve()
+    new, _ = solve(system, start, h)
     assert new.mode == Contact.STUCK and new.event == 1.0
     assert abs(new.dv) <= 1e-10
     assert new.x - new.X == pytest.approx(x0, abs=1e-12 * 1e-3)
@@ -157,8 +164,8 @@ def test_breakaway_late_in_the_step_is_where_the_stick_ramp_leaves_the_bound():
     ramp crosses mu L at t_b: the event fraction is t_b / h."""
     K, V0, h = 2000.0, 0.05, 1e-3
     x0 = (MU_L - 2 * K * V0 * 0.7 * h) / (2 * K)  # breaks away at 0.7 h
-    step, t_break = stuck_on_springs(x0, K, V0, h)
-    new = step.solve()
+    system, start, t_break = stuck_on_springs(x0, K, V0)
+    new, _ = solve(system, start, h)
     assert new.mode == Contact.STUCK
     assert new.event == pytest.approx(t_break / h, abs=1e-6)
     assert abs(new.F) <= MU_L
@@ -169,8 +176,8 @@ def test_breakaway_early_in_the_step_is_where_the_last_ramp_reaches_the_bound():
     ramp, continued, reaches mu L (here exactly t_b, the need being linear)."""
     K, V0, h = 2000.0, 0.05, 1e-3
     x0 = (MU_L - 2 * K * V0 * 0.3 * h) / (2 * K)  # breaks away at 0.3 h
-    step, t_break = stuck_on_springs(x0, K, V0, h)
-    new = step.solve()
+    system, start, t_break = stuck_on_springs(x0, K, V0)
+    new, _ = solve(system, start, h)
     assert new.mode == Contact.FORWARD and new.F == MU_L
     assert new.event == pytest.approx(t_break / h, abs=1e-9)
 
@@ -180,7 +187,7 @@ def test_breakaway_without_a_ramp_has_no_event():
     K, V0, h = 2000.0, 0.05, 1e-3
     x0 = (MU_L - 2 * K * V0 * 0.3 * h) / (2 * K)
     system = rig(DRY_LAW, K=K, x0=x0, v0=V0, V0=V0)
-    new = implicit_step(system, point_at(system, Contact.STUCK, 2 * K * x0), h).solve()
+    new, _ = solve(system, point_at(system, Contact.STUCK, 2 * K * x0), h)
     assert new.mode == Contact.FORWARD and new.event == 1.0
 
 
@@ -200,26 +207,24 @@ def test_held_slip_root_is_backward_euler_and_measures_the_loop_gain(expected):
     root lands on backward Euler's answer and the measured gain is h m / M."""
     m, M, h, v0, V0 = 5000.0, 1.0, 1e-3, 0.02, 0.1
     system, start = linear_fluid_rig(m, M, v0, V0)
-    step = implicit_step(system, start, h, ramp=False, step_settings=settings(expected, root_tol=1e-13))
-    new = step.solve()
+    new, report = solve(system, start, h, ramp=False, step_settings=settings(expected, root_tol=1e-13))
     g = h * m / M
     assert new.mode == Contact.FORWARD and not new.ramped
     assert new.v == pytest.approx((v0 + g * V0) / (1 + g), abs=1e-13)
     assert new.F == pytest.approx(m * new.dv, rel=1e-12)  # the force is the law's at the end
-    assert step.report.loop_gain == pytest.approx(g, rel=1e-6)
-    assert step.report.velocity_per_impulse == pytest.approx(1.0 / M, rel=1e-6)
+    assert report.loop_gain == pytest.approx(g, rel=1e-6)
+    assert report.velocity_per_impulse == pytest.approx(1.0 / M, rel=1e-6)
 
 
 def test_ramped_slip_root_is_the_trapezoidal_rule_at_half_the_gain():
     m, M, h, v0, V0 = 50.0, 2.0, 1e-3, 0.02, 0.1
     system, start = linear_fluid_rig(m, M, v0, V0)
-    step = implicit_step(system, start, h, ramp=True, step_settings=settings(root_tol=1e-13))
-    new = step.solve()
+    new, report = solve(system, start, h, ramp=True, step_settings=settings(root_tol=1e-13))
     g = h * m / M
     assert new.ramped and new.mode == Contact.FORWARD
     assert new.v == pytest.approx((v0 + 0.5 * g * (V0 - v0) + 0.5 * g * V0) / (1 + 0.5 * g), abs=1e-14)
     assert new.F_start == start.F and new.F_rate == pytest.approx((new.F - start.F) / h, rel=1e-12)
-    assert step.report.loop_gain == pytest.approx(0.5 * g, rel=1e-6)
+    assert report.loop_gain == pytest.approx(0.5 * g, rel=1e-6)
 
 
 def test_velocity_per_impulse_of_a_block_on_springs():
@@ -227,11 +232,10 @@ def test_velocity_per_impulse_of_a_block_on_springs():
     sin(w h) / (M w h), not 1/M."""
     m, M, K, h = 200.0, 0.5, 4000.0, 2e-3
     system = rig(fluid(m), M=M, K=K, V0=0.1)
-    step = implicit_step(system, point_at(system, Contact.FORWARD, 20.0), h)
-    step.solve()
+    _, report = solve(system, point_at(system, Contact.FORWARD, 20.0), h)
     w = math.sqrt(2 * K / M)
-    assert step.report.velocity_per_impulse == pytest.approx(math.sin(w * h) / (M * w * h), rel=1e-6)
-    assert step.report.loop_gain == pytest.approx(m * math.sin(w * h) / (M * w), rel=1e-6)
+    assert report.velocity_per_impulse == pytest.approx(math.sin(w * h) / (M * w * h), rel=1e-6)
+    assert report.loop_gain == pytest.approx(m * math.sin(w * h) / (M * w), rel=1e-6)
 
 
 def test_slip_root_meets_its_tolerance_and_no_more():
@@ -244,10 +248,9 @@ def test_slip_root_meets_its_tolerance_and_no_more():
     for tol in (1e-4, 1e-12):
         system = rig(fluid(m, gamma=1.0), M=M, v0=v0, V0=V0)
         start = point_at(system, Contact.FORWARD, m * V0 * V0)
-        step = implicit_step(system, start, h, step_settings=settings(root_tol=tol))
-        new = step.solve()
+        new, report = solve(system, start, h, step_settings=settings(root_tol=tol))
         assert abs(new.dv - u) <= tol
-        iterations[tol] = step.report.iterations
+        iterations[tol] = report.iterations
     assert iterations[1e-4] < iterations[1e-12]
 
 
@@ -255,10 +258,9 @@ def test_ramped_step_too_stiff_to_ramp_asks_for_the_held_retry():
     m, M, h, a = 1e5, 1.0, 1e-3, 100.0  # ramped gain h m / 2M = 50 > 30
     # slipping steadily behind an accelerating drive (dv = M a / m): no transition near
     system, start = linear_fluid_rig(m, M, 0.1 - M * a / m, 0.1, a)
-    step = implicit_step(system, start, h, ramp=True)
-    outcome = step.solve()
+    outcome, report = solve(system, start, h, ramp=True)
     assert outcome is RETRY_HELD_STIFF and isinstance(outcome, RetryHeld)
-    assert step.report.loop_gain == pytest.approx(0.5 * h * m / M, rel=1e-6)
+    assert report.loop_gain == pytest.approx(0.5 * h * m / M, rel=1e-6)
 
 
 def reversing_rig(m=10.0, M=1.0, K=3000.0, x0=-1e-3, v0=-1e-4):
@@ -278,7 +280,7 @@ def held_linear_answer(m, M, K, x0, v0, h, V=0.0):
 def test_reversal_of_a_law_without_a_jump_goes_straight_to_backward():
     m, M, K, x0, v0, h = 10.0, 1.0, 3000.0, -1e-3, -1e-4, 1e-3
     system, start = reversing_rig(m, M, K, x0, v0)
-    new = implicit_step(system, start, h, step_settings=settings(root_tol=1e-14)).solve()
+    new, _ = solve(system, start, h, step_settings=settings(root_tol=1e-14))
     assert new.mode == Contact.BACKWARD and new.event == 1.0
     # the loop's root within its tolerance, max(delta, root_tol) = 1e-10 m/s in dv (the
     # iterates' block answers are affine in the force: the last real step confirms them)
@@ -288,29 +290,32 @@ def test_reversal_of_a_law_without_a_jump_goes_straight_to_backward():
 
 def test_ramped_step_meeting_a_reversal_asks_for_the_held_retry():
     system, start = reversing_rig()
-    assert implicit_step(system, start, 1e-3, ramp=True).solve() is RETRY_HELD_TRANSITION
+    assert solve(system, start, 1e-3, ramp=True)[0] is RETRY_HELD_TRANSITION
 
 
 def test_ramped_step_meeting_a_stick_goes_on_held_where_its_force_did_not_move():
     """Dry friction's slip force is constant, so the ramp's first probe (rate 0) is the held
     step's own: the solve goes on held instead of asking for the held retry, and gives the
-    held step's answer with one block step fewer (before: RETRY_HELD_TRANSITION, and the
-    retry stepped the same probe again)."""
-    ramped, _ = slipping_block(1.4, 0.0, -0.01, 2e-3, ramp=True)
-    held, _ = slipping_block(1.4, 0.0, -0.01, 2e-3)
-    from_ramp, from_held = ramped.solve(), held.solve()
+    held step's answer in as many block steps as the held step (before: RETRY_HELD_TRANSITION,
+    and the retry stepped the same probe again)."""
+    outcomes, block_steps = {}, {}
+    for ramp in (True, False):
+        system, start = slipping_block(1.4, 0.0, -0.01)
+        before = system.block.calls_by_kind["doStep"]
+        outcomes[ramp] = solve(system, start, 2e-3, ramp=ramp)[0]
+        block_steps[ramp] = system.block.calls_by_kind["doStep"] - before
+    from_ramp, from_held = outcomes[True], outcomes[False]
     assert not isinstance(from_ramp, RetryHeld)
     assert not from_ramp.ramped and from_ramp.mode == from_held.mode == Contact.STUCK
     assert (from_ramp.F, from_ramp.v, from_ramp.x, from_ramp.event) == (from_held.F, from_held.v, from_held.x, from_held.event)
-    assert len(ramped.block_samples) == len(held.block_samples)
+    assert block_steps[True] == block_steps[False]
 
 
 def test_ramped_step_meeting_a_stick_asks_for_the_held_retry_where_its_force_moved():
     """A ramp whose real steps had a rate (the force at the step's start differs from the
     friction's at the probe) is not the held step's: the held retry is asked for."""
-    step, start = slipping_block(1.4, 0.0, -0.01, 2e-3, ramp=True)
-    step.point = replace(start, F=0.5 * MU_L)  # the force moved since the step's start
-    assert step.solve() is RETRY_HELD_TRANSITION
+    system, start = slipping_block(1.4, 0.0, -0.01, F=0.5 * MU_L)  # the force moved since the step's start
+    assert solve(system, start, 2e-3, ramp=True)[0] is RETRY_HELD_TRANSITION
 
 
 # -- the held retry, as the implicit coupling runs it -----------------------------------------------
@@ -333,7 +338,7 @@ def test_a_ramped_step_that_goes_on_held_files_its_block_slope_as_held():
     algorithm = implicit_coupling(system)
     new = algorithm.solve_step(system, start, 2_000_000)
     assert new.mode == Contact.STUCK and not new.ramped
-    assert list(algorithm.block_slopes) == [False]
+    assert [ramp for _, ramp, *_ in algorithm.export_state()["block_slopes"]] == [False]
 
 
 def test_stiff_ramp_is_retried_held_and_the_gain_is_kept():
@@ -350,7 +355,8 @@ def test_stiff_ramp_is_retried_held_and_the_gain_is_kept():
     first = algorithm.solve_step(system, start, h_ns)
     assert not first.ramped and first.mode == Contact.FORWARD
     assert first.v == pytest.approx((start.v + g * first.V) / (1 + g), abs=1e-12)
-    assert algorithm.loop_gain == pytest.approx(g, rel=1e-3) and algorithm.loop_gain_step == h
+    state = algorithm.export_state()
+    assert state["loop_gain"] == pytest.approx(g, rel=1e-3) and state["loop_gain_step"] == h
     tried = algorithm.counters.iterations
     second = algorithm.solve_step(system, first, h_ns)
     assert not second.ramped
@@ -385,25 +391,24 @@ def test_slipping_on_stays_ramped_and_second_order():
 @pytest.mark.parametrize("ramp", [False, True])
 def test_stepped_trials_land_on_the_trials_root(ramp):
     """Slipping on with a loop gain (quadratic fluid, a block on springs): the root sought
-    with the friction stepped from its first trial is the trials' root within the root
-    tolerance (held: backward Euler's closed form), and the friction stands stepped to the
-    root the point reports. (Its call count: test_adaptive, on a lubricant, where the trials'
-    root moves with the state.)"""
+    with the friction stepped from its first trial (no read of the friction at its start state)
+    is the trials' root within the root tolerance (held: backward Euler's closed form), and the
+    friction and the block stand at the point the step reports. (Its call count: test_adaptive,
+    on a lubricant, where the trials' root moves with the state.)"""
     m, M, K, h, v0, V0, tol = 2e5, 10.0, 500.0, 1e-3, 0.08, 0.1, 1e-12
     outcomes = {}
     for stepped in (False, True):
         system = rig(fluid(m, gamma=1.0), M=M, K=K, v0=v0, V0=V0)
         start = point_at(system, Contact.FORWARD, m * (V0 - v0) ** 2)
-        step = implicit_step(system, start, h, ramp=ramp,
-                             step_settings=replace(settings(5.0, root_tol=tol), stepped_trials=stepped))
-        new = outcomes[stepped] = step.solve()
+        step_settings = replace(settings(5.0, root_tol=tol), stepped_trials=stepped)
+        log = call_log(system.friction)
+        new = outcomes[stepped] = solve(system, start, h, ramp=ramp, step_settings=step_settings)[0]
         assert new.mode == Contact.FORWARD and new.ramped == ramp
-        assert (step.settled_dv is not None) == stepped  # (found by the stepped rounds)
-        friction_dv, = system.friction.get_reals(system._dv)
-        assert system.friction.law.force(friction_dv, N_STRESS, 0.0) == pytest.approx(new.F, rel=1e-12)
-        assert abs(friction_dv - new.dv) <= step.root_tol  # (max(delta, root_tol))
-        assert V0 - system.block.get_reals([system._block_out[1]])[0] == new.dv  # the block stands there
-    root_tol = step.root_tol
+        assert (start_state_reads(log) == 0) == stepped  # (found by the stepped rounds)
+        root_tol = max(step_settings.delta, step_settings.root_tol)  # the loop's root tolerance
+        assert system.friction.law.force(system.friction.dv, N_STRESS, 0.0) == pytest.approx(new.F, rel=1e-12)
+        assert abs(system.friction.dv - new.dv) <= root_tol
+        assert V0 - system.block.v == new.dv  # the block stands there
     assert abs(outcomes[True].dv - outcomes[False].dv) <= 2 * root_tol
     if not ramp:
         A = block_after(M, K, 0.0, v0, 0.0, 0.0, h)[1]
@@ -412,30 +417,29 @@ def test_stepped_trials_land_on_the_trials_root(ramp):
         assert outcomes[True].dv == pytest.approx(root, abs=root_tol)
 
 
-def test_stepped_trials_leaving_the_slip_side_give_the_trials_answer(monkeypatch):
+def test_stepped_trials_leaving_the_slip_side_give_the_trials_answer():
     """A reversal (a law without a jump through dv = 0) that the predicted dv does not see
     (the step expects a stiff loop): the stepped rounds would leave the slip side, so the
     friction goes back to the step's start and the trials and probes decide, as without
-    them: BACKWARD, backward Euler's answer."""
+    them: BACKWARD, backward Euler's answer. (Seen in the friction's calls: the stepped
+    rounds step it, it is restored once, then read at its start state as the trials do.)"""
     m, M, K, x0, v0, h = 10.0, 1.0, 3000.0, -1e-3, -3e-3, 1e-3
-    stepped_outcomes = []
-    original = ImplicitStep.stepped_slip
-
-    def spy(self, guess, side):
-        stepped_outcomes.append(original(self, guess, side))
-        return stepped_outcomes[-1]
-
-    monkeypatch.setattr(ImplicitStep, "stepped_slip", spy)
     answers = []
     for stepped in (False, True):
         system, start = reversing_rig(m, M, K, x0, v0)
         step_settings = replace(settings(5.0, root_tol=1e-14), stepped_trials=stepped)
-        step = implicit_step(system, start, h, step_settings=step_settings)
-        new = step.solve()
-        assert new.mode == Contact.BACKWARD and new.event == 1.0 and step.settled_dv is None
+        log = call_log(system.friction)
+        new = solve(system, start, h, step_settings=step_settings)[0]
+        assert new.mode == Contact.BACKWARD and new.event == 1.0
         assert new.v == pytest.approx(held_linear_answer(m, M, K, x0, v0, h), abs=1e-10)
+        first_read = log.index("get")
+        assert start_state_reads(log) > 0  # the trials' answer
+        if stepped:  # tried once, and left the slip side: stepped, then back to the start
+            assert "doStep" in log[:first_read] and log.count("restore") >= 1
+            assert start_state_reads(log[log.index("restore"):]) == start_state_reads(log)
+        else:  # the trials from the first read on
+            assert "doStep" not in log[:first_read]
         answers.append(new)
-    assert stepped_outcomes == [None]  # tried once, and left the slip side
     assert answers[1].v == pytest.approx(answers[0].v, abs=1e-12)
     assert answers[1].F == pytest.approx(answers[0].F, abs=m * 1e-12)
 
@@ -460,39 +464,56 @@ def test_stepped_trials_of_a_law_that_has_not_stuck_yet_stick_where_the_trials_d
     for stepped in (False, True):
         system = rig(law, M=M, v0=v0, V0=V0)
         start = point_at(system, Contact.FORWARD, law.force(V0 - v0, N_STRESS, 0.0))
-        step = implicit_step(system, start, h, step_settings=replace(settings(50.0, root_tol=1e-12),
-                                                                     stepped_trials=stepped))
-        new = step.solve()
-        assert new.mode == Contact.STUCK and 0.5 < new.event < 0.6 and step.settled_dv is None
+        log = call_log(system.friction)
+        new = solve(system, start, h, step_settings=replace(settings(50.0, root_tol=1e-12), stepped_trials=stepped))[0]
+        assert new.mode == Contact.STUCK and 0.5 < new.event < 0.6
+        assert start_state_reads(log) > 0  # (the trials decided)
         answers.append(new)
     assert answers[1].F == pytest.approx(answers[0].F, rel=1e-12) and answers[1].event == answers[0].event
 
 
+def block_answers(M, v0, h, F0, ramp):
+    """The block part's real answers (BlockAnswer) to end forces F over a step of h [s] from
+    rest at v0 [m/s], the force held at F or ramped from F0 to F."""
+    block = BlockPart("block", M, 0.0, 0.0, v0)
+    start = block.save()
+
+    def answer(F):
+        block.restore(start)
+        F_start, rate = (F0, (F - F0) / h) if ramp else (F, 0.0)
+        block.F, block.F_rate = F_start, rate
+        block.do_step(0.0, h)
+        return BlockAnswer(F, block.x, block.v, block.a, F_start, rate)
+
+    return answer
+
+
 def test_block_answers_an_ulp_apart_in_force_make_no_model():
     """Two real answers under forces a last bit apart are one answer to the model: a third
-    force is stepped for real, not extrapolated from their round-off."""
-    system, start = linear_fluid_rig(50.0)
-    step = implicit_step(system, start, 1e-3)
-    step.block_under(6.0, real=True)
-    step.block_under(6.000000000000001, real=True)
-    assert step.spanning_samples() is None and step.measured_slope() is None
-    assert step.block_model(7.3, 7.3, 0.0) is None  # (stepped for real, not extrapolated)
-    step.block_under(7.3, real=True)
-    assert step.spanning_samples() is not None
+    force is not extrapolated from their round-off (it is stepped for real), and no slope is
+    measured from them; a third real answer that moves the block makes the model."""
+    answer = block_answers(1.0, 0.0, 1e-3, 0.0, ramp=False)
+    response = BlockResponse(1_000_000, False, None, SETTINGS.same_force_rtol)
+    response.samples += [answer(6.0), answer(6.000000000000001)]
+    assert response.spanning() is None and response.measured_slope(False) is None
+    assert response.model(7.3, 7.3, 0.0) is None  # (stepped for real, not extrapolated)
+    response.samples.append(answer(7.3))
+    modelled = response.model(8.0, 8.0, 0.0)
+    assert modelled is not None and modelled.v == pytest.approx(answer(8.0).v, rel=1e-12)
 
 
 def test_block_answers_that_differ_by_round_off_in_v_make_no_slope():
     """Forces of 1e-13 N that differ by 3e-16 N (a lubricant at a reversal) move the block by
     less than its velocity's last bits: no slope is measured from them (one read -0.05
     (m/s)/N, and the next step's modelled trials ran dv out to 1e206 m/s)."""
-    system, start = linear_fluid_rig(50.0, v0=3e-5, V0=3e-5)
-    step = implicit_step(system, start, 5e-6, ramp=True)
-    step.block_under(2.5369349e-13, real=True)
-    step.block_under(2.5383656e-13, real=True)
-    assert step.block_samples[0].v == step.block_samples[1].v  # (round-off: the same v)
-    assert step.spanning_samples() is None and step.measured_slope() is None
-    step.block_under(1e-3, real=True)  # a force that moves it
-    slope = step.measured_slope()
+    h = 5e-6
+    answer = block_answers(1.0, 3e-5, h, 0.0, ramp=True)
+    response = BlockResponse(5_000, True, None, SETTINGS.same_force_rtol)
+    response.samples += [answer(2.5369349e-13), answer(2.5383656e-13)]
+    assert response.samples[0].v == response.samples[1].v  # (round-off: the same v)
+    assert response.spanning() is None and response.measured_slope(True) is None
+    response.samples.append(answer(1e-3))  # a force that moves it
+    slope = response.measured_slope(True)
     assert slope is not None and slope.v > 0.0
 
 
@@ -500,22 +521,18 @@ def test_secant_rounds_stay_between_the_iterate_and_the_block_s_answer():
     """The root of G lies between an iterate dv and the block's answer there, dv + G(dv) (a
     force rising with dv brakes the block more beyond it). A secant through a G that a
     Stribeck curve bends leaves that bracket (here to 7.3 m/s, a slip 60 times the drive's
-    speed); the rounds step with the loop gain instead."""
+    speed); the rounds step with the loop gain instead. (G of a free mass under the held
+    force: V0 - (v0 + F(dv) h / M) - dv.)"""
     law = stribeck(0.4965329863676463, 0.003109558205562363, 0.5)
     M, v0, V0, h = 0.05874196496891645, 0.04077178654137947, 0.12600520789398914, 0.006411970959951463
-    system = rig(law, M=M, v0=v0, V0=V0)
-    step = implicit_step(system, point_at(system, Contact.FORWARD, law.force(V0 - v0, N_STRESS, 0.0)), h,
-                         step_settings=settings(0.5, root_tol=1e-12))
     rounds = []
-    block_under = step.block_under
 
-    def recorded(F, real=False):
-        answer = block_under(F, real)
-        rounds.append((step.friction_last.dv, answer - step.friction_last.dv))
-        return answer
+    def g_at(dv):
+        rounds.append((dv, V0 - (v0 + law.force(dv, N_STRESS, 0.0) * h / M) - dv))
+        return rounds[-1][1]
 
-    step.block_under = recorded
-    step.secant_rounds(0.011780137170126374, 0.5, 1.0, keep_side=True)
+    secant_rounds(g_at, 0.011780137170126374, 0.5, 1.0, True, floor=1e-10, root_tol=1e-12,
+                  rounds=SETTINGS.max_settle_rounds)
     assert len(rounds) >= 4
     for (dv, g), (following, _) in zip(rounds, rounds[1:]):
         assert min(dv, dv + g) <= following <= max(dv, dv + g)
@@ -534,7 +551,7 @@ def test_loop_gain_is_measured_even_when_the_guess_is_the_root(m, a):
     algorithm = implicit_coupling(system)
     new = algorithm.solve_step(system, start, h_ns)
     assert not new.ramped
-    assert algorithm.loop_gain == pytest.approx(h_ns * 1e-9 * m / M, rel=1e-2)
+    assert algorithm.export_state()["loop_gain"] == pytest.approx(h_ns * 1e-9 * m / M, rel=1e-2)
 
 
 # -- what a step reuses from the last: the block's slope, the stick ramp's Jacobian -------------
@@ -554,14 +571,11 @@ def test_slip_root_from_one_real_block_step_and_the_last_steps_slope(K):
     for h, seeded in ((0.7e-3, False), (1e-3, False), (1e-3, True)):
         system = rig(fluid(m, gamma=1.0), M=M, K=K, v0=v0, V0=V0)
         start = point_at(system, Contact.FORWARD, m * V0 * V0)
-        h_ns = int(round(h * NS))
-        drive_end = system.step_drive(0.0, h)
-        saved = system.save(system.block, system.friction)
-        slope = outcomes[(0.7e-3, False)][1].report.block_slope if seeded else None
+        slope = outcomes[(0.7e-3, False)][1].block_slope if seeded else None
         before = block_steps(system)
-        step = ImplicitStep(settings(root_tol=tol), system, start, saved, h_ns, drive_end, False, block_slope=slope)
-        outcomes[(h, seeded)] = (step.solve(), step, block_steps(system) - before)
-    assert outcomes[(0.7e-3, False)][1].report.block_slope is not None
+        new, report = solve(system, start, h, step_settings=settings(root_tol=tol), block_slope=slope)
+        outcomes[(h, seeded)] = (new, report, block_steps(system) - before)
+    assert outcomes[(0.7e-3, False)][1].block_slope is not None
     plain, _, plain_steps = outcomes[(1e-3, False)]
     seeded, _, seeded_steps = outcomes[(1e-3, True)]
     assert abs(seeded.dv - plain.dv) <= 2 * tol
@@ -577,18 +591,15 @@ def test_stick_ramp_with_the_last_ramps_jacobian_is_as_exact_in_two_block_steps(
     """A stuck step as long as the last stick ramp models its second probe and starts Newton
     from the first with that ramp's Jacobian: the same exact ramp, two block steps not four."""
     K, x0, V0, h = 2000.0, 1e-3, 0.05, 1e-3
-    step, _ = stuck_on_springs(x0, K, V0, h)
-    before = block_steps(step.system)
-    first = step.solve()
-    jacobian, first_steps = step.report.stick_jacobian, block_steps(step.system) - before
+    system, start, _ = stuck_on_springs(x0, K, V0)
+    before = block_steps(system)
+    first, report = solve(system, start, h)
+    jacobian, first_steps = report.stick_jacobian, block_steps(system) - before
     assert jacobian is not None and jacobian.h_ns == 1_000_000
-    again, _ = stuck_on_springs(x0, K, V0, h)
-    reused = ImplicitStep(again.settings, again.system, again.point,
-                          again.system.save(again.system.block, again.system.friction), again.h_ns,
-                          (again.X, again.V, again.aX), False, stick_jacobian=jacobian)
-    before = block_steps(reused.system)
-    new = reused.solve()
-    assert block_steps(reused.system) - before == 2 < first_steps
+    system, start, _ = stuck_on_springs(x0, K, V0)
+    before = block_steps(system)
+    new, _ = solve(system, start, h, stick_jacobian=jacobian)
+    assert block_steps(system) - before == 2 < first_steps
     assert new.mode == Contact.STUCK and new.event == 1.0
     assert abs(new.dv) <= 1e-10
     assert new.x - new.X == pytest.approx(x0, abs=1e-12 * 1e-3)

@@ -126,7 +126,7 @@ def test_dry_scene_never_touches_the_kinetics():
 
 
 def test_unknown_algorithm_names_the_known_ones():
-    with pytest.raises(ValueError, match="jacobi, gauss-seidel, implicit, doubling, adaptive"):
+    with pytest.raises(ValueError, match="jacobi, gauss-seidel, implicit, adaptive"):
         make_algorithm("newton")
 
 

@@ -10,8 +10,10 @@ in none yet (as Modelica's ``PartialFriction`` starts ``Unknown``):
                              without a jump at dv = 0)
 
 One step (:class:`ImplicitStep`) first *classifies* the step from the friction at +-delta
-(or from the slip it predicts), then runs the solver of that mode: the slip root, the
-stick force, or the stick ramp. A ramped step (the force ramping over the step) that meets
+(or from the slip it predicts), then runs the solver of that mode (coupling/solvers.py): the
+slip root, the stick force, or the stick ramp. The block's answers are modelled where they can
+be (coupling/blocks.py's BlockResponse, the step's own; the last steps' slope and Jacobian come
+in from the coupling's ReuseCache). A ramped step (the force ramping over the step) that meets
 stiffness, a stick or a reversal ends in the explicit outcome :data:`RETRY_HELD`: the caller
 rolls back and solves the step again with the force held. The step reports what it measured
 (:class:`StepReport`: loop gain, the block's velocity per unit impulse, evaluations) instead
@@ -24,12 +26,14 @@ stuck and the force is the one that keeps dv = 0.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from ..physics.roots import illinois
-from .interpolation import NS, hermite
+from . import solvers
+from .blocks import BlockAnswer, BlockResponse, BlockSlope, StickJacobian
+from .interpolation import NS
+from .settings import SETTINGS, CouplingSettings
+from .solvers import Probe
 from .system import Contact, CoupledSystem, Point, States
 
 
@@ -59,90 +63,6 @@ class FrictionAnswer(NamedTuple):
     F_mean: float | None
 
 
-class Probe(NamedTuple):
-    """The held step under the friction at +-delta: that force [N], the relative velocity
-    dv [m/s] and the position x [m] the block answered with at the step's end, and the
-    relative acceleration d(dv)/dt [m/s^2] there."""
-
-    F: float
-    dv: float
-    x: float
-    dv_slope: float
-
-
-class BlockAnswer(NamedTuple):
-    """The block's state at the step's end under the force F0 + rate s (F_end at the end)."""
-
-    F_end: float  # N
-    x: float  # m
-    v: float  # m/s
-    a: float  # m/s^2
-    F0: float  # N
-    rate: float  # N/s
-
-
-# The block's answer to the force is affine in it (a linear block: a mass on springs), and the
-# loop function's iterates differ only in the force: from two real steps under two forces of
-# one family (held, or ramped from the step's start force) the block's answer to a third is
-# their affine combination, without a step. The final force is always stepped for real and the
-# model checked against it: a block that is not affine (to this many root tolerances) is
-# stepped for every iterate instead.
-MODEL_MISS_TOLERANCE = 1.0
-# End forces this close (relative) are one force to the block's model: two real answers a few
-# ulps apart differ by round-off, and an affine model through them extrapolates round-off
-# (a Stribeck force at its floor, 6.0 and 6.000000000000001 N: a slip root where the block
-# sticks).
-SAME_FORCE_RTOL = 1e-12
-# A slip step's first real block step plus the block's slope d(v, x, a)/dF_end [per N] from the
-# last step of the same family (held or ramped) model its answer to the other forces the root
-# tries: one real trial instead of two. The slope of a linear block depends on the step alone;
-# from another step length it is scaled by h (v) and h^2 (x), the leading terms of a mass's
-# response (h/M held, h/2M ramped; h^2/2M, h^2/6M), exact as h -> 0: off by O(w2 h^2) of the
-# slope, which the final real step's check (MODEL_MISS_TOLERANCE) catches, and the step then
-# models from its two real answers instead.
-class BlockSlope(NamedTuple):
-    """The block's response to its end force over a step of ``h_ns`` [ns] held or ramped
-    (``ramp``): d v/dF_end [m/s/N], d x/dF_end [m/N], d a/dF_end [m/s^2/N]."""
-
-    h_ns: int
-    ramp: bool
-    v: float
-    x: float
-    a: float
-
-    def scaled(self, h_ns: int) -> "BlockSlope":
-        r = h_ns / self.h_ns
-        return BlockSlope(h_ns, self.ramp, self.v * r, self.x * r * r, self.a)
-
-
-class StickJacobian(NamedTuple):
-    """A stuck step's block response over ``h_ns`` [ns] to the force F0 + rate s: d dv_end/dF0
-    [m/s/N], d x_end/dF0 [m/N], d (d(dv)/dt)_end/dF0 [1/(kg)] (held), and d dv_end/d rate,
-    d x_end/d rate [per N/s]. Affine for a linear block and a function of the step alone: the
-    next stuck step of the same length models its second probe and starts the stick ramp's
-    Newton from it instead of measuring it again (two real block steps fewer)."""
-
-    h_ns: int
-    d_F: float
-    x_F: float
-    slope_F: float
-    d_r: float
-    x_r: float
-
-
-# The stick onset inside a step is located to this fraction of the step (1 ns in a 1 s step:
-# below the integer-nanosecond time grid of any step the controller takes).
-STICK_ONSET_XTOL = 1e-9
-# The stick ramp's Newton iterations on (dv, x) with secant slopes: the block's answer is
-# affine in (F0, rate), so two or three converge; more means the block is not linear.
-STICK_RAMP_ITERATIONS = 8
-# The stick ramp keeps x on the drive to this fraction of the scene's position scale
-# (round-off of x, ~1e-16 relative, times the few operations of one step).
-STICK_RAMP_POSITION_TOL = 1e-12
-# Aiming at the slip root with the last step's loop gain, the first iterate is placed this
-# fraction beyond the aim, so that it brackets the root when the gain is a little off.
-ROOT_AIM_BEYOND = 0.05
-
 
 @dataclass
 class StepReport:
@@ -165,7 +85,8 @@ class StepSettings:
     how far the slip root may miss, ``delta`` [m/s] the "zero" relative velocity,
     ``max_iterations`` of any iteration, ``position_scale`` [m] for the stick ramp's fit;
     ``stepped_trials``: a slip going on is sought with the friction stepped from its first
-    trial (:meth:`ImplicitStep.stepped_slip`), for a law that has not stuck."""
+    trial (:meth:`ImplicitStep.stepped_slip`), for a law that has not stuck; ``tuning``: the
+    solvers' own constants."""
 
     expected_gain: float
     max_ramp_gain: float
@@ -174,6 +95,7 @@ class StepSettings:
     max_iterations: int
     position_scale: float
     stepped_trials: bool = False
+    tuning: CouplingSettings = SETTINGS  # the solvers' own constants (coupling/settings.py)
 
 
 class ImplicitStep:
@@ -199,13 +121,8 @@ class ImplicitStep:
         self.friction_input = None  # [m/s] the dv the friction holds as its input (None: unknown)
         self.block_last: BlockAnswer | None = None  # the block's latest answer (real or modelled)
         self.block_real: BlockAnswer | None = None  # its latest real step (the FMU stands there)
-        self.block_samples: list[BlockAnswer] = []  # real answers under block_under's family of forces
-        self.use_model = True  # off once the block turned out not affine in the force
-        # the last step's slope of this family, for a model from one real answer (slip solves)
-        self.block_slope = block_slope
-        self.seed = self.seed_of_family()
-        self.seed_allowed = False  # on while a slip root is sought (probes and stick forces step for real)
-        self.last_seeded = False  # the latest modelled answer came from one real answer and the seed
+        # its real answers under block_under's family of forces, and the affine model through them
+        self.blocks = BlockResponse(h_ns, ramp, block_slope, settings.tuning.same_force_rtol)
         # the last stick ramp's, where it was of this length (exact for a linear block)
         self.stick_jacobian = stick_jacobian if stick_jacobian is not None and stick_jacobian.h_ns == h_ns else None
         self.settled_dv: float | None = None  # [m/s] a slip root found with the friction stepped to it
@@ -258,89 +175,38 @@ class ImplicitStep:
 
     def block_under(self, F: float, real: bool = False) -> float:
         """The block's relative velocity after the step whose force ends at F: modelled from
-        two real steps under other end forces where it can be (:data:`MODEL_MISS_TOLERANCE`),
+        two real steps under other end forces where it can be (:class:`~.blocks.BlockResponse`),
         else (or with real=True) stepped."""
         F0, rate = (self.point.F, (F - self.point.F) / self.h) if self.ramp else (F, 0.0)
         if not real:
-            modelled = self.block_model(F, F0, rate)
+            modelled = self.blocks.model(F, F0, rate)
             if modelled is not None:
                 self.block_last = modelled
                 return self.V - modelled.v
         dv = self.block_at(F0, rate)[0]
         # (the end force as the family names it: F0 + rate h can differ from F in the last bit)
         self.block_last = self.block_real = self.block_real._replace(F_end=F)
-        self.block_samples.append(self.block_real)
+        self.blocks.samples.append(self.block_real)
         return dv
-
-    def block_model(self, F: float, F0: float, rate: float) -> BlockAnswer | None:
-        """The block's answer to the end force F, affine in it through the last two real
-        answers under distinct end forces (None: fewer than two, or the model is off)."""
-        samples = self.block_samples
-        if not self.use_model or not samples:
-            return None
-        b = samples[-1]
-        if abs(F - b.F_end) <= SAME_FORCE_RTOL * abs(b.F_end):
-            # (a law whose force does not move with dv, as dry friction's in slip; a last bit
-            # of round-off apart, a second real answer would make a model of round-off)
-            self.last_seeded = False
-            return b if F == b.F_end else b._replace(F_end=F)
-        if len(samples) < 2:
-            if self.seed is None or not self.seed_allowed:
-                return None
-            self.last_seeded = True
-            dF, seed = F - b.F_end, self.seed
-            return BlockAnswer(F, b.x + seed.x * dF, b.v + seed.v * dF, b.a + seed.a * dF, F0, rate)
-        self.last_seeded = False
-        spanning = self.spanning_samples()
-        if spanning is None:
-            return None
-        a, b = spanning
-        w = (F - a.F_end) / (b.F_end - a.F_end)
-        return BlockAnswer(F, a.x + w * (b.x - a.x), a.v + w * (b.v - a.v), a.a + w * (b.a - a.a), F0, rate)
 
     def block_real_at(self, F: float) -> bool:
         """Leave the block really stepped under the end force F (if its latest answer was
         modelled, or under another force); False if the model had missed the real answer by
-        more than MODEL_MISS_TOLERANCE root tolerances (the model is then switched off)."""
+        more than settings.tuning.model_miss_tolerance root tolerances (the model is then
+        switched off)."""
         real = self.block_real
         if real is not None and real.F_end == F and self.block_last is real:
             return True
         modelled = self.block_last if self.block_last is not None and self.block_last.F_end == F else None
-        seeded = modelled is not None and self.last_seeded
+        seeded = modelled is not None and self.blocks.last_seeded
         self.block_under(F, real=True)
-        if modelled is not None and abs(modelled.v - self.block_real.v) > MODEL_MISS_TOLERANCE * self.root_tol:
+        miss_tolerance = self.settings.tuning.model_miss_tolerance * self.root_tol
+        if modelled is not None and abs(modelled.v - self.block_real.v) > miss_tolerance:
             # a seeded model is off by its slope's scaling: the two real answers model exactly
             # from here; a model from two real answers that misses: the block is not affine
-            self.use_model = seeded
+            self.blocks.affine = seeded
             return False
         return True
-
-    def spanning_samples(self) -> tuple[BlockAnswer, BlockAnswer] | None:
-        """The real answer farthest in force from the latest one, and the latest (near ones
-        amplify the round-off of their difference); None with fewer than two or no spread."""
-        samples = self.block_samples
-        if len(samples) < 2:
-            return None
-        b = samples[-1]
-        a = max(samples[:-1], key=lambda s: abs(s.F_end - b.F_end))
-        if abs(a.F_end - b.F_end) <= SAME_FORCE_RTOL * abs(b.F_end):
-            return None
-        # More force, more speed: answers whose v differ by round-off (forces of 1e-13 N
-        # that differ by 1e-16 N, at a reversal) or the wrong way are no slope (one read
-        # -0.05 (m/s)/N, and the next step's modelled trials ran dv out to 1e206 m/s).
-        dv = b.v - a.v
-        if dv * (b.F_end - a.F_end) <= 0.0 or abs(dv) <= SAME_FORCE_RTOL * max(abs(a.v), abs(b.v)):
-            return None
-        return a, b
-
-    def measured_slope(self) -> BlockSlope | None:
-        """The block's slope from the two real answers farthest apart in force, if any."""
-        spanning = self.spanning_samples()
-        if spanning is None:
-            return None
-        a, b = spanning
-        dF = b.F_end - a.F_end
-        return BlockSlope(self.h_ns, self.ramp, (b.v - a.v) / dF, (b.x - a.x) / dF, (b.a - a.a) / dF)
 
     def loop(self, dv: float) -> float:
         """H(dv): how far the block's answer is from the assumed dv."""
@@ -352,7 +218,7 @@ class ImplicitStep:
         """H at side * delta, the held step under the friction there (:class:`Probe`); stuck
         before, with the last stick ramp's Jacobian for this step and the other side probed
         already, the block's answer is that probe's moved along the Jacobian (no step)."""
-        self.seed_allowed = False  # (the probes measure the friction's bounds and the block for real)
+        self.blocks.seed_allowed = False  # (the probes measure the friction's bounds and the block for real)
         other, jacobian = self.probes.get(-side), self.stick_jacobian
         if other is None or jacobian is None or self.previous != Contact.STUCK:
             value = self.loop(side * self.delta)
@@ -392,14 +258,10 @@ class ImplicitStep:
                 dv = self.settle(dv, gain, mode)  # again, every iterate stepped
                 self.block_real_at(self.friction_last.F)
             _, F, f, F_mean = self.friction_last
-        self.report.block_slope = self.measured_slope()
+        self.report.block_slope = self.blocks.measured_slope(self.ramp)
         F, x, v, a, F0, F_rate = self.block_last
         return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
                      F_rate=F_rate, mode=mode, event=event, ramped=self.ramp, F_mean=F_mean)
-
-    # Friction steps one slip step may take to settle its root with the state integrated.
-    # A law without state needs one; the lubricant, whose f moves the force, two or three.
-    max_settle_rounds = 6
 
     def settle(self, dv: float, gain: float, mode: Contact) -> float:
         """The slip root with the friction's state integrated along the step.
@@ -415,42 +277,18 @@ class ImplicitStep:
             self.block_under(self.friction_last.F)
         return dv
 
+    def stepped_g(self, dv: float) -> float:
+        """G(dv): the block's answer to the force after the friction stepped to dv, less dv."""
+        self.report.iterations += 1
+        self.step_friction(dv)
+        return self.block_under(self.friction_last.F) - dv
+
     def secant_rounds(self, dv: float, gain: float, direction: float,
                       keep_side: bool) -> tuple[float, float, bool]:
-        """A secant on G(dv) (see :meth:`settle`), started with the loop's own slope
-        -(1 + gain), one friction step an iterate, at most max_settle_rounds. An iterate that
-        would leave the slip side (``direction`` * dv <= delta) is pulled back halfway to it
-        (keep_side) or ends the rounds. Returns (dv, the gain the secant measured, whether G(dv)
-        is within the root tolerance there, the friction stepped to dv)."""
-        floor = self.delta
-        dv_a = g_a = None
-        for _ in range(self.max_settle_rounds):
-            self.report.iterations += 1
-            self.step_friction(dv)
-            g = self.block_under(self.friction_last.F) - dv
-            if dv_a is not None and g != g_a:
-                measured = -(g - g_a) / (dv - dv_a) - 1.0
-                if measured < 0.0 and not keep_side and direction * g < 0.0:
-                    # G rises on the way toward delta: a force falling with dv (velocity
-                    # weakening, a Stribeck curve) can give G more roots than one there, or
-                    # none and a stick; the trials' bracket from delta decides
-                    return dv, gain, False
-                gain = max(0.0, measured)
-            if abs(g) <= self.root_tol:
-                return dv, gain, True
-            new = dv + g / (1.0 + gain) if dv_a is None or g == g_a else dv - g * (dv - dv_a) / (g - g_a)
-            if not min(dv, dv + g) <= new <= max(dv, dv + g):
-                # The root lies between dv and the block's answer dv + g (a force that rises
-                # with dv brakes the block more beyond dv): a secant through a curving G that
-                # leaves it (a gamma = 1 lubricant: 3e159 m/s) steps with the gain instead.
-                new = dv + g / (1.0 + gain)
-            dv_a, g_a = dv, g
-            if not direction * new > floor:
-                if not keep_side:
-                    return dv, gain, False
-                new = 0.5 * (dv + direction * floor)
-            dv = new
-        return dv, gain, False
+        """:func:`~.solvers.secant_rounds` on G (:meth:`stepped_g`): (dv, the gain the secant
+        measured, whether G(dv) is within the root tolerance there), the friction stepped to dv."""
+        return solvers.secant_rounds(self.stepped_g, dv, gain, direction, keep_side, floor=self.delta,
+                                     root_tol=self.root_tol, rounds=self.settings.tuning.max_settle_rounds)
 
     def classify(self) -> tuple[Contact, tuple[float, float] | None, float] | RetryHeld:
         """The step's contact mode, its slip root (dv [m/s], loop gain) when slipping, and the
@@ -473,7 +311,7 @@ class ImplicitStep:
                     event = reach if 0.0 < reach < 1.0 else 1.0
                 return Contact(int(side)), self.slip_root(side * delta, h_side, side), event
             if self.ramp:
-                if not all(sample.rate == 0.0 for sample in self.block_samples):
+                if not all(sample.rate == 0.0 for sample in self.blocks.samples):
                     return RETRY_HELD_TRANSITION
                 # The ramp's rate was 0 in every real step so far (a force that did not move,
                 # as dry friction's in slip): they are the held step's own, so the solve goes
@@ -484,13 +322,7 @@ class ImplicitStep:
     def hold(self) -> None:
         """Go on as a held step (the force held at its end value) from here."""
         self.ramp = False
-        self.seed = self.seed_of_family()
-
-    def seed_of_family(self) -> BlockSlope | None:
-        """The last step's block slope, scaled to this step, where it was of this step's
-        family (held or ramped); else None."""
-        slope = self.block_slope
-        return slope.scaled(self.h_ns) if slope is not None and slope.ramp == self.ramp else None
+        self.blocks.hold()
 
     def solve_stuck(self, event: float) -> float:
         """Stuck at the step's end: the stick ramp (stuck all through), or the stick force
@@ -508,23 +340,11 @@ class ImplicitStep:
             # curving dv, and the retried step then lands short again, and again).
             side = -1.0 if previous == Contact.BACKWARD else 1.0
             probe = self.probes[side]
-            event = self.stick_onset(probe.dv, probe.dv_slope)
+            event = solvers.stick_onset(self.point.dv, self.point.aX - self.point.a, probe.dv, probe.dv_slope,
+                                        self.h, self.settings.tuning.stick_onset_xtol)
         if event < 1.0 or previous != Contact.STUCK:
             self.stick_force()
         return event
-
-    def stick_onset(self, dv_end: float, slope_end: float) -> float:
-        """The fraction of the step at which dv, slipping from the point's dv to dv_end [m/s]
-        (past 0) with slopes d(dv)/dt at both ends [m/s^2], reaches 0 (1: it does not)."""
-        point, h = self.point, self.h
-        dv0, slope0 = point.dv, point.aX - point.a
-        if dv0 == dv_end or dv0 * dv_end > 0.0:
-            return 1.0
-
-        def dv(s: float) -> float:
-            return hermite(dv0, dv_end, slope0, slope_end, h, s)
-
-        return min(1.0, max(0.0, illinois(dv, 0.0, 1.0, dv0, dv_end, xtol=STICK_ONSET_XTOL, rtol=0.0)))
 
     # -- the solvers ----------------------------------------------------------------------
     def predicted_slip(self, side: float) -> tuple[float, float] | None:
@@ -538,7 +358,7 @@ class ImplicitStep:
         guess = point.dv + (point.aX - point.a) * self.h / (1.0 + self.settings.expected_gain)
         if not side * guess > delta:
             return None
-        self.seed_allowed = True
+        self.blocks.seed_allowed = True
         if self.settings.stepped_trials:
             slip = self.stepped_slip(guess, side)
             if slip is not None:
@@ -571,126 +391,39 @@ class ImplicitStep:
 
     def slip_root(self, lo: float, h_lo: float, direction: float, hi: float | None = None,
                   h_hi: float | None = None) -> tuple[float, float]:
-        """Root of the decreasing loop function beyond lo (slip in `direction`), on the
-        bracket [lo, hi] if given.
-
-        Returns (dv, loop gain): the gain is -(slope of the loop function) - 1, i.e. how
-        strongly the block's answer reacts to the assumed dv, measured on the bracket.
-        """
-        loop, delta, max_iterations = self.loop, self.delta, self.settings.max_iterations
-        self.seed_allowed = True  # slip is confirmed: the root's trials may model from one real answer
-        if hi is None:
-            # Aim at the root with the last step's loop gain; where that falls short, the
-            # fixed-point pass from the nearer point lands beyond the root: the friction
-            # there is at least as large, so the block answers with a smaller dv.
-            gain = self.settings.expected_gain
-            for fraction in (((1.0 + ROOT_AIM_BEYOND) / (1.0 + gain), 1.0) if gain > 0 else (1.0,)):
-                hi = lo + fraction * h_lo
-                h_hi = loop(hi)
-                if direction * h_hi < 0 or h_hi == 0:
-                    break
-                lo, h_lo = hi, h_hi
-            else:  # not beyond even so: the law is not monotone here; widen
-                for _ in range(max_iterations):
-                    hi = lo + 2.0 * (h_lo if h_lo != 0 else direction * delta)
-                    h_hi = loop(hi)
-                    if direction * h_hi < 0 or h_hi == 0:
-                        break
-                    lo, h_lo = hi, h_hi
-        # (a bracket narrower than the "zero" velocity, as when the predicted dv already was
-        # the root, measures round-off: keep the gain the step expected)
-        if abs(hi - lo) > delta:
-            gain = max(0.0, -(h_hi - h_lo) / (hi - lo) - 1.0)
-        else:
-            gain = self.settings.expected_gain
-        if h_hi == 0:
-            return hi, gain
-        if abs(h_lo) <= self.root_tol:
-            return lo, gain
-        if abs(h_hi) <= self.root_tol:
-            return hi, gain
-        return illinois(loop, lo, hi, h_lo, h_hi, xtol=delta, rtol=0.0, ftol=self.root_tol,
-                        max_iterations=max_iterations), gain
+        """:func:`~.solvers.slip_root` on the loop function (slip in ``direction``): (dv, loop gain)."""
+        self.blocks.seed_allowed = True  # slip is confirmed: the root's trials may model from one real answer
+        settings = self.settings
+        return solvers.slip_root(self.loop, lo, h_lo, direction, delta=self.delta, root_tol=self.root_tol,
+                                 expected_gain=settings.expected_gain, max_iterations=settings.max_iterations,
+                                 aim_beyond=settings.tuning.root_aim_beyond, hi=hi, h_hi=h_hi)
 
     def stick_force(self) -> float:
-        """The force that keeps the blocks together over the step (dv = 0 at its end).
-
-        It lies between the friction at -delta and at +delta (the probes already made);
-        the secant on the block's answer starts from those two evaluations.
-        """
-        pos, neg = self.probes[1.0], self.probes[-1.0]
-        F_pos, F_neg = pos.F, neg.F
-        a, da, b, db = F_neg, neg.dv, F_pos, pos.dv
-        if da == db:
-            self.block_under(F_pos)
-            return F_pos
-        F = b
-        for _ in range(self.settings.max_iterations):
-            F = b - db * (b - a) / (db - da)
-            d = self.block_under(F)
-            if abs(d) <= self.delta or d == db:
-                break
-            a, da, b, db = b, db, F, d
-        low, high = min(F_neg, F_pos), max(F_neg, F_pos)
-        if not low <= F <= high:
-            # Round-off past the bound (a step of a few ns, where the probes' dv differ by
-            # less than delta): the stick force is the friction's to bound, dv stays within delta.
-            F = min(max(F, low), high)
-            self.block_under(F)
-        return F
+        """:func:`~.solvers.stick_force` between the probes: the held force that keeps dv = 0."""
+        return solvers.stick_force(self.block_under, self.probes[1.0], self.probes[-1.0], self.delta,
+                                   self.settings.max_iterations)
 
     def stick_ramp(self) -> float:
-        """Stuck over the whole step: the force ramp F0 + rate s that keeps the blocks
-        together, i.e. ends with dv = 0 and moves the block exactly as far as the drive.
-
-        A held force can match only one of the two, and then the position drifts by
-        O(h^3) a step through the spring term; the ramp matches both, and needs no force
-        from the previous step (so no ringing). The block's answer is affine in (F0, rate)
-        for a linear block; it is not assumed: the Newton steps use secant slopes.
-        Returns the fraction of the step at which the ramp leaves the friction's bounds
-        (the contact breaks away there), 1.0 if it stays stuck throughout.
-        """
+        """:func:`~.solvers.stick_ramp` from the probes (stuck all through): the fraction of the
+        step at which the ramp leaves the friction's bounds (1: stuck throughout)."""
         pos, neg = self.probes[1.0], self.probes[-1.0]
-        F_pos, d_pos, x_pos, F_neg, d_neg, x_neg = pos.F, pos.dv, pos.x, neg.F, neg.dv, neg.x
-        if F_pos == F_neg:
-            return 0.0
-        h = self.h
-        x_target = self.point.x + self.X - self.point.X
-        jacobian = self.stick_jacobian
-        dF = F_pos - F_neg
-        rate_probe = dF / h
-        if jacobian is not None:
-            # the last stick ramp's slopes; Newton from the probe the block really answered
-            d_F, x_F, d_r, x_r = jacobian.d_F, jacobian.x_F, jacobian.d_r, jacobian.x_r
-            real = self.probes[1.0] if self.block_real.F_end == F_pos else self.probes[-1.0]
-            F0, rate, d0, x0 = real.F, 0.0, real.dv, real.x
-        else:
-            # slopes in F0 from the two held probes, in rate from one more evaluation
-            d_F, x_F = (d_pos - d_neg) / dF, (x_pos - x_neg) / dF
-            F0, rate = F_neg, 0.0
-            d0, x0 = d_neg, x_neg
-            d_r, x_r = None, None
-        for _ in range(STICK_RAMP_ITERATIONS):
-            if d_r is None:
-                d1, x1 = self.block_at(F0, rate + rate_probe)
-                d_r, x_r = (d1 - d0) / rate_probe, (x1 - x0) / rate_probe
-            det = d_F * x_r - d_r * x_F
-            if det == 0:
-                break
-            # Newton on (dv_end, x_end - x_target) = 0 with the secant Jacobian
-            rx = x0 - x_target
-            F0, rate = F0 - (d0 * x_r - d_r * rx) / det, rate - (d_F * rx - x_F * d0) / det
-            d0, x0 = self.block_at(F0, rate)
-            if abs(d0) <= self.delta and abs(x0 - x_target) <= STICK_RAMP_POSITION_TOL * self.settings.position_scale:
-                break
-        if jacobian is None and d_r is not None:
-            self.report.stick_jacobian = StickJacobian(self.h_ns, d_F, x_F, (pos.dv_slope - neg.dv_slope) / dF, d_r, x_r)
-        low, high = min(F_neg, F_pos), max(F_neg, F_pos)
-        F1 = F0 + rate * h
-        if not low <= F0 <= high:
-            return 0.0
-        if F1 > high:
-            return (high - F0) / (F1 - F0)
-        if F1 < low:
-            return (low - F0) / (F1 - F0)
-        return 1.0
+        jacobian, tuning = self.stick_jacobian, self.settings.tuning
+        start_at_pos = jacobian is not None and self.block_real.F_end == pos.F
+        outcome = solvers.stick_ramp(self.block_at, pos, neg, self.h, self.h_ns, self.point.x + self.X - self.point.X,
+                                     jacobian, start_at_pos, delta=self.delta,
+                                     position_tol=tuning.stick_ramp_position_tol * self.settings.position_scale,
+                                     iterations=tuning.stick_ramp_iterations)
+        if outcome.jacobian is not None:
+            self.report.stick_jacobian = outcome.jacobian
+        return outcome.event
+
+
+def solve_step(settings: StepSettings, system: CoupledSystem, point: Point, saved: States, h_ns: int,
+               drive: tuple[float, float, float], ramp: bool, block_slope: BlockSlope | None = None,
+               stick_jacobian: StickJacobian | None = None) -> tuple[Point | RetryHeld, StepReport]:
+    """One implicit step from ``point`` over ``h_ns`` [ns] (the drive already at its end,
+    ``drive`` = X, V, aX; the block and friction saved in ``saved``): the new point (every
+    slave standing there) or RETRY_HELD, and what the step measured. ``block_slope`` and
+    ``stick_jacobian``: the last steps' (blocks.ReuseCache), to save real block steps."""
+    step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, block_slope, stick_jacobian)
+    return step.solve(), step.report

@@ -40,7 +40,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-from .algorithms import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
+from .controlled import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
 from .interpolation import NS
 from .system import Contact, CoupledSystem, Point
 

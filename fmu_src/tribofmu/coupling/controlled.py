@@ -1,0 +1,135 @@
+"""What every error-controlled implicit coupling shares (:class:`ErrorControlledCoupling`): the
+step-size bounds, the motion's magnitudes the errors are measured against, the global error
+estimate, the accept / reject / land bookkeeping, and the check that a slip step does not pass
+over a stick (:func:`grazes`). The adaptive coupling (coupling/embedded.py) estimates its errors
+on top of it."""
+from __future__ import annotations
+
+from dataclasses import asdict
+
+from ..physics.stepsize import COUPLING_STEPS
+from .base import Magnitudes
+from .estimate import GlobalErrorEstimate
+from .implicit import ImplicitCoupling
+from .interpolation import NS, hermite
+from .settings import SETTINGS
+from .system import CoupledSystem, Point, States
+
+# (the names the embedded estimate reads them by)
+GRAZING_ERROR = SETTINGS.grazing_error
+W2_POSITION_FLOOR = SETTINGS.w2_position_floor
+
+
+class ErrorControlledCoupling(ImplicitCoupling):
+    """What every error-controlled implicit coupling shares: the step-size bounds, the
+    motion's magnitudes its errors are measured against (known, floored by the scene's
+    scales, before the first step), the global error estimate, and the accept / reject /
+    land bookkeeping (:meth:`_landed`, :meth:`_accepted`). Subclasses estimate the errors."""
+
+    default_tol = 2e-4  # per-step error against the block's own motion, when nothing chooses it (tribofmu.checked does for simulate)
+    default_step = 1e-4  # first try [s]
+    controller = COUPLING_STEPS
+    # h_ns is kept a multiple of this [ns] (step doubling: two equal halves)
+    step_granularity = 1
+    state_names = ImplicitCoupling.state_names + ("h_ns", "rejected_last", "accepted_error")
+
+    def prepare(self, system, scales):
+        super().prepare(system, scales)
+        self._held = None  # (point, system, the slaves' states there): see states_at
+        g = self.step_granularity
+        self.min_ns = max(g, int(scales.period * self.settings.min_step_periods * NS) // g * g)
+        self.max_ns = max(self.min_ns, int(scales.period * self.settings.max_step_periods * NS) // g * g)
+        self.h_ns = min(max(self.step_ns // g * g, self.min_ns), self.max_ns)
+        self.estimate = GlobalErrorEstimate()
+        self.magnitudes = Magnitudes()
+        self.rejected_last = False  # the last step was rejected (its successor may not grow)
+        self.accepted_error = 1.0  # the last accepted step's error ratio (the controller's PI term)
+
+    def export_state(self) -> dict:
+        state = super().export_state()
+        state["estimate"] = [self.estimate.ex, self.estimate.ev, self.estimate.w2]
+        state["magnitudes"] = asdict(self.magnitudes)
+        return state
+
+    def import_state(self, state: dict) -> None:
+        missing = {"estimate", "magnitudes"} - set(state)
+        if missing:
+            raise ValueError(f"{self.name} state lacks {', '.join(sorted(missing))}")
+        super().import_state(state)
+        self.estimate.ex, self.estimate.ev, self.estimate.w2 = state["estimate"]
+        self.magnitudes = Magnitudes(**state["magnitudes"])
+
+    # -- scales: pure, from the accepted points' magnitudes and the scene's floor ------------
+    def velocity_scale(self, *points: Point) -> float:
+        return max(self.magnitudes.v, *(abs(p.v) for p in points), self.settings.scale_floor * self.scales.velocity)
+
+    def position_scale(self, *points: Point) -> float:
+        return max(self.magnitudes.x, *(abs(p.x) for p in points), self.settings.scale_floor * self.scales.position)
+
+    def root_tolerance(self) -> float:
+        return self.settings.root_tol_fraction * self.tol * self.velocity_scale()
+
+    # -- the bookkeeping of one tried step ---------------------------------------------------
+    def states_at(self, system: CoupledSystem, point: Point) -> States:
+        """Every slave's state at point, saved once however many tries a step from it takes
+        (a rejected or landed try restores them and the next try starts from the same point
+        object); the next point's are saved over the point before's (freed by :meth:`finish`)."""
+        held = self._held
+        if held is not None and held[0] is point and held[1] is system:
+            return held[2]
+        if held is not None and held[1] is system:
+            states = system.save_over(held[2])
+        else:
+            self.finish(system)
+            states = system.save()
+        self._held = (point, system, states)
+        return states
+
+    def finish(self, system: CoupledSystem) -> None:
+        held, self._held = getattr(self, "_held", None), None
+        if held is not None:
+            held[1].free(held[2])
+
+    def _landed(self, system: CoupledSystem, start: States, h_ns: int, event: float) -> bool:
+        """A stuck contact broke away at the fraction event of the tried step of h_ns: when
+        the landing is worth a step of its own, roll back and make it the next try (True)."""
+        g = self.step_granularity
+        landing = int(h_ns * event) // g * g
+        if event < 1.0 and landing >= max(g * self.min_ns, self.settings.min_landing_fraction * h_ns):
+            system.restore(start)
+            self.counters.landed += 1
+            self.h_ns = landing
+            return True
+        return False
+
+    def _accepted(self, system: CoupledSystem, start: States, h_ns: int, error: float, order: int,
+                  min_ns: int, steps: int) -> bool:
+        """Accept the tried step of h_ns (``steps`` communication steps) when its error ratio
+        is <= 1 or it is no longer than min_ns, else roll back to start; either way the next
+        try's length follows from the controller (local error ~ h^(order + 1))."""
+        factor = self.controller.factor(error, order, self.rejected_last, self.accepted_error)
+        if error <= 1.0 or h_ns <= min_ns:
+            self.counters.forced += error > 1.0
+            self.counters.steps += steps
+            self.rejected_last = False
+            self.accepted_error = error
+            self.h_ns = int(min(max(h_ns * factor, self.min_ns), self.max_ns)) // self.step_granularity \
+                * self.step_granularity
+            return True
+        system.restore(start)
+        self.counters.rejected += 1
+        self.rejected_last = True
+        self.h_ns = max(int(h_ns * factor), self.min_ns) // self.step_granularity * self.step_granularity
+        return False
+
+
+def grazes(start: Point, end: Point, h: float, margin: float) -> bool:
+    """Slipping one way at both ends of a step of h [s], does the interpolated relative
+    velocity cross 0 by more than margin [m/s] in between? (A stick or a reversal that the
+    step would pass over; a crossing within the tolerance is not worth a smaller step.)"""
+    direction = start.mode.direction
+    for s in SETTINGS.grazing_samples:
+        dv = hermite(start.V, end.V, start.aX, end.aX, h, s) - hermite(start.v, end.v, start.a, end.a, h, s)
+        if dv * direction < -margin:
+            return True
+    return False
