@@ -229,8 +229,27 @@ def exact_dry(t_eval, M=0.6, K=7000.0, A=2e-3, omega=30.0, bound=MU_L):
     Slip: the oscillator under +-mu L in closed form (:func:`block_after`), until dv = 0;
     then stuck (v = V, x - X constant) while the force that keeps it so, M V' + 2K x, stays
     within mu L, else slipping on the other way. Events are found by a scan at 1/512 of the
-    shorter period and brentq to 1e-15 s."""
+    shorter period and brentq to 1e-15 s (:func:`exact_dry_segments`)."""
     import numpy as np
+
+    X, segments = exact_dry_segments(float(t_eval[-1]), M, K, A, omega, bound)
+    starts = np.array([s[0] for s in segments])
+    index = np.clip(np.searchsorted(starts, t_eval, side="right") - 1, 0, len(segments) - 1)
+    x_out, v_out, stuck = np.empty(len(t_eval)), np.empty(len(t_eval)), np.zeros(len(t_eval), bool)
+    V = lambda t: -A * omega * _math.sin(omega * t)  # noqa: E731
+    for i, (t, j) in enumerate(zip(t_eval, index)):
+        t0, kind, a, b, s0 = segments[j]
+        if kind == "stick":
+            x_out[i], v_out[i], stuck[i] = a + X(t) - b, V(t), True
+        else:
+            x_out[i], v_out[i] = block_after(M, K, a, b, s0 * bound, 0.0, t - t0)
+    return x_out, v_out, stuck
+
+
+def exact_dry_segments(t_end, M=0.6, K=7000.0, A=2e-3, omega=30.0, bound=MU_L):
+    """The drive's X(t), and the exact dry motion's phases up to t_end [s] (see
+    :func:`exact_dry`): (t0 [s], "stick" or "slip", x0 [m], X0 or v0, slip direction) each; a
+    phase's t0 is its event's exact time (a stick onset or a breakaway)."""
     from scipy.optimize import brentq
 
     def X(t):
@@ -249,7 +268,6 @@ def exact_dry(t_eval, M=0.6, K=7000.0, A=2e-3, omega=30.0, bound=MU_L):
             a, ga = b, gb
         return None
 
-    t_end = float(t_eval[-1])
     dt = min(2 * _math.pi / omega, 2 * _math.pi / _math.sqrt(2 * K / M)) / 512
     segments = []  # (t0, kind, x0, v0, sign)
     t, x, v, sign = 0.0, 0.0, 0.0, 0
@@ -279,13 +297,4 @@ def exact_dry(t_eval, M=0.6, K=7000.0, A=2e-3, omega=30.0, bound=MU_L):
                 kind = "stick"
             else:
                 sign = 1 if need > 0 else -1
-    starts = np.array([s[0] for s in segments])
-    index = np.clip(np.searchsorted(starts, t_eval, side="right") - 1, 0, len(segments) - 1)
-    x_out, v_out, stuck = np.empty(len(t_eval)), np.empty(len(t_eval)), np.zeros(len(t_eval), bool)
-    for i, (t, j) in enumerate(zip(t_eval, index)):
-        t0, kind, a, b, s0 = segments[j]
-        if kind == "stick":
-            x_out[i], v_out[i], stuck[i] = a + X(t) - b, V(t), True
-        else:
-            x_out[i], v_out[i] = block_after(M, K, a, b, s0 * bound, 0.0, t - t0)
-    return x_out, v_out, stuck
+    return X, segments

@@ -142,27 +142,41 @@ class CoupledSystem:
         if drive is not None:
             self._drive_out = [drive.refs[k] for k in ("X", "V", "a")]
         if friction is not None:
-            fr = friction.refs
-            self._dv = [fr["dv"]]
-            # F, f, and the mean force over the step where the friction reports it (no output read twice)
-            self._friction_out = [fr["F"], fr["f"]] + ([fr["F_mean"]] if "F_mean" in fr else [])
-            fed = {"n"} if load is not None else set()
-            fed |= {"T"} if thermal is not None else set()
-            held = {k: v for k, v in (conditions or {}).items() if k not in fed}
-            if held:
-                friction.set_reals([fr[k] for k in held], list(held.values()))
-            self._friction_n, self._friction_T = [fr["n"]], [fr["T"]]
-            self._n = friction.get_reals(self._friction_n)[0]
-            self._T = friction.get_reals(self._friction_T)[0]
+            self._wire_friction(conditions or {})
         if load is not None:
-            self._load_n = [load.refs["n"]]
-            self._n = load.get_reals(self._load_n)[0]
-            friction.set_reals(self._friction_n, [self._n])
+            self._wire_load()
         if thermal is not None:
-            self._thermal_P = [thermal.refs["P"]]
-            self._thermal_out = [thermal.refs["T"], thermal.refs["Q"]]
-            self._T, self._Q = thermal.get_reals(self._thermal_out)
-            friction.set_reals(self._friction_T, [self._T])
+            self._wire_thermal()
+
+    def _wire_friction(self, conditions: dict[str, float]) -> None:
+        """The friction's references, and its constant inputs (those no load or thermal slave feeds)."""
+        friction = self.friction
+        fr = friction.refs
+        self._dv = [fr["dv"]]
+        # F, f, and the mean force over the step where the friction reports it (no output read twice)
+        self._friction_out = [fr["F"], fr["f"]] + ([fr["F_mean"]] if "F_mean" in fr else [])
+        fed = {"n"} if self.load is not None else set()
+        fed |= {"T"} if self.thermal is not None else set()
+        held = {k: v for k, v in conditions.items() if k not in fed}
+        if held:
+            friction.set_reals([fr[k] for k in held], list(held.values()))
+        self._friction_n, self._friction_T = [fr["n"]], [fr["T"]]
+        self._n = friction.get_reals(self._friction_n)[0]
+        self._T = friction.get_reals(self._friction_T)[0]
+
+    def _wire_load(self) -> None:
+        """The load's n feeds the friction's n from the start."""
+        self._load_n = [self.load.refs["n"]]
+        self._n = self.load.get_reals(self._load_n)[0]
+        self.friction.set_reals(self._friction_n, [self._n])
+
+    def _wire_thermal(self) -> None:
+        """The thermal slave's T feeds the friction's T from the start."""
+        thermal = self.thermal
+        self._thermal_P = [thermal.refs["P"]]
+        self._thermal_out = [thermal.refs["T"], thermal.refs["Q"]]
+        self._T, self._Q = thermal.get_reals(self._thermal_out)
+        self.friction.set_reals(self._friction_T, [self._T])
 
     # -- outputs ----------------------------------------------------------------------
     def drive_outputs(self) -> tuple[float, float, float]:
