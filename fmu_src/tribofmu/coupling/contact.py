@@ -27,10 +27,10 @@ stuck and the force is the one that keeps dv = 0.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
 
 from . import solvers
 from .blocks import BlockAnswer, BlockResponse, BlockSlope, StickJacobian
+from .evaluations import BlockSide, FrictionSide
 from .interpolation import NS
 from .settings import SETTINGS, CouplingSettings
 from .solvers import Probe
@@ -51,17 +51,6 @@ class RetryHeld:
 
 RETRY_HELD_STIFF = RetryHeld("the loop is too stiff to ramp the force")
 RETRY_HELD_TRANSITION = RetryHeld("the contact sticks or reverses inside the step")
-
-
-class FrictionAnswer(NamedTuple):
-    """The friction's latest answer: at the relative velocity dv [m/s], the force F [N], the
-    state f [1], and its mean force over the step [N] (None for a trial, which does not step)."""
-
-    dv: float
-    F: float
-    f: float
-    F_mean: float | None
-
 
 
 @dataclass
@@ -105,132 +94,53 @@ class ImplicitStep:
     def __init__(self, settings: StepSettings, system: CoupledSystem, point: Point, saved: States,
                  h_ns: int, drive: tuple[float, float, float], ramp: bool,
                  block_slope: BlockSlope | None = None, stick_jacobian: StickJacobian | None = None):
-        self.settings, self.system, self.point, self.ramp = settings, system, point, ramp
+        self.settings, self.point = settings, point
         self.previous = Contact(point.mode)
-        self.h_ns, self.t, self.h = h_ns, point.t_ns / NS, h_ns / NS
+        self.h_ns, t, self.h = h_ns, point.t_ns / NS, h_ns / NS
         self.X, self.V, self.aX = drive
-        self.block_state = [v for v in saved.handles.values() if v[0] is system.block]
-        self.friction_state = [v for v in saved.handles.values() if v[0] is system.friction]
         self.delta = settings.delta
         self.root_tol = max(self.delta, settings.root_tol)  # m/s
         self.report = StepReport()
-        self.friction_last: FrictionAnswer | None = None  # the friction's latest answer
-        # the friction's latest step's answer (its state is at the step's end); None: not
-        # stepped since the step's start
-        self.stepped_answer: FrictionAnswer | None = None
-        self.friction_input = None  # [m/s] the dv the friction holds as its input (None: unknown)
-        self.block_last: BlockAnswer | None = None  # the block's latest answer (real or modelled)
-        self.block_real: BlockAnswer | None = None  # its latest real step (the FMU stands there)
-        # its real answers under block_under's family of forces, and the affine model through them
-        self.blocks = BlockResponse(h_ns, ramp, block_slope, settings.tuning.same_force_rtol)
+        self.friction = FrictionSide(system, [v for v in saved.handles.values() if v[0] is system.friction], t,
+                                     self.h)
+        # the block, its real answers under one family of forces and the affine model through them
+        response = BlockResponse(h_ns, ramp, block_slope, settings.tuning.same_force_rtol)
+        self.block = BlockSide(system, [v for v in saved.handles.values() if v[0] is system.block], t, self.h,
+                               self.V, point.F, ramp, response, self.report)
         # the last stick ramp's, where it was of this length (exact for a linear block)
         self.stick_jacobian = stick_jacobian if stick_jacobian is not None and stick_jacobian.h_ns == h_ns else None
         self.settled_dv: float | None = None  # [m/s] a slip root found with the friction stepped to it
         self.probes: dict[float, Probe] = {}  # side (+-1.0) -> the held step under the friction at side * delta
 
     # -- evaluations ----------------------------------------------------------------------
-    def friction_at(self, dv: float) -> tuple[float, float]:
-        """A trial: F [N], f [1] at the relative velocity dv [m/s] with the friction's state
-        where it stands (its output's direct feedthrough; no step)."""
-        F, f = self.system.friction_outputs(dv)
-        self.friction_last = FrictionAnswer(dv, F, f, None)
-        self.friction_input = dv
-        return F, f
-
-    def step_friction(self, dv: float) -> None:
-        """The friction's step to dv [m/s] at the step's end (from the step's start again if
-        it stepped before): its state (the lubricant's f) moves along the way."""
-        stepped = self.stepped_answer
-        if stepped is not None:
-            if stepped.dv == dv:
-                self.friction_last = stepped  # (it stands there already)
-                return
-            self.restore_friction()
-        # (the last trial's dv is still the friction's input: no second set)
-        F, f, F_mean = self.system.step_friction(dv, self.t, self.h, set_input=dv != self.friction_input)
-        self.friction_input = dv
-        self.friction_last = self.stepped_answer = FrictionAnswer(dv, F, f, F_mean)
-
-    def restore_friction(self) -> None:
-        """The friction back at the step's start (state and input)."""
-        for slave, handle in self.friction_state:
-            slave.restore(handle)
-        self.stepped_answer = self.friction_input = None
-
-    def block_at(self, F0: float, rate: float) -> tuple[float, float]:
-        """The block's relative velocity and position after the step under F0 + rate s
-        (a real step of the block)."""
-        last = self.block_real
-        if last is not None:
-            for slave, handle in self.block_state:
-                slave.restore(handle)
-        x, v, a = self.system.step_block(F0, rate, self.t, self.h)
-        if last is not None:
-            # the block's velocity per unit impulse (1/M for a lone mass), from the secant
-            d_impulse = (F0 - last.F0 + 0.5 * (rate - last.rate) * self.h) * self.h
-            if d_impulse != 0.0 and v != last.v:
-                self.report.velocity_per_impulse = abs((v - last.v) / d_impulse)
-        self.block_last = self.block_real = BlockAnswer(F0 + rate * self.h, x, v, a, F0, rate)
-        return self.V - v, x
-
-    def block_under(self, F: float, real: bool = False) -> float:
-        """The block's relative velocity after the step whose force ends at F: modelled from
-        two real steps under other end forces where it can be (:class:`~.blocks.BlockResponse`),
-        else (or with real=True) stepped."""
-        F0, rate = (self.point.F, (F - self.point.F) / self.h) if self.ramp else (F, 0.0)
-        if not real:
-            modelled = self.blocks.model(F, F0, rate)
-            if modelled is not None:
-                self.block_last = modelled
-                return self.V - modelled.v
-        dv = self.block_at(F0, rate)[0]
-        # (the end force as the family names it: F0 + rate h can differ from F in the last bit)
-        self.block_last = self.block_real = self.block_real._replace(F_end=F)
-        self.blocks.samples.append(self.block_real)
-        return dv
-
     def block_real_at(self, F: float) -> bool:
-        """Leave the block really stepped under the end force F (if its latest answer was
-        modelled, or under another force); False if the model had missed the real answer by
-        more than settings.tuning.model_miss_tolerance root tolerances (the model is then
-        switched off)."""
-        real = self.block_real
-        if real is not None and real.F_end == F and self.block_last is real:
-            return True
-        modelled = self.block_last if self.block_last is not None and self.block_last.F_end == F else None
-        seeded = modelled is not None and self.blocks.last_seeded
-        self.block_under(F, real=True)
-        miss_tolerance = self.settings.tuning.model_miss_tolerance * self.root_tol
-        if modelled is not None and abs(modelled.v - self.block_real.v) > miss_tolerance:
-            # a seeded model is off by its slope's scaling: the two real answers model exactly
-            # from here; a model from two real answers that misses: the block is not affine
-            self.blocks.affine = seeded
-            return False
-        return True
+        """The block really stepped under the end force F; False where its model had missed
+        (by more than settings.tuning.model_miss_tolerance root tolerances)."""
+        return self.block.real_at(F, self.settings.tuning.model_miss_tolerance * self.root_tol)
 
     def loop(self, dv: float) -> float:
         """H(dv): how far the block's answer is from the assumed dv."""
         self.report.iterations += 1
-        F, _ = self.friction_at(dv)
-        return self.block_under(F) - dv
+        F, _ = self.friction.at(dv)
+        return self.block.under(F) - dv
 
     def probe(self, side: float) -> float:
         """H at side * delta, the held step under the friction there (:class:`Probe`); stuck
         before, with the last stick ramp's Jacobian for this step and the other side probed
         already, the block's answer is that probe's moved along the Jacobian (no step)."""
-        self.blocks.seed_allowed = False  # (the probes measure the friction's bounds and the block for real)
+        self.block.response.seed_allowed = False  # (the probes measure the friction's bounds and the block for real)
         other, jacobian = self.probes.get(-side), self.stick_jacobian
         if other is None or jacobian is None or self.previous != Contact.STUCK:
             value = self.loop(side * self.delta)
-            block = self.block_last
-            self.probes[side] = Probe(self.friction_last.F, self.V - block.v, block.x, self.aX - block.a)
+            block = self.block.last
+            self.probes[side] = Probe(self.friction.last.F, self.V - block.v, block.x, self.aX - block.a)
             return value
         self.report.iterations += 1
-        F, _ = self.friction_at(side * self.delta)
+        F, _ = self.friction.at(side * self.delta)
         dF = F - other.F
         probe = Probe(F, other.dv + jacobian.d_F * dF, other.x + jacobian.x_F * dF, other.dv_slope + jacobian.slope_F * dF)
         self.probes[side] = probe
-        self.block_last = BlockAnswer(F, probe.x, self.V - probe.dv, self.aX - probe.dv_slope, F, 0.0)
+        self.block.last = BlockAnswer(F, probe.x, self.V - probe.dv, self.aX - probe.dv_slope, F, 0.0)
         return probe.dv - side * self.delta
 
     # -- the machine ----------------------------------------------------------------------
@@ -242,26 +152,27 @@ class ImplicitStep:
         mode, slip, event = classified
         if mode == Contact.STUCK:
             event = self.solve_stuck(event)
-            if not self.block_real_at(self.block_last.F_end):
+            if not self.block_real_at(self.block.last.F_end):
                 event = self.solve_stuck(event)  # again, every iterate stepped
-                self.block_real_at(self.block_last.F_end)
-            self.step_friction(0.0)
-            f, F_mean = self.friction_last.f, None  # the block felt the stick force, not the friction's
+                self.block_real_at(self.block.last.F_end)
+            self.friction.step(0.0)
+            f, F_mean = self.friction.last.f, None  # the block felt the stick force, not the friction's
         else:
             dv, gain = slip
             self.report.loop_gain = gain
-            if self.ramp and gain >= self.settings.max_ramp_gain:
+            if self.block.ramp and gain >= self.settings.max_ramp_gain:
                 return RETRY_HELD_STIFF
             if self.settled_dv != dv:
                 dv = self.settle(dv, gain, mode)
-            if not self.block_real_at(self.friction_last.F):
+            if not self.block_real_at(self.friction.last.F):
                 dv = self.settle(dv, gain, mode)  # again, every iterate stepped
-                self.block_real_at(self.friction_last.F)
-            _, F, f, F_mean = self.friction_last
-        self.report.block_slope = self.blocks.measured_slope(self.ramp)
-        F, x, v, a, F0, F_rate = self.block_last
+                self.block_real_at(self.friction.last.F)
+            _, F, f, F_mean = self.friction.last
+        ramped = self.block.ramp
+        self.report.block_slope = self.block.response.measured_slope(ramped)
+        F, x, v, a, F0, F_rate = self.block.last
         return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
-                     F_rate=F_rate, mode=mode, event=event, ramped=self.ramp, F_mean=F_mean)
+                     F_rate=F_rate, mode=mode, event=event, ramped=ramped, F_mean=F_mean)
 
     def settle(self, dv: float, gain: float, mode: Contact) -> float:
         """The slip root with the friction's state integrated along the step.
@@ -273,15 +184,15 @@ class ImplicitStep:
         to dv) - dv is not yet 0: :meth:`secant_rounds` find its root."""
         dv, _, settled = self.secant_rounds(dv, gain, mode.direction, keep_side=True)
         if not settled:
-            self.step_friction(dv)
-            self.block_under(self.friction_last.F)
+            self.friction.step(dv)
+            self.block.under(self.friction.last.F)
         return dv
 
     def stepped_g(self, dv: float) -> float:
         """G(dv): the block's answer to the force after the friction stepped to dv, less dv."""
         self.report.iterations += 1
-        self.step_friction(dv)
-        return self.block_under(self.friction_last.F) - dv
+        self.friction.step(dv)
+        return self.block.under(self.friction.last.F) - dv
 
     def secant_rounds(self, dv: float, gain: float, direction: float,
                       keep_side: bool) -> tuple[float, float, bool]:
@@ -310,8 +221,8 @@ class ImplicitStep:
                     reach = (self.probes[side].F - self.point.F) / (self.point.F_rate * self.h)
                     event = reach if 0.0 < reach < 1.0 else 1.0
                 return Contact(int(side)), self.slip_root(side * delta, h_side, side), event
-            if self.ramp:
-                if not all(sample.rate == 0.0 for sample in self.blocks.samples):
+            if self.block.ramp:
+                if not all(sample.rate == 0.0 for sample in self.block.response.samples):
                     return RETRY_HELD_TRANSITION
                 # The ramp's rate was 0 in every real step so far (a force that did not move,
                 # as dry friction's in slip): they are the held step's own, so the solve goes
@@ -321,8 +232,7 @@ class ImplicitStep:
 
     def hold(self) -> None:
         """Go on as a held step (the force held at its end value) from here."""
-        self.ramp = False
-        self.blocks.hold()
+        self.block.hold()
 
     def solve_stuck(self, event: float) -> float:
         """Stuck at the step's end: the stick ramp (stuck all through), or the stick force
@@ -358,7 +268,7 @@ class ImplicitStep:
         guess = point.dv + (point.aX - point.a) * self.h / (1.0 + self.settings.expected_gain)
         if not side * guess > delta:
             return None
-        self.blocks.seed_allowed = True
+        self.block.response.seed_allowed = True
         if self.settings.stepped_trials:
             slip = self.stepped_slip(guess, side)
             if slip is not None:
@@ -386,13 +296,13 @@ class ImplicitStep:
         if settled:
             self.settled_dv = dv
             return dv, gain
-        self.restore_friction()
+        self.friction.restore()
         return None
 
     def slip_root(self, lo: float, h_lo: float, direction: float, hi: float | None = None,
                   h_hi: float | None = None) -> tuple[float, float]:
         """:func:`~.solvers.slip_root` on the loop function (slip in ``direction``): (dv, loop gain)."""
-        self.blocks.seed_allowed = True  # slip is confirmed: the root's trials may model from one real answer
+        self.block.response.seed_allowed = True  # slip is confirmed: the root's trials may model from one real answer
         settings = self.settings
         return solvers.slip_root(self.loop, lo, h_lo, direction, delta=self.delta, root_tol=self.root_tol,
                                  expected_gain=settings.expected_gain, max_iterations=settings.max_iterations,
@@ -400,7 +310,7 @@ class ImplicitStep:
 
     def stick_force(self) -> float:
         """:func:`~.solvers.stick_force` between the probes: the held force that keeps dv = 0."""
-        return solvers.stick_force(self.block_under, self.probes[1.0], self.probes[-1.0], self.delta,
+        return solvers.stick_force(self.block.under, self.probes[1.0], self.probes[-1.0], self.delta,
                                    self.settings.max_iterations)
 
     def stick_ramp(self) -> float:
@@ -408,8 +318,8 @@ class ImplicitStep:
         step at which the ramp leaves the friction's bounds (1: stuck throughout)."""
         pos, neg = self.probes[1.0], self.probes[-1.0]
         jacobian, tuning = self.stick_jacobian, self.settings.tuning
-        start_at_pos = jacobian is not None and self.block_real.F_end == pos.F
-        outcome = solvers.stick_ramp(self.block_at, pos, neg, self.h, self.h_ns, self.point.x + self.X - self.point.X,
+        start_at_pos = jacobian is not None and self.block.real.F_end == pos.F
+        outcome = solvers.stick_ramp(self.block.at, pos, neg, self.h, self.h_ns, self.point.x + self.X - self.point.X,
                                      jacobian, start_at_pos, delta=self.delta,
                                      position_tol=tuning.stick_ramp_position_tol * self.settings.position_scale,
                                      iterations=tuning.stick_ramp_iterations)
