@@ -54,23 +54,7 @@ def slip_root(loop: Callable[[float], float], lo: float, h_lo: float, direction:
     the block's answer reacts to the assumed dv, measured on the bracket.
     """
     if hi is None:
-        # Aim at the root with the last step's loop gain; where that falls short, the
-        # fixed-point pass from the nearer point lands beyond the root: the friction
-        # there is at least as large, so the block answers with a smaller dv.
-        gain = expected_gain
-        for fraction in (((1.0 + aim_beyond) / (1.0 + gain), 1.0) if gain > 0 else (1.0,)):
-            hi = lo + fraction * h_lo
-            h_hi = loop(hi)
-            if direction * h_hi < 0 or h_hi == 0:
-                break
-            lo, h_lo = hi, h_hi
-        else:  # not beyond even so: the law is not monotone here; widen
-            for _ in range(max_iterations):
-                hi = lo + 2.0 * (h_lo if h_lo != 0 else direction * delta)
-                h_hi = loop(hi)
-                if direction * h_hi < 0 or h_hi == 0:
-                    break
-                lo, h_lo = hi, h_hi
+        lo, h_lo, hi, h_hi = bracket(loop, lo, h_lo, direction, delta, expected_gain, max_iterations, aim_beyond)
     # (a bracket narrower than the "zero" velocity, as when the predicted dv already was
     # the root, measures round-off: keep the gain the step expected)
     if abs(hi - lo) > delta:
@@ -85,6 +69,31 @@ def slip_root(loop: Callable[[float], float], lo: float, h_lo: float, direction:
         return hi, gain
     return illinois(loop, lo, hi, h_lo, h_hi, xtol=delta, rtol=0.0, ftol=root_tol,
                     max_iterations=max_iterations), gain
+
+
+def bracket(loop: Callable[[float], float], lo: float, h_lo: float, direction: float, delta: float,
+            expected_gain: float, max_iterations: int, aim_beyond: float) -> tuple[float, float, float, float]:
+    """A bracket (lo, H(lo), hi, H(hi)) of the decreasing loop function's root beyond lo, H(lo) =
+    h_lo, in ``direction``: hi aimed with the expected gain (placed aim_beyond past the aim),
+    then a fixed-point pass, then widening."""
+    # Aim at the root with the last step's loop gain; where that falls short, the
+    # fixed-point pass from the nearer point lands beyond the root: the friction
+    # there is at least as large, so the block answers with a smaller dv.
+    gain = expected_gain
+    for fraction in (((1.0 + aim_beyond) / (1.0 + gain), 1.0) if gain > 0 else (1.0,)):
+        hi = lo + fraction * h_lo
+        h_hi = loop(hi)
+        if direction * h_hi < 0 or h_hi == 0:
+            break
+        lo, h_lo = hi, h_hi
+    else:  # not beyond even so: the law is not monotone here; widen
+        for _ in range(max_iterations):
+            hi = lo + 2.0 * (h_lo if h_lo != 0 else direction * delta)
+            h_hi = loop(hi)
+            if direction * h_hi < 0 or h_hi == 0:
+                break
+            lo, h_lo = hi, h_hi
+    return lo, h_lo, hi, h_hi
 
 
 def secant_rounds(g_at: Callable[[float], float], dv: float, gain: float, direction: float, keep_side: bool,
