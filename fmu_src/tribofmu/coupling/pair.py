@@ -1,8 +1,8 @@
 """The block and the friction law coupled inside one model, stepped by a host's steps.
 
 :class:`PairModel` is what the TriboPair FMU runs in its ``doStep``: the master's own
-:class:`~tribofmu.coupling.algorithms.AdaptiveCoupling` (implicit steps of the dv -> F -> dv
-loop with exact stick, step-doubling error control, rollback) on the in-process parts of
+:class:`~tribofmu.coupling.embedded.EmbeddedCoupling` (implicit steps of the dv -> F -> dv
+loop with exact stick, an embedded error estimate, rollback) on the in-process parts of
 :mod:`tribofmu.coupling.inprocess`, advanced over each host step [t, t + h] in integer
 nanoseconds with as many internal steps as the tolerance needs. Between host steps it keeps
 the current point and the adaptive step size; :meth:`PairModel.snapshot` and
@@ -19,7 +19,8 @@ import math
 from dataclasses import asdict, dataclass, replace
 
 from ..physics.friction import FrictionLaw
-from .algorithms import AdaptiveCoupling, Scales
+from .base import Scales
+from .embedded import EmbeddedCoupling as AdaptiveCoupling
 from .inprocess import BlockPart, FollowedDrive, FrictionPart
 from .interpolation import NS
 from .system import CoupledSystem, Point
