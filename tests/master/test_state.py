@@ -113,6 +113,32 @@ def test_an_imported_state_continues_bit_identically(name):
         assert not same_points(other, ahead2)
 
 
+def test_an_imported_implicit_state_continues_bit_identically_after_a_stick():
+    """A Stribeck law (its loop has a gain, so slip steps predict their root) stuck before the
+    export: the friction's bounds at that stick are carried state too (they turn the stepped
+    trials off), and the imported coupling continues bit-identically. Before, the implicit
+    coupling did not export them and went on with the stepped trials on (other points
+    within the root tolerance, other counters)."""
+    from tribofmu.physics.laws.mixed import MixedLaw
+
+    law = MixedLaw(mu_friction=0.4, mu_static=0.6, v_stribeck=0.03, stribeck_exponent=1.0, m=5.0, S=1.0)
+    stop = round(2 * SCALES.period * NS)
+    system = fig2_system(law)
+    original = ImplicitCoupling(step=1e-3, tol=1e-4)
+    original.prepare(system, SCALES)
+    point, before = advance_n(original, system, system.start_point(), 40, stop)
+    assert any(p.mode.stuck for p in before)
+    state = json.loads(json.dumps(original.export_state()))
+    assert state["stick_bounds"] is not None
+    twin_system = clone_slaves(system)
+    imported = ImplicitCoupling(step=1e-3, tol=1e-4)
+    imported.prepare(twin_system, Scales(1.0, 1.0, SCALES.period))
+    imported.import_state(state)
+    _, ahead = advance_n(original, system, point, 60, stop)
+    _, again = advance_n(imported, twin_system, point, 60, stop)
+    assert same_points(ahead, again) and imported.counters == original.counters
+
+
 def test_export_state_is_plain_json_that_round_trips_exactly():
     system = fig2_system()
     algorithm = AdaptiveCoupling(tol=1e-4)

@@ -5,12 +5,12 @@ over a stick (:func:`grazes`). The adaptive coupling (coupling/embedded.py) esti
 on top of it."""
 from __future__ import annotations
 
-from dataclasses import asdict
+from dataclasses import asdict, dataclass, fields
 
 from ..physics.stepsize import COUPLING_STEPS
 from .base import Magnitudes
 from .estimate import GlobalErrorEstimate
-from .implicit import ImplicitCoupling
+from .implicit import ImplicitCoupling, LoopState
 from .interpolation import NS, hermite
 from .settings import SETTINGS
 from .system import CoupledSystem, Point, States
@@ -18,6 +18,16 @@ from .system import CoupledSystem, Point, States
 # (the names the embedded estimate reads them by)
 GRAZING_ERROR = SETTINGS.grazing_error
 W2_POSITION_FLOOR = SETTINGS.w2_position_floor
+
+
+@dataclass(frozen=True)
+class ControlledState(LoopState):
+    """What an error-controlled coupling carries besides the loop's measurements (besides its
+    magnitudes and global estimate, exported beside): the step-size control's."""
+
+    h_ns: int = 0  # [ns] the next step to try
+    rejected_last: bool = False  # the last step was rejected (its successor may not grow)
+    accepted_error: float = 1.0  # the last accepted step's error ratio (the controller's PI term)
 
 
 class ErrorControlledCoupling(ImplicitCoupling):
@@ -31,7 +41,8 @@ class ErrorControlledCoupling(ImplicitCoupling):
     controller = COUPLING_STEPS
     # h_ns is kept a multiple of this [ns] (step doubling: two equal halves)
     step_granularity = 1
-    state_names = ImplicitCoupling.state_names + ("h_ns", "rejected_last", "accepted_error")
+    carried = ControlledState
+    state_names = tuple(field.name for field in fields(ControlledState))
 
     def prepare(self, system, scales):
         super().prepare(system, scales)

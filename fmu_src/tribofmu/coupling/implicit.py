@@ -4,7 +4,7 @@ force the block felt and the friction at the resulting relative velocity agree (
 response) and its exported state."""
 from __future__ import annotations
 
-from dataclasses import asdict
+from dataclasses import asdict, dataclass, fields
 
 from .base import Counters, CouplingAlgorithm, Scales
 from .blocks import ReuseCache
@@ -12,6 +12,20 @@ from .contact import RetryHeld, StepSettings, slip_mode, solve_step
 from .interpolation import NS
 from .settings import SETTINGS
 from .system import Contact, CoupledSystem, Point, States
+
+
+@dataclass(frozen=True)
+class LoopState:
+    """What the implicit coupling carries from one step to the next, besides its settings (tol,
+    step), what prepare() derives from the scales, its counters and what it reuses: what its
+    solves measured of the loop. Its exported state (a pair FMU's FMU state) is these fields;
+    the coupling keeps their live values as attributes of the same names."""
+
+    loop_gain: float = 0.0  # |d(block dv)/dF * dF/d(dv)| of the last slip step ...
+    loop_gain_step: float = 1.0  # ... whose length this was [s]
+    velocity_per_impulse: float = 0.0  # [m/s / (N s)] the block's, last measured (0: not yet)
+    # [N] (low, high): the friction's force range at the last stick (None: no stick yet)
+    stick_bounds: tuple[float, float] | None = None
 
 
 class ImplicitCoupling(CouplingAlgorithm):
@@ -27,12 +41,12 @@ class ImplicitCoupling(CouplingAlgorithm):
     name = "implicit"
     settings = SETTINGS  # the tuning (coupling/settings.py); an instance may be given others
 
+    carried = LoopState  # what it carries from step to step
+    state_names = tuple(field.name for field in fields(LoopState))
+
     def __init__(self, step=None, tol=None):
         super().__init__(step, tol)
-        self.loop_gain = 0.0  # |d(block dv)/dF * dF/d(dv)| of the last slip step ...
-        self.loop_gain_step = 1.0  # ... whose length this was [s]
-        self.velocity_per_impulse = 0.0  # [m/s / (N s)] the block's, last measured (0: not yet)
-        self.stick_bounds = None  # [N] (low, high): the friction's force range at the last stick
+        self.set_carried(self.carried())
         # the solves' own measurements that save the next steps FMU calls (blocks.ReuseCache)
         self.reuse = ReuseCache()
 
@@ -45,13 +59,17 @@ class ImplicitCoupling(CouplingAlgorithm):
         """How far [m/s] the coupling loop may miss its root while slipping."""
         return self.settings.root_tol_fraction * self.tol * self.scales.velocity
 
-    # What the algorithm carries from step to step besides its settings (tol, step) and what
-    # prepare() derives from the scales: its saved state (a pair FMU's FMU state) is these.
-    state_names = ("loop_gain", "loop_gain_step", "velocity_per_impulse")
+    def carried_state(self) -> LoopState:
+        """What it carries to the next step, as one frozen value (:attr:`carried`)."""
+        return self.carried(**{name: getattr(self, name) for name in self.state_names})
+
+    def set_carried(self, state: LoopState) -> None:
+        for field in fields(state):
+            setattr(self, field.name, getattr(state, field.name))
 
     def export_state(self) -> dict:
         """The algorithm's state as plain values (JSON-able; floats round-trip exactly)."""
-        state = {name: getattr(self, name) for name in self.state_names}
+        state = asdict(self.carried_state())
         state["scales"] = [self.scales.position, self.scales.velocity, self.scales.period]
         state["counters"] = asdict(self.counters)
         # (they seed the next solve's first guesses: its root lands within its tolerance
@@ -65,8 +83,7 @@ class ImplicitCoupling(CouplingAlgorithm):
         missing = {*self.state_names, "scales", "counters", "block_slopes", "stick_jacobian"} - set(state)
         if missing:
             raise ValueError(f"{self.name} state lacks {', '.join(sorted(missing))}")
-        for name in self.state_names:
-            setattr(self, name, state[name])
+        self.set_carried(self.carried(**{name: state[name] for name in self.state_names}))
         self.scales = Scales(*state["scales"])
         self.counters = Counters(**state["counters"])
         self.reuse = ReuseCache.from_export(state)
