@@ -160,8 +160,8 @@ def point_at(system: CoupledSystem, mode: Contact, F: float, F_rate: float = 0.0
 
 
 def settings(expected_gain: float = 0.0, root_tol: float = 1e-12, delta: float = 1e-10,
-             position_scale: float = 1e-3, max_ramp_gain: float = 30.0) -> StepSettings:
-    return StepSettings(expected_gain, max_ramp_gain, root_tol, delta, 60, position_scale)
+             position_scale: float = 1e-3) -> StepSettings:
+    return StepSettings(expected_gain, root_tol, delta, position_scale)
 
 
 def solve(system: CoupledSystem, point: Point, h: float, ramp: bool = False,

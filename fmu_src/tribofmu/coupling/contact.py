@@ -70,21 +70,19 @@ class StepReport:
 @dataclass(frozen=True)
 class StepSettings:
     """How one step solves: ``expected_gain`` the loop gain a slip step of this length should
-    meet (0: unknown), ``max_ramp_gain`` above which a ramp would ring, ``root_tol`` [m/s]
-    how far the slip root may miss, ``delta`` [m/s] the "zero" relative velocity,
-    ``max_iterations`` of any iteration, ``position_scale`` [m] for the stick ramp's fit;
+    meet (0: unknown), ``root_tol`` [m/s] how far the slip root may miss, ``delta`` [m/s] the
+    "zero" relative velocity, ``position_scale`` [m] for the stick ramp's fit;
     ``stepped_trials``: a slip going on is sought with the friction stepped from its first
     trial (:meth:`ImplicitStep.stepped_slip`), for a law that has not stuck; ``tuning``: the
-    solvers' own constants."""
+    coupling's constants (max_ramp_gain above which a ramp would ring, max_iterations of any
+    iteration, the solvers' own)."""
 
     expected_gain: float
-    max_ramp_gain: float
     root_tol: float
     delta: float
-    max_iterations: int
     position_scale: float
     stepped_trials: bool = False
-    tuning: CouplingSettings = SETTINGS  # the solvers' own constants (coupling/settings.py)
+    tuning: CouplingSettings = SETTINGS  # (coupling/settings.py)
 
 
 class ImplicitStep:
@@ -160,7 +158,7 @@ class ImplicitStep:
         else:
             dv, gain = slip
             self.report.loop_gain = gain
-            if self.block.ramp and gain >= self.settings.max_ramp_gain:
+            if self.block.ramp and gain >= self.settings.tuning.max_ramp_gain:
                 return RETRY_HELD_STIFF
             if self.settled_dv != dv:
                 dv = self.settle(dv, gain, mode)
@@ -305,13 +303,13 @@ class ImplicitStep:
         self.block.response.seed_allowed = True  # slip is confirmed: the root's trials may model from one real answer
         settings = self.settings
         return solvers.slip_root(self.loop, lo, h_lo, direction, delta=self.delta, root_tol=self.root_tol,
-                                 expected_gain=settings.expected_gain, max_iterations=settings.max_iterations,
+                                 expected_gain=settings.expected_gain, max_iterations=settings.tuning.max_iterations,
                                  aim_beyond=settings.tuning.root_aim_beyond, hi=hi, h_hi=h_hi)
 
     def stick_force(self) -> float:
         """:func:`~.solvers.stick_force` between the probes: the held force that keeps dv = 0."""
         return solvers.stick_force(self.block.under, self.probes[1.0], self.probes[-1.0], self.delta,
-                                   self.settings.max_iterations)
+                                   self.settings.tuning.max_iterations)
 
     def stick_ramp(self) -> float:
         """:func:`~.solvers.stick_ramp` from the probes (stuck all through): the fraction of the

@@ -92,8 +92,7 @@ class ImplicitCoupling(CouplingAlgorithm):
         """One ImplicitStep; keeps what it measured (the loop gain, the block's response)."""
         h = h_ns / NS
         tuning = self.settings
-        settings = StepSettings(self.expected_gain(h), tuning.max_ramp_gain, self.root_tolerance(),
-                                tuning.zero_velocity * self.scales.velocity, tuning.max_iterations,
+        settings = StepSettings(self.expected_gain(h), self.root_tolerance(), tuning.zero_velocity * self.scales.velocity,
                                 self.scales.position, stepped_trials=tuning.stepped_trials and self.stick_bounds is None,
                                 tuning=tuning)
         reuse = self.reuse
