@@ -107,7 +107,6 @@ class ImplicitStep:
                                self.V, point.F, ramp, response, self.report)
         # the last stick ramp's, where it was of this length (exact for a linear block)
         self.stick_jacobian = stick_jacobian if stick_jacobian is not None and stick_jacobian.h_ns == h_ns else None
-        self.settled_dv: float | None = None  # [m/s] a slip root found with the friction stepped to it
         self.probes: dict[float, Probe] = {}  # side (+-1.0) -> the held step under the friction at side * delta
 
     # -- evaluations ----------------------------------------------------------------------
@@ -160,7 +159,8 @@ class ImplicitStep:
             self.report.loop_gain = gain
             if self.block.ramp and gain >= self.settings.tuning.max_ramp_gain:
                 return RETRY_HELD_STIFF
-            if self.settled_dv != dv:
+            stepped = self.friction.stepped
+            if stepped is None or stepped.dv != dv:  # (else the stepped trials settled it there)
                 dv = self.settle(dv, gain, mode)
             if not self.block_real_at(self.friction.last.F):
                 dv = self.settle(dv, gain, mode)  # again, every iterate stepped
@@ -291,8 +291,7 @@ class ImplicitStep:
         (A law that sticks can have a loop function that is not monotone near dv = 0, with a
         root beyond delta that is not the answer: its trials bracket the root first.)"""
         dv, gain, settled = self.secant_rounds(guess, self.settings.expected_gain, side, keep_side=False)
-        if settled:
-            self.settled_dv = dv
+        if settled:  # (the friction stands stepped to dv)
             return dv, gain
         self.friction.restore()
         return None
