@@ -185,11 +185,13 @@ def test_a_breakaway_too_close_to_the_start_is_not_landed():
     assert algorithm.counters.landed == 0
 
 
-def test_counters_of_a_run_count_what_happened():
+@pytest.mark.parametrize("controlled", ["doubling", "adaptive"])
+def test_counters_of_a_run_count_what_happened(controlled):
     """Over fig. 2's rig (fakes): accepted steps are the points after the start; the
-    implicit coupling's stuck steps are the points that ended stuck; the adaptive's
-    rejections and landings are the advances that returned nothing."""
-    from tribofmu.coupling.algorithms import ImplicitCoupling
+    implicit coupling's stuck steps are the points that ended stuck; an error-controlled
+    coupling's (step doubling's, the package's adaptive) rejections and landings are the
+    advances that returned nothing."""
+    from tribofmu.coupling.algorithms import ImplicitCoupling, make_algorithm
     from tribofmu.master import run
 
     scales, fig2 = drive_scales(), fig2_system
@@ -199,7 +201,8 @@ def test_counters_of_a_run_count_what_happened():
     assert implicit.counters["steps"] == len(implicit.points) - 1
     assert implicit.counters["stick_steps"] == stuck > 0
 
-    system, algorithm = fig2(), AdaptiveCoupling(tol=1e-4)
+    system = fig2()
+    algorithm = AdaptiveCoupling(tol=1e-4) if controlled == "doubling" else make_algorithm("adaptive", tol=1e-4)
     algorithm.prepare(system, scales)
     point, empty, accepted = system.start_point(), 0, 0
     stop = round(scales.period * 1e9)
