@@ -306,7 +306,7 @@ def cmd_simulate(args) -> int:
         result = api.simulate_and_save(
             scene_file, out, args.overrides, algorithm=args.algorithm, step=args.step, tol=args.tol,
             fmu_dir=fmu_dir, build=False, plots=not args.no_plots, progress=bar, notice=bar.notice,
-            max_wall=-1.0 if args.max_wall is None else args.max_wall, command=["tribofmu", *sys.argv[1:]])
+            max_wall=api.SCENE_MAX_WALL if args.max_wall is None else args.max_wall, command=["tribofmu", *sys.argv[1:]])
     finally:
         bar.close()  # also when the call failed before the run began
     work_done()  # the result set is complete (or the failure is known): what follows only says so

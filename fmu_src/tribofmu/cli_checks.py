@@ -14,8 +14,9 @@ import re
 import sys
 from pathlib import Path
 
-from .coupling.interpolation import NS
-from .errors import UsageError  # noqa: F401 (re-exported: bad input, exit code 2)
+from .errors import MAX_MESSAGE, UsageError, readable  # noqa: F401 (UsageError re-exported: bad input, exit code 2)
+from .scene.checks import (MIN_MAX_WALL, check_max_wall, check_resolution,  # noqa: F401 (re-exported)
+                           check_run)
 
 OUTPUT_ROOT = Path("out")  # default output folders: OUTPUT_ROOT/<scene name>[--<overrides>]
 # A scene name that may name a folder: printable, no separators, no "..", not too long.
@@ -203,83 +204,19 @@ def check_number(name: str, value: float | None) -> None:
 
 def check_algorithm_options(scenario, algorithm: str | None, step: float | None, tol: float | None,
                             max_wall: float | None = None) -> str:
-    """The algorithm that will run; a --step/--tol it does not use is an error."""
-    from .coupling.algorithms import ALGORITHMS
-    for name, value in (("--step", step), ("--tol", tol)):
-        check_number(name, value)
-    if max_wall is not None and not (math.isfinite(max_wall) and max_wall >= 0):
-        raise UsageError(f"--max-wall must be >= 0 s (0: no limit), got {max_wall}")
-    least = min_max_wall()
-    if max_wall is not None and 0 < max_wall < least:
-        raise UsageError(f"--max-wall must be 0 (no limit) or at least {least:g} s (a run's projected "
-                         f"wall time is judged after its first seconds), got {max_wall:g}")
-    name = algorithm or scenario.simulation.algorithm
-    if name not in ALGORITHMS:
-        raise UsageError(f"unknown algorithm {name!r} (known: {', '.join(ALGORITHMS)})")
-    if tol is not None and name != "adaptive":
-        raise UsageError(f"--tol applies to the adaptive algorithm only, not {name} (use --step)")
-    check_resolution(scenario, name, step)
-    return name
+    """The algorithm that will run; a --step/--tol it does not use, or out of range, is an
+    error (the scene's own checks, :func:`tribofmu.scene.checks.check_run`, under the
+    options' names)."""
+    check_max_wall(max_wall, "--max-wall")
+    return check_run(scenario, algorithm, step, tol, OPTION_NAMES)
 
 
-# -- a run that can resolve its drive ------------------------------------------------------------
-# The coupling's time grid counts integer nanoseconds (coupling.interpolation.NS) in int64, with
-# steps of at least 2 ns; the adaptive algorithm's largest step is a twentieth of the drive
-# period. A fixed-step run needs a handful of communication points per drive period: with
-# fewer, the drive's motion is sampled below its Nyquist rate and the result is garbage (the
-# jacobi run at --step 0.2 on Fig. 2: one step, V ten times A*omega, x = v = 0).
-MIN_POINTS_PER_PERIOD = 10  # fixed-step algorithms: communication points per drive period
-ADAPTIVE_POINTS_PER_PERIOD = 20  # the adaptive algorithm's largest step is period/20
-GRID_NS = 2  # the smallest step of the integer-nanosecond time grid
-LONGEST_RUN = 2.0 ** 62 / NS  # s (~146 years): the time grid is int64 nanoseconds
-
-
-MIN_MAX_WALL = 1.0  # s
+OPTION_NAMES = {"algorithm": "--algorithm", "step": "--step", "tol": "--tol"}
 
 
 def min_max_wall() -> float:
-    """The smallest --max-wall but 0 (no limit) [s]. The limit is on a run's projected wall
-    time, which the master judges once the run has gone for a few seconds (3 s): a smaller
-    positive limit (1e-100) could only ever mean "stop at the first judgement", and reads
-    like a promise the run cannot keep, so it is refused rather than accepted and ignored."""
+    """The smallest --max-wall but 0 (no limit) [s] (:data:`tribofmu.scene.checks.MIN_MAX_WALL`)."""
     return MIN_MAX_WALL
-
-
-def check_resolution(scenario, algorithm: str, step: float | None) -> None:
-    """Refuse, before the run, a drive or a communication step the run cannot resolve: one
-    line naming the limit (UsageError, exit 2)."""
-    from .coupling.algorithms import ALGORITHMS
-    omega, period = scenario.drive.omega, scenario.drive.period
-    stop = scenario.stop_time
-    if not (math.isfinite(stop) and stop <= LONGEST_RUN):
-        raise UsageError(f"drive.omega = {omega:g} rad/s and time.periods = {scenario.time.periods:g} "
-                         f"make a run of {stop:.3g} s, longer than the time grid holds "
-                         f"({LONGEST_RUN:.3g} s in integer nanoseconds): raise drive.omega or lower "
-                         f"time.periods")
-    points = ADAPTIVE_POINTS_PER_PERIOD if algorithm == "adaptive" else MIN_POINTS_PER_PERIOD
-    fastest = 2 * math.pi / (points * GRID_NS / NS)
-    if omega > fastest:
-        raise UsageError(f"drive.omega = {omega:g} rad/s: its period {period:.3g} s is shorter than "
-                         f"the {algorithm} coupling can resolve ({points} steps per period of at "
-                         f"least {GRID_NS} ns); drive.omega must be <= {fastest:.3g} rad/s")
-    if algorithm == "adaptive":
-        return  # its steps are at most period/20, whatever the first try
-    if step is not None:
-        source, h = "--step", step
-    elif scenario.simulation.step is not None:
-        source, h = "simulation.step", scenario.simulation.step
-    else:
-        try:
-            default = float(ALGORITHMS[algorithm]().default_step)
-        except Exception:  # the coupling's own default; 1e-4 s when it cannot be read
-            default = 1e-4
-        source, h = f"the {algorithm} default step", default
-    h = max(GRID_NS, round(h * NS)) / NS  # the step the run takes, on the grid
-    if period / h < MIN_POINTS_PER_PERIOD:
-        raise UsageError(f"{source} {h:g} s gives {period / h:.3g} communication points per drive "
-                         f"period ({period:.3g} s at drive.omega = {omega:g} rad/s); the {algorithm} "
-                         f"coupling needs at least {MIN_POINTS_PER_PERIOD}: use a step <= "
-                         f"{period / MIN_POINTS_PER_PERIOD:.3g} s")
 
 
 def require(module: str, install: str, purpose: str) -> None:
@@ -350,4 +287,4 @@ def one_line(exc: BaseException) -> str:
         text = f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
     else:
         text = str(exc)
-    return " ".join(text.split())
+    return readable(" ".join(text.split()), MAX_MESSAGE - 50)  # room for "tribofmu: " and a suffix

@@ -9,7 +9,8 @@ written against earlier versions still catches them:
 - :class:`ScenarioError` (a ``ValueError``): a scenario file, override or setting is wrong;
   :class:`SweepError` the same for a sweep's grid, options or output directory;
 - :class:`UsageError`: bad input from the command line or to an API call
-  that is not a scenario's (an option, a folder); exit code 2;
+  that is not a scenario's (an option, a folder); exit code 2; :class:`ArgumentError` an
+  API argument of the wrong type or out of range;
 - :class:`FMUError`: an FMU file is missing or unreadable (:class:`FMUFileError`), an FMU
   refused a call (:class:`FMUCallError`), the FMUs of a run could not be set up
   (:class:`FMUSetupError`), the FMU cache cannot be used (:class:`FMUCacheError`);
@@ -25,8 +26,34 @@ from __future__ import annotations
 from typing import Sequence
 
 
+# An error line a person reads: at most this many characters. A longer message (a 990 kB
+# string or a 200,000-element array echoed as the culprit) has its long words cut, then its
+# middle, keeping the start (what is wrong) and the end (what to do).
+MAX_MESSAGE = 300
+LONG_WORD = 80  # characters: a word this long is a value, not prose; cut first
+
+
+def readable(text: str, limit: int = MAX_MESSAGE) -> str:
+    """``text`` cut to at most ``limit`` characters (unchanged when it fits)."""
+    if len(text) <= limit:
+        return text
+    words = [w if len(w) <= LONG_WORD else f"{w[:50]}...({len(w)} characters)" for w in text.split(" ")]
+    text = " ".join(words)
+    if len(text) <= limit:
+        return text
+    tail = limit // 4
+    head = limit - tail - len(f" [...{len(text)} characters...] ")
+    return f"{text[:head]} [...{len(text) - head - tail} characters...] {text[-tail:]}"
+
+
 class TriboFMUError(Exception):
-    """Base of every error tribofmu raises on purpose; the message is one line."""
+    """Base of every error tribofmu raises on purpose; the message is one line, at most
+    :data:`MAX_MESSAGE` characters (:func:`readable`)."""
+
+    def __init__(self, *args):
+        if args and isinstance(args[0], str):
+            args = (readable(args[0]), *args[1:])
+        super().__init__(*args)
 
 
 class ScenarioError(TriboFMUError, ValueError):
@@ -48,6 +75,12 @@ class NumericalError(TriboFMUError, RuntimeError):
 class UsageError(TriboFMUError):
     """Bad input from the command line (or an API argument that is no scenario's): reported as
     one line, exit code 2."""
+
+
+class ArgumentError(UsageError, ValueError, TypeError):
+    """An argument of a public API call of the wrong type or out of range, found before any
+    work: one line naming the call, the argument and its value. Also a ValueError and a
+    TypeError, what such an argument raised from deeper down before."""
 
 
 # -- FMUs -------------------------------------------------------------------------------------
