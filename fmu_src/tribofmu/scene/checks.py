@@ -66,8 +66,8 @@ def check_tol(value, name: str = "tol") -> float | None:
     if value is None:
         return None
     if not (is_number(value) and 0 < value < TOL_MAX and _magnitude_ok(float(value))):
-        raise UsageError(f"{name} must be a number in (0, {TOL_MAX:g}) (the checked nRMS(v), relative), "
-                         f"at least {NUMBER_RANGE[0]:g}, got {shown(value)}")
+        raise UsageError(f"{name} must be > 0 and < {TOL_MAX:g}, a number (the checked nRMS(v), relative) "
+                         f"of at least {NUMBER_RANGE[0]:g}, got {shown(value)}")
     return float(value)
 
 
