@@ -15,17 +15,29 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import errno
+import json
 import os
 import shutil
 import stat
 import tempfile
 from pathlib import Path
 
+# Every folder a command makes holds this marker, naming the command: the one proof that a
+# folder is tribofmu's to write into or replace (a file's name is none: a user's time.png is
+# named as ours). Read within MARKER_BYTES, never through a link or from a FIFO.
+MARKER = ".tribofmu-output"
+MARKER_BYTES = 4096
 # What a run may find in its output folder and replace; anything else there is the user's,
 # and a result set never replaces a folder holding it.
 RESULT_NAMES = frozenset({"stats.json", "result.csv", "columns.json", "time.png", "phase.png",
-                          "kinetics.png"})
-ACCURACY_NAMES = frozenset({"accuracy.png", "accuracy.csv", "summary.json"})
+                          "kinetics.png", MARKER})
+ACCURACY_NAMES = frozenset({"accuracy.png", "accuracy.csv", "summary.json", MARKER})
+# Folders written before the marker existed are known by the record their command wrote,
+# a JSON object of at most RECORD_BYTES (with the key named here); commands not listed
+# made no such record and their unmarked folders are not taken.
+LEGACY_RECORDS = {"simulate": ("stats.json", "provenance"), "accuracy": ("summary.json", None),
+                  "sweep": ("sweep.json", "fmu_source")}
+RECORD_BYTES = 16_000_000
 PARTIAL, OLD = "partial", "old"
 _RENAME_EXCHANGE = 2
 _published: list[Path] = []  # result sets this process has swapped in (for the Ctrl-C message)
@@ -123,19 +135,106 @@ def clean_leftovers(out: Path) -> None:
             shutil.rmtree(path, ignore_errors=True)
 
 
+def _read_small(path: Path, limit: int) -> bytes | None:
+    """The bytes of ``path`` if it is a regular file (not a link, FIFO or device; checked
+    before it is opened, and opened without blocking) of at most ``limit`` bytes; else None."""
+    try:
+        if not stat.S_ISREG(os.lstat(path).st_mode):
+            return None
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as fh:
+            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+                return None
+            data = fh.read(limit + 1)
+    except OSError:
+        return None
+    return data if len(data) <= limit else None
+
+
+def _json_object(path: Path, limit: int) -> dict | None:
+    data = _read_small(path, limit)
+    try:
+        value = json.loads(data) if data is not None else None
+    except ValueError:
+        return None
+    return value if isinstance(value, dict) else None
+
+
+def made_by(folder: Path) -> str | None:
+    """The command whose marker ``folder`` holds (None: no marker, or not a readable one)."""
+    marker = _json_object(Path(folder) / MARKER, MARKER_BYTES)
+    command = marker.get("command") if marker else None
+    return command if isinstance(command, str) else None
+
+
+def mark(folder: Path, command: str) -> None:
+    """Write ``command``'s marker into ``folder`` (one it made)."""
+    from . import __version__
+    atomic_write_bytes(Path(folder) / MARKER, (json.dumps({"command": command, "tribofmu": __version__})
+                                               + "\n").encode())
+
+
+def ours(folder: Path, commands: tuple[str, ...]) -> bool:
+    """Whether ``folder`` was made by one of ``commands``: its marker, or for a folder of an
+    earlier version the record that command wrote (:data:`LEGACY_RECORDS`)."""
+    if made_by(folder) in commands:
+        return True
+    for command in commands:
+        name, key = LEGACY_RECORDS.get(command, (None, None))
+        if name is not None and not os.path.lexists(Path(folder) / MARKER):
+            record = _json_object(Path(folder) / name, RECORD_BYTES)
+            if record is not None and (key is None or key in record):
+                return True
+    return False
+
+
+def first_entries(folder: Path, count: int = 4) -> list[str]:
+    """Up to ``count`` names in ``folder`` (a folder of millions is not listed whole)."""
+    names = []
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            names.append(entry.name)
+            if len(names) >= count:
+                break
+    return sorted(names)
+
+
+def check_output_folder(out: Path, commands: tuple[str, ...]) -> None:
+    """The output rule every command keeps: ``out`` is new, an empty folder, or a folder one
+    of ``commands`` made (:func:`ours`); a symbolic link, a file or any other folder raises
+    FileExistsError (one line) and nothing is written."""
+    out = Path(out)
+    if out.is_symlink():
+        raise FileExistsError(f"{out} is a symbolic link; give the folder it points to, or a new one")
+    if not os.path.lexists(out):
+        return
+    if not out.is_dir():
+        raise FileExistsError(f"{out} is a file, not a folder")
+    names = first_entries(out)
+    if not names or ours(out, commands):
+        return
+    shown = ", ".join(names[:3]) + (", ..." if len(names) > 3 else "")
+    raise FileExistsError(f"{out} holds files that tribofmu {commands[0]} did not write ({shown}); "
+                          f"give a new or empty folder")
+
+
 def check_replaceable(out: Path, names=RESULT_NAMES) -> None:
-    """Raise FileExistsError when ``out`` holds files other than ``names`` (a result set
+    """Raise FileExistsError unless ``out`` is new, empty, or a result set of the command that
+    writes ``names`` (:func:`check_output_folder`) holding no other files (a result set
     replaces the whole folder, and must never take the user's files with it)."""
     out = Path(out)
-    if out.is_symlink() or (out.exists() and not out.is_dir()):
-        raise FileExistsError(f"{out} is {'a symbolic link' if out.is_symlink() else 'a file'}, not a folder")
+    check_output_folder(out, (_command_of(names),))
     if not out.is_dir():
         return
     foreign = sorted(name for name in os.listdir(out) if name not in names)
     if foreign:
         shown = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
         raise FileExistsError(f"{out} holds files that are not a tribofmu result ({shown}); "
-                              f"give an empty or new folder as --out")
+                              f"give a new or empty folder")
+
+
+def _command_of(names) -> str:
+    return "accuracy" if names == ACCURACY_NAMES else "simulate"
 
 
 @contextlib.contextmanager
@@ -151,6 +250,7 @@ def result_set(out: Path, names=RESULT_NAMES):
     tmp = _sibling(out, PARTIAL)
     try:
         yield tmp
+        mark(tmp, _command_of(names))
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp made it private; results are as readable as any file
         _swap_in(tmp, out)
         _published.append(out)

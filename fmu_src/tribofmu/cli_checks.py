@@ -181,6 +181,28 @@ def release_out_locks() -> None:
             path.parent.rmdir()  # when no other run holds a lock: the temp dir as it was
 
 
+def claim_out(out: Path, command: str, needed_bytes: int, option: str = "--out",
+              also: tuple[str, ...] = ()) -> Path:
+    """The output rule for a folder a command writes into and keeps (build, plot, sweep,
+    figures): ``out`` must be new, empty, or a folder ``command`` (or one of ``also``) made,
+    never a symbolic link (UsageError, one line, before any work); then it is made, with
+    ``command``'s marker (:func:`tribofmu.atomic.mark`), so the next run knows it as its own."""
+    from .atomic import MARKER, check_output_folder, mark
+    try:
+        check_output_folder(out, (command, *also))
+    except FileExistsError as exc:
+        raise UsageError(f"{option} {exc}") from None
+    preflight_folder(out, needed_bytes, option)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        if not (out / MARKER).exists():
+            mark(out, command)
+    except OSError as exc:
+        from .fmu_cache import write_error
+        raise write_error(f"cannot write into {option} {out}: {exc.strerror or exc}", exc.errno) from None
+    return out
+
+
 def preflight_folder(out: Path, needed_bytes: int, option: str = "--out") -> None:
     """For outputs kept across runs (a sweep's folder, an .ssp file's folder): ``out`` can be
     written and has the space (OSError, exit 1, otherwise)."""
