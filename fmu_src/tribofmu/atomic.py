@@ -22,22 +22,22 @@ import stat
 import tempfile
 from pathlib import Path
 
-# Every folder a command makes holds this marker, naming the command: the one proof that a
-# folder is tribofmu's to write into or replace (a file's name is none: a user's time.png is
-# named as ours). Read within MARKER_BYTES, never through a link or from a FIFO.
+from .fmu_cache import fmu_source
+
+# A folder a command keeps writing into across runs (plot, sweep, figures) holds this
+# marker, naming the command: the proof that the folder is tribofmu's (a file's name is
+# none: a user's time.png is named as ours). Read within MARKER_BYTES, never through a link
+# or from a FIFO. Result sets (simulate, accuracy) and FMU folders (build) carry no marker:
+# their own files are the proof (:data:`RECORDS`).
 MARKER = ".tribofmu-output"
 MARKER_BYTES = 4096
 # What a run may find in its output folder and replace; anything else there is the user's,
 # and a result set never replaces a folder holding it.
 RESULT_NAMES = frozenset({"stats.json", "result.csv", "columns.json", "time.png", "phase.png",
-                          "kinetics.png", MARKER})
-ACCURACY_NAMES = frozenset({"accuracy.png", "accuracy.csv", "summary.json", MARKER})
-# Folders written before the marker existed are known by the record their command wrote,
-# a JSON object of at most RECORD_BYTES (with the key named here); commands not listed
-# made no such record and their unmarked folders are not taken.
-LEGACY_RECORDS = {"simulate": ("stats.json", "provenance"), "accuracy": ("summary.json", None),
-                  "sweep": ("sweep.json", "fmu_source")}
-RECORD_BYTES = 16_000_000
+                          "kinetics.png"})
+ACCURACY_NAMES = frozenset({"accuracy.png", "accuracy.csv", "summary.json"})
+RECORD_BYTES = 16_000_000  # the largest JSON record read to see whether a folder is ours
+FMU_BYTES = 50_000_000  # the largest .fmu looked into (ours are < 1 MB)
 PARTIAL, OLD = "partial", "old"
 _RENAME_EXCHANGE = 2
 _published: list[Path] = []  # result sets this process has swapped in (for the Ctrl-C message)
@@ -174,18 +174,43 @@ def mark(folder: Path, command: str) -> None:
                                                + "\n").encode())
 
 
+def _has_record(name: str, key: str):
+    """A folder whose JSON object ``name`` (at most RECORD_BYTES) has ``key``: what the
+    command writes there (and wrote before markers existed)."""
+    def check(folder: Path) -> bool:
+        record = _json_object(Path(folder) / name, RECORD_BYTES)
+        return record is not None and key in record
+    return check
+
+
+def _fmus_of_ours(folder: Path) -> bool:
+    """A folder holding only FMUs built by tribofmu (and leftovers of a killed build)."""
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            if entry.name.startswith(".") and ".fmu.partial-" in entry.name:
+                continue
+            if not (entry.name.endswith(".fmu") and entry.is_file(follow_symlinks=False)
+                    and entry.stat(follow_symlinks=False).st_size <= FMU_BYTES
+                    and fmu_source(Path(entry.path)) is not None):
+                return False
+    return True
+
+
+# How a folder made by each command is known without a marker.
+RECORDS = {"simulate": _has_record("stats.json", "provenance"),
+           "accuracy": _has_record("summary.json", "columns"),
+           "sweep": _has_record("sweep.json", "fmu_source"),  # a sweep of an earlier version
+           "build": _fmus_of_ours}
+
+
 def ours(folder: Path, commands: tuple[str, ...]) -> bool:
-    """Whether ``folder`` was made by one of ``commands``: its marker, or for a folder of an
-    earlier version the record that command wrote (:data:`LEGACY_RECORDS`)."""
+    """Whether ``folder`` was made by one of ``commands``: its marker names one, or (without
+    a marker) its own files show it (:data:`RECORDS`)."""
     if made_by(folder) in commands:
         return True
-    for command in commands:
-        name, key = LEGACY_RECORDS.get(command, (None, None))
-        if name is not None and not os.path.lexists(Path(folder) / MARKER):
-            record = _json_object(Path(folder) / name, RECORD_BYTES)
-            if record is not None and (key is None or key in record):
-                return True
-    return False
+    if os.path.lexists(Path(folder) / MARKER):
+        return False  # another command's, or not a marker at all
+    return any(command in RECORDS and RECORDS[command](folder) for command in commands)
 
 
 def first_entries(folder: Path, count: int = 4) -> list[str]:
@@ -250,7 +275,6 @@ def result_set(out: Path, names=RESULT_NAMES):
     tmp = _sibling(out, PARTIAL)
     try:
         yield tmp
-        mark(tmp, _command_of(names))
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp made it private; results are as readable as any file
         _swap_in(tmp, out)
         _published.append(out)

@@ -167,8 +167,18 @@ def _lock_holder(path: Path) -> str:
 
 
 def release_out_locks() -> None:
-    """Give up the locks :func:`lock_out` took (the lock file removed, then unlocked)."""
+    """Give up the locks :func:`lock_out` took (the lock file removed, then unlocked), and
+    remove the folders :func:`claim_out` made that hold nothing but their marker (a command
+    refused or failed before it wrote anything leaves no folder behind)."""
     import os
+    from .atomic import MARKER
+    while _claimed:
+        folder = _claimed.pop()
+        with contextlib.suppress(OSError):
+            if os.listdir(folder) in ([MARKER], []):
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(folder / MARKER)
+                os.rmdir(folder)
     while _held:
         path, fd = _held.pop()
         try:
@@ -181,12 +191,17 @@ def release_out_locks() -> None:
             path.parent.rmdir()  # when no other run holds a lock: the temp dir as it was
 
 
+_claimed: list[Path] = []  # folders claim_out made in this process
+UNMARKED = ("build",)  # a folder of FMUs is known by its FMUs (tribofmu.atomic.RECORDS)
+
+
 def claim_out(out: Path, command: str, needed_bytes: int, option: str = "--out",
               also: tuple[str, ...] = ()) -> Path:
     """The output rule for a folder a command writes into and keeps (build, plot, sweep,
     figures): ``out`` must be new, empty, or a folder ``command`` (or one of ``also``) made,
     never a symbolic link (UsageError, one line, before any work); then it is made, with
-    ``command``'s marker (:func:`tribofmu.atomic.mark`), so the next run knows it as its own."""
+    ``command``'s marker (:func:`tribofmu.atomic.mark`; build's FMUs are their own proof),
+    so the next run knows it as its own."""
     from .atomic import MARKER, check_output_folder, mark
     try:
         check_output_folder(out, (command, *also))
@@ -194,8 +209,10 @@ def claim_out(out: Path, command: str, needed_bytes: int, option: str = "--out",
         raise UsageError(f"{option} {exc}") from None
     preflight_folder(out, needed_bytes, option)
     try:
+        if not out.exists():
+            _claimed.append(out)  # removed again at the end if the command wrote nothing into it
         out.mkdir(parents=True, exist_ok=True)
-        if not (out / MARKER).exists():
+        if command not in UNMARKED and not (out / MARKER).exists():
             mark(out, command)
     except OSError as exc:
         from .fmu_cache import write_error

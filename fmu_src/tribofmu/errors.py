@@ -30,14 +30,27 @@ from typing import Sequence
 # string or a 200,000-element array echoed as the culprit) has its long words cut, then its
 # middle, keeping the start (what is wrong) and the end (what to do).
 MAX_MESSAGE = 300
-LONG_WORD = 80  # characters: a word this long is a value, not prose; cut first
+LONG_WORD = 200  # characters: a word this long is a value, cut to its start and length
+SHORT_WORD = 40  # a word (a path) longer than this is cut to its start and end when the line is too long
 
 
 def readable(text: str, limit: int = MAX_MESSAGE) -> str:
-    """``text`` cut to at most ``limit`` characters (unchanged when it fits)."""
+    """``text`` cut to at most ``limit`` characters (unchanged when it fits): its longest
+    words first (a value keeps its start and its length, a path its start and its file
+    name), then, if still too long, its middle."""
     if len(text) <= limit:
         return text
-    words = [w if len(w) <= LONG_WORD else f"{w[:50]}...({len(w)} characters)" for w in text.split(" ")]
+    words = text.split(" ")
+    length = len(text)
+    for i in sorted(range(len(words)), key=lambda i: -len(words[i])):
+        word = words[i]
+        if len(word) <= SHORT_WORD or length <= limit:
+            break
+        cut = (f"{word[:30]}...({len(word)} characters)" if len(word) > LONG_WORD
+               else f"{word[:12]}...{word[-(SHORT_WORD - 15):]}")
+        if len(cut) < len(word):
+            words[i] = cut
+            length -= len(word) - len(cut)
     text = " ".join(words)
     if len(text) <= limit:
         return text

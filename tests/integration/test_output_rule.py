@@ -1,5 +1,6 @@
 """Issue 39: one output rule for every command. ``--out`` is new, empty, or a folder this
-command made (its marker, ``.tribofmu-output``); anything else, and a symbolic link, is
+command made (its marker, ``.tribofmu-output``, or its own files: a result set's stats.json
+with provenance, a build's FMUs); anything else, and a symbolic link, is
 refused with one line before any work, and nothing of the user's is replaced or written
 through. Before: ``plot --out U`` replaced the user's ``U/time.png``, ``sweep --out U``
 wrote among the user's files and replaced their ``sweep.json``, and plot, sweep, figures
@@ -106,7 +107,20 @@ def test_simulate_keeps_replacing_its_own_result_set(tmp_path, capsys, fmu_dir):
     for _ in range(2):
         done = main(*args, capsys=capsys)
         assert done.returncode == 0, done.stderr
-    assert json.loads((out / ".tribofmu-output").read_text())["command"] == "simulate"
+    assert "provenance" in json.loads((out / "stats.json").read_text())  # what shows the set is ours
+    assert not (out / ".tribofmu-output").exists()  # a result set carries no marker
+
+
+def test_a_folder_of_our_fmus_is_builds_own_and_one_more_file_makes_it_the_users(tmp_path, fmu_dir):
+    import shutil
+
+    from tribofmu.atomic import check_output_folder
+    out = tmp_path / "fmus"
+    shutil.copytree(fmu_dir, out)
+    check_output_folder(out, ("build",))
+    (out / "Friction.fmu").write_bytes(USER)  # a file of the user's, named as ours
+    with pytest.raises(FileExistsError, match="did not write"):
+        check_output_folder(out, ("build",))
 
 
 def zip_bomb(path: Path, inflated_mb: int) -> Path:
