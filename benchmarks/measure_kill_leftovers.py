@@ -51,7 +51,8 @@ def main() -> None:
             proc = subprocess.Popen([sys.executable, "-m", "tribofmu", "simulate", "fig2_dry", "--fmu-dir",
                                      str(fmu_dir), "--out", str(work / f"o{i}"), "--no-plots", "-q"],
                                     env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                    start_new_session=True)
+                                    start_new_session=True,  # SIGHUP as a closed terminal sends it
+                                    preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_DFL))
             time.sleep(rng.uniform(0.1, 4.0))  # a run takes ~2-5 s: start-up, unzip, the check's runs
             if proc.poll() is None:
                 os.killpg(proc.pid, sig)

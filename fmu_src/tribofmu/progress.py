@@ -38,6 +38,8 @@ def install_signal_handlers(own_process: bool = False) -> None:
     _state["own_process"] = _state["own_process"] or own_process
     for sig in STOP_SIGNALS:
         try:
+            if sig not in (signal.SIGINT, signal.SIGTERM) and signal.getsignal(sig) == signal.SIG_IGN:
+                continue  # started under nohup: the run is to outlive its terminal
             signal.signal(sig, _handler)
         except ValueError:  # not the main thread: leave signals to the host
             return

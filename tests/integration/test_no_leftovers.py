@@ -55,6 +55,20 @@ def test_a_signal_during_the_check_leaves_no_temp_file(tmp_path, env, fmu_dir, s
     assert leftovers(tmp) == [], leftovers(tmp)
 
 
+def test_a_run_under_nohup_outlives_a_hangup(tmp_path, env, fmu_dir):
+    """SIGHUP stops a run only where the user left it on: under nohup it goes on."""
+    tmp = Path(env["TMPDIR"])
+    proc = subprocess.Popen(command("simulate", "fig2_dry", "--fmu-dir", fmu_dir, "--out", tmp_path / "o",
+                                    "--no-plots", "-q"), cwd=tmp_path, env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    assert wait_for_spool(tmp, proc), "the run made no spool"
+    proc.send_signal(signal.SIGHUP)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err
+    assert (tmp_path / "o" / "result.csv").is_file() and leftovers(tmp) == []
+
+
 def test_kills_at_random_moments_then_one_run_leave_nothing(tmp_path, env, fmu_dir):
     """Six kills (SIGKILL, SIGHUP, SIGTERM, twice each) at random moments of a run, then one
     normal run: no spool and no unzipped FMU is left."""
