@@ -11,6 +11,8 @@ The CLI is a thin layer over these functions: ``tribofmu simulate`` is
 """
 from __future__ import annotations
 
+import contextlib
+import json
 import math
 import os
 from collections.abc import Mapping
@@ -20,6 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from .atomic import result_set
+from .checked import checked_simulation
+from .columns import SIDECAR_NAME
+from .fmu_cache import find_fmus
+from .provenance import overrides_dict, record
+from .result_csv import ResultCsvWriter, write_result_csv
 from .errors import ArgumentError, FMUError, FMUSetupError, UsageError  # noqa: F401 (FMUSetupError re-exported)
 from .coupling.algorithms import Scales, make_algorithm
 from .coupling.estimate import WindowError
@@ -29,7 +37,7 @@ from .master import FMUCallError, FMUFileError, FMUInstance, GridRecorder, RunLi
 from .master.energy import EnergyAudit
 from .scene.checks import check_max_wall, check_run, shown
 from .scene.library import resolve_scene
-from .scene.scenario import Scenario, ScenarioError, load_scenario, scales
+from .scene.scenario import Scenario, ScenarioError, load_scenario, scales, to_dict
 from .scene.wiring import constant_inputs, fmu_parameters
 
 
@@ -116,7 +124,6 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
         raise ScenarioError(f"{scenario.source}: {exc}") from None
     n = output_samples(scenario)  # before any FMU is found or built
     if fmu_dir is None or build is not False:  # a given folder as is: every missing FMU in one message
-        from .fmu_cache import find_fmus
         fmu_dir = find_fmus(scenario.fmus, fmu_dir, build=build)
     fmu_dir = Path(fmu_dir)
     budget = (sim.max_wall if max_wall == SCENE_MAX_WALL else max_wall) or None
@@ -127,7 +134,6 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
 
     if name != "adaptive":
         return run_once(step_tol=None)
-    from .checked import checked_simulation
     return checked_simulation(run_once, tol if tol is not None else DEFAULT_TOL, budget, sink)
 
 
@@ -307,11 +313,6 @@ def simulate_and_save(scenario: Scenario | str | Path, out: str | Path,
     writing. command: the command line recorded in the provenance (the CLI's; None from
     Python). Returns the result, holding the shown window only (the rest is in
     ``result.csv``)."""
-    import contextlib
-
-    from .atomic import result_set
-    from .provenance import overrides_dict
-    from .result_csv import ResultCsvWriter
 
     _check_run_arguments("simulate_and_save", scenario, overrides, fmu_dir, build, progress, notice, max_wall,
                          plots=plots)
@@ -340,8 +341,6 @@ def save(result: SimulationResult, out: str | Path, plots: bool = True,
     The result must hold the whole run (a :func:`simulate` result without ``keep_window``);
     a window-only result raises ValueError. scene_file, overrides: recorded in the
     provenance (the scene's file and its sha256; default: none, a scene from Python)."""
-    from .atomic import result_set
-    from .provenance import overrides_dict
 
     if not isinstance(result, SimulationResult):
         _refuse("save", "result", "a SimulationResult (what api.simulate returns)", result)
@@ -358,7 +357,6 @@ def save(result: SimulationResult, out: str | Path, plots: bool = True,
     out = Path(out)
     with result_set(out) as tmp:
         if completed:
-            from .result_csv import write_result_csv
             write_result_csv(result, tmp / "result.csv")
         _write_result_set(tmp, result, None if scene_file is None else Path(scene_file),
                           overrides_dict(overrides), requested, plots, None)
@@ -369,12 +367,7 @@ def _write_result_set(folder: Path, result: SimulationResult, scene_file: Path |
                       requested: dict[str, Any], plots: bool, command: list[str] | None) -> None:
     """stats.json (and the plots) of a result set whose result.csv and columns.json are in
     ``folder``; a failed run's set is its stats.json alone."""
-    import json
-
-    from .columns import SIDECAR_NAME
-    from .provenance import record
-    from .scene.scenario import to_dict
-    from .studies.metrics import result_metrics
+    from .studies.metrics import result_metrics  # studies import this module (issue 37's arrow)
 
     stats = dict(result.stats)
     completed = stats.get("completed", result.ok)  # ran to the end (a run may complete short of a target)
@@ -390,7 +383,7 @@ def _write_result_set(folder: Path, result: SimulationResult, scene_file: Path |
         (folder / "result.csv").unlink(missing_ok=True)
         (folder / SIDECAR_NAME).unlink(missing_ok=True)
     elif plots:  # drawn once the rows and stats are on disk, swapped in with them
-        from .plots import plot_result
+        from .plots import plot_result  # matplotlib: ~0.5 s of imports a run without plots skips
         plot_result(result, folder)
 
 

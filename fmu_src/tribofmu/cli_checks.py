@@ -8,12 +8,18 @@ exit 2) or an OSError (one line, exit 1), raised before the run.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import importlib.util
 import math
+import os
 import re
 import sys
+import tempfile
 from pathlib import Path
 
+from .atomic import MARKER, check_output_folder, check_replaceable, mark
+from .fmu_cache import check_writable, find_fmus, write_error
+from .provenance import overrides_dict, run_label
 from .errors import MAX_MESSAGE, UsageError, readable  # noqa: F401 (UsageError re-exported: bad input, exit code 2)
 from .scene.checks import (MIN_MAX_WALL, check_max_wall, check_resolution,  # noqa: F401 (re-exported)
                            check_run)
@@ -49,7 +55,6 @@ def output_folder(name: str, overrides: dict[str, str], suffix: str = "", what: 
     """``out/<name>[--<overrides>][<suffix>]`` for a scene name that can name a folder (a
     name from a scenario file must not choose where files go: no separators, no "..", no
     absolute path, printable, at most 100 characters)."""
-    from .provenance import run_label
     if not FOLDER_NAME.match(name) or ".." in name:
         shown = name.encode("unicode_escape").decode("ascii")
         shown = shown if len(shown) <= 60 else f"{shown[:60]}... ({len(name)} characters)"
@@ -61,7 +66,6 @@ def output_folder(name: str, overrides: dict[str, str], suffix: str = "", what: 
 def preflight(out: Path, needed_bytes: int, option: str = "--out") -> None:
     """Before any work: ``out``'s parent can take a new folder and has the space the results
     need (OSError, one line, exit 1, otherwise); ``out`` holds nothing but results (exit 2)."""
-    from .atomic import check_replaceable
     check_out_dir(out, option)
     check_swappable(out, option)
     try:
@@ -76,7 +80,6 @@ def check_swappable(out: Path, option: str = "--out") -> None:
     """A result set replaces ``out`` as a whole (a sibling folder renamed in its place): the
     current folder, one of its parents or a mount point cannot be, so they are refused
     before the run rather than at its end (``--out .``: "Device or resource busy")."""
-    import os
     absolute = Path(os.path.abspath(out))
     if out.name in ("", ".", "..") or absolute == Path(absolute.anchor):
         raise UsageError(f"{option} {out}: a result set replaces its folder as a whole, and "
@@ -101,9 +104,6 @@ def lock_path(out: Path) -> Path:
     """The lock of the folder ``out`` names: a file in this user's private lock folder in the
     temp dir, named by a hash of the folder's real path (not beside it: the preflight makes no
     folder, and the folder itself is swapped out by the run)."""
-    import hashlib
-    import os
-    import tempfile
     real = os.path.realpath(out)
     uid = os.getuid() if hasattr(os, "getuid") else 0
     name = hashlib.sha256(os.fsencode(real)).hexdigest()[:24]
@@ -114,8 +114,7 @@ def lock_out(out: Path, option: str = "--out") -> None:
     """Hold ``out``'s lock until :func:`release_out_locks` (the end of the command) or the
     process's end: a second run writing into the same folder meanwhile is refused with one
     line (UsageError) before it simulates, instead of silently replacing the other's set."""
-    import fcntl
-    import os
+    import fcntl  # POSIX only: the rest of the command runs where it is missing
     path = lock_path(out)
     if any(held == path for held, _ in _held):
         return
@@ -170,8 +169,6 @@ def release_out_locks() -> None:
     """Give up the locks :func:`lock_out` took (the lock file removed, then unlocked), and
     remove the folders :func:`claim_out` made that hold nothing but their marker (a command
     refused or failed before it wrote anything leaves no folder behind)."""
-    import os
-    from .atomic import MARKER
     while _claimed:
         folder = _claimed.pop()
         with contextlib.suppress(OSError):
@@ -202,7 +199,6 @@ def claim_out(out: Path, command: str, needed_bytes: int, option: str = "--out",
     never a symbolic link (UsageError, one line, before any work); then it is made, with
     ``command``'s marker (:func:`tribofmu.atomic.mark`; build's FMUs are their own proof),
     so the next run knows it as its own."""
-    from .atomic import MARKER, check_output_folder, mark
     try:
         check_output_folder(out, (command, *also))
     except FileExistsError as exc:
@@ -215,7 +211,6 @@ def claim_out(out: Path, command: str, needed_bytes: int, option: str = "--out",
         if command not in UNMARKED and not (out / MARKER).exists():
             mark(out, command)
     except OSError as exc:
-        from .fmu_cache import write_error
         raise write_error(f"cannot write into {option} {out}: {exc.strerror or exc}", exc.errno) from None
     return out
 
@@ -231,7 +226,6 @@ def _writable_folder(folder: Path, needed_bytes: int, what: str) -> None:
     """The absolute ``folder`` takes files and has ``needed_bytes`` free; for a missing one its
     nearest existing ancestor is checked instead, and nothing is made (whatever fails later,
     before the results are written, leaves no empty folder behind)."""
-    from .fmu_cache import check_writable
     existing = next(p for p in (folder, *folder.parents) if p.exists())
     check_writable(existing, needed_bytes, what)
 
@@ -271,7 +265,6 @@ def require(module: str, install: str, purpose: str) -> None:
 def resolve_fmu_dir(fmu_dir: str | None, names, quiet: bool = False, fmi: int | None = None) -> Path:
     """The FMUs a command uses (:func:`tribofmu.fmu_cache.find_fmus`): an explicit folder
     must hold them; the per-user cache is checked and filled when needed."""
-    from .fmu_cache import find_fmus
     notice = None if quiet else (lambda text: print(f"tribofmu: {text} (once per installed version)",
                                                     file=sys.stderr))
     return find_fmus(names, fmu_dir, fmi=fmi, build=None if fmu_dir is None else False, notice=notice)
@@ -285,8 +278,7 @@ def label_overrides(overrides, algorithm=None, step=None, tol=None, max_wall=Non
     ``scenario``, each --set value is written as the scenario holds it (``--step 1e-3`` and
     ``--set simulation.step=0.001`` give the same label); given the ``base`` scene too, a
     value equal to the scene's own is dropped (the same run, the same folder)."""
-    from .provenance import overrides_dict
-    from .scene.scenario import to_dict
+    from .scene.scenario import to_dict  # the scene parser: not loaded for --help or 'scenes'
     data = to_dict(scenario) if scenario is not None else {}
     old = to_dict(base) if base is not None else {}
     label = {}

@@ -22,6 +22,7 @@ import os
 import shutil
 import stat
 import tempfile
+import zipfile
 from pathlib import Path
 from typing import Callable, Iterable
 
@@ -52,8 +53,7 @@ def sha256_file(path: Path) -> str:
 def fmu_source(path: Path) -> str | None:
     """The source an FMU built by tribofmu carries: the name of its private package
     (``_tribofmu_fmu_<version>_<source hash>``), read from the archive; None if not ours."""
-    import zipfile
-    from .build import PRIVATE_PREFIX
+    from .build import PRIVATE_PREFIX  # build loads the scene's wiring and physics: ~0.1 s on every import
     try:
         with zipfile.ZipFile(path) as archive:
             for name in archive.namelist():
@@ -147,7 +147,7 @@ def _build_into(folder: Path, names: tuple[str, ...], fmi: int, notice, manifest
     built = build_fmus(folder, names, fmi=fmi)
     if manifest is not None:
         manifest.update({path.stem: sha256_file(path) for path in built})
-        from .atomic import atomic_write_bytes
+        from .atomic import atomic_write_bytes  # atomic imports this module
         atomic_write_bytes(folder / MANIFEST, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
 
 
@@ -220,7 +220,7 @@ def _private_folder(folder: Path) -> None:
 
 @contextlib.contextmanager
 def _build_lock(folder: Path):
-    import fcntl
+    import fcntl  # POSIX only
     with open(folder / LOCK, "a") as fh:
         fcntl.flock(fh, fcntl.LOCK_EX)
         try:
@@ -258,7 +258,7 @@ def check_writable(folder: Path, needed_bytes: int, what: str) -> None:
 def remove_build_leftovers(folder: Path | None = None) -> None:
     """Remove what killed builds left: ``.<Name>.fmu.partial-<pid>`` in ``folder`` and this
     user's ``tribofmu_build_<pid>_*`` staging folders in the temp dir, of processes that are gone."""
-    from .atomic import left_by_gone_process, pid_alive
+    from .atomic import left_by_gone_process, pid_alive  # (see _build_into)
     from .build import BUILD_PREFIX
     if folder is not None and folder.is_dir():
         for path in folder.glob(".*.fmu.partial-*"):

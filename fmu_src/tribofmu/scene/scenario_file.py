@@ -4,6 +4,8 @@ one :class:`~tribofmu.errors.ScenarioError` line naming the file."""
 from __future__ import annotations
 
 import math
+import os
+import stat
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -24,8 +26,6 @@ def read_scenario_text(path: Path) -> str:
 
     Opened without blocking and checked before reading, so a FIFO or /dev/zero is refused
     instead of waited on or read without end."""
-    import os
-    import stat
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
     except OSError as exc:
