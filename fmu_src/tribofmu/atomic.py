@@ -22,8 +22,6 @@ import stat
 import tempfile
 from pathlib import Path
 
-from .fmu_cache import fmu_source
-
 # A folder a command keeps writing into across runs (plot, sweep, figures) holds this
 # marker, naming the command: the proof that the folder is tribofmu's (a file's name is
 # none: a user's time.png is named as ours). Read within MARKER_BYTES, never through a link
@@ -151,7 +149,8 @@ def _read_small(path: Path, limit: int) -> bytes | None:
     return data if len(data) <= limit else None
 
 
-def _json_object(path: Path, limit: int) -> dict | None:
+def json_object(path: Path, limit: int) -> dict | None:
+    """The JSON object in ``path`` (read as :func:`_read_small` reads), or None."""
     data = _read_small(path, limit)
     try:
         value = json.loads(data) if data is not None else None
@@ -162,7 +161,7 @@ def _json_object(path: Path, limit: int) -> dict | None:
 
 def made_by(folder: Path) -> str | None:
     """The command whose marker ``folder`` holds (None: no marker, or not a readable one)."""
-    marker = _json_object(Path(folder) / MARKER, MARKER_BYTES)
+    marker = json_object(Path(folder) / MARKER, MARKER_BYTES)
     command = marker.get("command") if marker else None
     return command if isinstance(command, str) else None
 
@@ -178,13 +177,14 @@ def _has_record(name: str, key: str):
     """A folder whose JSON object ``name`` (at most RECORD_BYTES) has ``key``: what the
     command writes there (and wrote before markers existed)."""
     def check(folder: Path) -> bool:
-        record = _json_object(Path(folder) / name, RECORD_BYTES)
+        record = json_object(Path(folder) / name, RECORD_BYTES)
         return record is not None and key in record
     return check
 
 
 def _fmus_of_ours(folder: Path) -> bool:
     """A folder holding only FMUs built by tribofmu (and leftovers of a killed build)."""
+    from .fmu_cache import fmu_source  # fmu_cache imports this module
     with os.scandir(folder) as entries:
         for entry in entries:
             if entry.name.startswith(".") and ".fmu.partial-" in entry.name:

@@ -26,6 +26,7 @@ import zipfile
 from pathlib import Path
 from typing import Callable, Iterable
 
+from .atomic import atomic_write_bytes, json_object, left_by_gone_process, pid_alive
 from .errors import FMUCacheError, FMUError, FMUFileError  # noqa: F401 (FMUCacheError re-exported)
 
 MANIFEST = "manifest.json"
@@ -147,7 +148,6 @@ def _build_into(folder: Path, names: tuple[str, ...], fmi: int, notice, manifest
     built = build_fmus(folder, names, fmi=fmi)
     if manifest is not None:
         manifest.update({path.stem: sha256_file(path) for path in built})
-        from .atomic import atomic_write_bytes  # atomic imports this module
         atomic_write_bytes(folder / MANIFEST, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
 
 
@@ -180,14 +180,14 @@ def _clear_for_build(path: Path) -> None:
         os.unlink(path)
 
 
+MANIFEST_BYTES = 100_000  # six hashes take 500 bytes
+
+
 def _read_manifest(folder: Path) -> dict[str, str]:
-    try:
-        data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-    if not isinstance(data, dict):
-        return {}
-    return {str(k): str(v) for k, v in data.items()}
+    """The recorded hashes (empty when the manifest is missing, not a small regular file, or
+    not a JSON object: the FMUs are then rebuilt)."""
+    data = json_object(folder / MANIFEST, MANIFEST_BYTES)
+    return {str(k): str(v) for k, v in data.items()} if data else {}
 
 
 def _private_folder(folder: Path) -> None:
@@ -221,7 +221,10 @@ def _private_folder(folder: Path) -> None:
 @contextlib.contextmanager
 def _build_lock(folder: Path):
     import fcntl  # POSIX only
-    with open(folder / LOCK, "a") as fh:
+    _clear_for_build(folder / LOCK)  # a FIFO there would block the open
+    fd = os.open(folder / LOCK, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0),
+                 0o600)
+    with os.fdopen(fd, "r+b") as fh:
         fcntl.flock(fh, fcntl.LOCK_EX)
         try:
             yield
@@ -258,7 +261,6 @@ def check_writable(folder: Path, needed_bytes: int, what: str) -> None:
 def remove_build_leftovers(folder: Path | None = None) -> None:
     """Remove what killed builds left: ``.<Name>.fmu.partial-<pid>`` in ``folder`` and this
     user's ``tribofmu_build_<pid>_*`` staging folders in the temp dir, of processes that are gone."""
-    from .atomic import left_by_gone_process, pid_alive  # (see _build_into)
     from .build import BUILD_PREFIX
     if folder is not None and folder.is_dir():
         for path in folder.glob(".*.fmu.partial-*"):

@@ -72,6 +72,18 @@ def test_damage_at_a_cached_fmu_is_rebuilt_alone_within_5_s(cache, tmp_path, pla
     assert {n: sha256_file(cache / f"{n}.fmu") for n in others} == others  # rebuilt alone
 
 
+@pytest.mark.parametrize("name", ["manifest.json", ".build.lock"])
+def test_a_fifo_at_the_caches_own_files_never_blocks(cache, name):
+    path = cache / name
+    path.unlink(missing_ok=True)
+    os.mkfifo(path)
+    (cache / "Friction.fmu").unlink()  # a build is needed: the lock is taken
+    done = subprocess.run([sys.executable, "-c", FIND, *NAMES], capture_output=True, text=True,
+                          timeout=120, env=dict(os.environ))
+    assert done.returncode == 0, done.stderr
+    assert (cache / "Friction.fmu").is_file()
+
+
 def test_a_fifo_in_a_given_fmu_folder_is_one_line_not_a_hang(tmp_path, capsys, fmu_dir):
     """--fmu-dir is the user's: nothing there is removed, and a FIFO is never opened."""
     folder = tmp_path / "fmus"
