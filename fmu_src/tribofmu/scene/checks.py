@@ -56,8 +56,8 @@ def check_step(value, name: str = "step") -> float | None:
     if value is None:
         return None
     if not (is_number(value) and value > 0 and _magnitude_ok(float(value))):
-        raise UsageError(f"{name} must be a finite number > 0 s of magnitude {NUMBER_RANGE[0]:g}.."
-                         f"{NUMBER_RANGE[1]:g}, got {shown(value)}")
+        raise UsageError(f"{name} must be > 0 and finite, a number of seconds of magnitude "
+                         f"{NUMBER_RANGE[0]:g}..{NUMBER_RANGE[1]:g}, got {shown(value)}")
     return float(value)
 
 
