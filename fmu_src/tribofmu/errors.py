@@ -42,15 +42,19 @@ def readable(text: str, limit: int = MAX_MESSAGE) -> str:
         return text
     words = text.split(" ")
     length = len(text)
-    for i in sorted(range(len(words)), key=lambda i: -len(words[i])):
-        word = words[i]
-        if len(word) <= SHORT_WORD or length <= limit:
-            break
-        cut = (f"{word[:30]}...({len(word)} characters)" if len(word) > LONG_WORD
-               else f"{word[:12]}...{word[-(SHORT_WORD - 15):]}")
-        if len(cut) < len(word):
-            words[i] = cut
-            length -= len(word) - len(cut)
+    for short in (SHORT_WORD, SHORT_WORD // 2):  # a second, closer cut before the middle goes
+        for i in sorted(range(len(words)), key=lambda i: -len(words[i])):
+            word = words[i]
+            if len(word) <= short or length <= limit:
+                break
+            tail = short - short // 4 - 3
+            if "/" in word[-LONG_WORD:]:  # a path: its file name whole
+                tail = max(tail, len(word) - word.rindex("/", 0, len(word) - 1))
+            cut = (f"{word[:30]}...({len(word)} characters)" if len(word) > LONG_WORD
+                   else f"{word[:short // 4]}...{word[-tail:]}")
+            if len(cut) < len(word):
+                words[i] = cut
+                length -= len(word) - len(cut)
     text = " ".join(words)
     if len(text) <= limit:
         return text
