@@ -11,22 +11,33 @@ The CLI is a thin layer over these functions: ``tribofmu simulate`` is
 """
 from __future__ import annotations
 
+import contextlib
+import json
 import math
+import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .errors import FMUError, FMUSetupError  # noqa: F401 (FMUSetupError re-exported)
+from .atomic import result_set
+from .checked import checked_simulation
+from .columns import SIDECAR_NAME
+from .fmu_cache import find_fmus
+from .provenance import overrides_dict, record
+from .result_csv import ResultCsvWriter, write_result_csv
+from .errors import ArgumentError, FMUError, FMUSetupError, UsageError  # noqa: F401 (FMUSetupError re-exported)
 from .coupling.algorithms import Scales, make_algorithm
 from .coupling.estimate import WindowError
 from .coupling.interpolation import INPUT_SIGNALS, NS, SAMPLES_PER_PERIOD, SIGNALS
 from .coupling.system import CoupledSystem
 from .master import FMUCallError, FMUFileError, FMUInstance, GridRecorder, RunLimits, run
 from .master.energy import EnergyAudit
+from .scene.checks import check_max_wall, check_run, shown
 from .scene.library import resolve_scene
-from .scene.scenario import Scenario, ScenarioError, load_scenario, scales
+from .scene.scenario import Scenario, ScenarioError, load_scenario, scales, to_dict
 from .scene.wiring import constant_inputs, fmu_parameters
 
 
@@ -63,51 +74,59 @@ class SimulationResult:
 
 def load(path: str | Path, overrides: dict[str, Any] | list[str] | None = None) -> Scenario:
     """Read and validate a scenario (a .toml path, or a shipped scene's name such as
-    ``"fig2_dry"``); raises ScenarioError with a one-line message."""
+    ``"fig2_dry"``); raises ScenarioError with a one-line message (ArgumentError for a path
+    that is no path, or overrides that are no overrides)."""
+    _check_path("load", "path", path)
+    _check_overrides("load", overrides)
     return load_scenario(resolve_scene(path), overrides)
+
+
+# max_wall's default: the scene's own limit (simulation.max_wall)
+SCENE_MAX_WALL = "scene"
 
 
 def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[str] | None = None,
              algorithm: str | None = None, step: float | None = None, tol: float | None = None,
              fmu_dir: str | Path | None = None, build: bool | None = None,
-             progress=None, keep_points: bool = False, max_wall: float | None = -1.0,
+             progress=None, keep_points: bool = False, max_wall: float | None | str = SCENE_MAX_WALL,
              notice=None, sink=None, keep_window: bool = False) -> SimulationResult:
     """Co-simulate a scenario with the FMUs in fmu_dir.
 
     algorithm/step/tol default to the scenario's [simulation] table, then to the
-    algorithm's own defaults. fmu_dir defaults to the per-user cache of FMUs built from
-    this source (:func:`tribofmu.build.default_fmu_dir`). build: True rebuilds the FMUs,
+    algorithm's own defaults; step [s] > 0, tol (the checked nRMS(v) on the window,
+    relative) in (0, 1). fmu_dir defaults to the per-user cache of FMUs built from this
+    source (:func:`tribofmu.build.default_fmu_dir`). build: True rebuilds the FMUs,
     None builds only missing ones, False never builds (a missing FMU is then an
     FMUFileError). keep_points: keep every communication point in ``result.points``
     (memory grows with the run); otherwise only the output grid is kept. max_wall [s]: stop
-    a run whose projected wall time exceeds it (None: never; default: the scene's
-    ``simulation.max_wall``). notice(text): told once when a run will take long.
-    sink(start, signals): told each stretch of output samples as it is done (see
-    :class:`~tribofmu.master.run.GridRecorder`), to stream them to disk; keep_window: keep
-    only the shown window in the result (with a sink, memory then does not grow with the run).
+    a run whose projected wall time exceeds it (None or 0: never; at least 1 s otherwise;
+    default ``"scene"``: the scene's ``simulation.max_wall``). notice(text): told once when a
+    run will take long. sink(start, signals): told each stretch of output samples as it is
+    done (see :class:`~tribofmu.master.run.GridRecorder`), to stream them to disk;
+    keep_window: keep only the shown window in the result (with a sink, memory then does not
+    grow with the run).
+
+    Every argument is checked before any FMU is found or built: a wrong type or a value out
+    of range raises :class:`~tribofmu.errors.ArgumentError` (one line naming it).
     """
-    if not isinstance(scenario, Scenario):
-        scenario = load_scenario(resolve_scene(scenario), overrides)
-    elif overrides:
-        scenario = scenario.with_overrides(overrides)
+    _check_run_arguments("simulate", scenario, overrides, fmu_dir, build, progress, notice, max_wall,
+                         keep_points=keep_points, keep_window=keep_window, sink=sink)
+    scenario = _scenario(scenario, overrides)
     sim = scenario.simulation
-    name = algorithm or sim.algorithm
+    # step and tol in range, the algorithm known and taking them, a drive and a
+    # communication step the run can resolve: refused before any work, as the CLI refuses them
+    name = _arguments("simulate", lambda: check_run(scenario, algorithm, step, tol))
     tol = tol if tol is not None else sim.tol
     step = step if step is not None else sim.step
     try:
         make_algorithm(name, step=step, tol=tol)
     except ValueError as exc:
         raise ScenarioError(f"{scenario.source}: {exc}") from None
-    # a drive or a communication step the run cannot resolve: refused before any work, as
-    # the CLI refuses it (UsageError, one line)
-    from .cli_checks import check_resolution
-    check_resolution(scenario, name, step)
     n = output_samples(scenario)  # before any FMU is found or built
     if fmu_dir is None or build is not False:  # a given folder as is: every missing FMU in one message
-        from .fmu_cache import find_fmus
         fmu_dir = find_fmus(scenario.fmus, fmu_dir, build=build)
     fmu_dir = Path(fmu_dir)
-    budget = (sim.max_wall if max_wall == -1.0 else max_wall) or None
+    budget = (sim.max_wall if max_wall == SCENE_MAX_WALL else max_wall) or None
 
     def run_once(step_tol=None, max_wall=budget, sink=sink):
         return _run_once(scenario, name, step, step_tol, fmu_dir, n, progress, keep_points, max_wall,
@@ -115,8 +134,92 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
 
     if name != "adaptive":
         return run_once(step_tol=None)
-    from .checked import checked_simulation
     return checked_simulation(run_once, tol if tol is not None else DEFAULT_TOL, budget, sink)
+
+
+# -- the arguments of a call, checked at the door ----------------------------------------------
+def _arguments(call: str, check):
+    """``check()``'s answer; its refusal of an argument (a UsageError) as an ArgumentError
+    naming the call."""
+    try:
+        return check()
+    except ArgumentError:
+        raise
+    except UsageError as exc:
+        raise ArgumentError(f"api.{call}: {exc}") from None
+
+
+def _refuse(call: str, name: str, wanted: str, value) -> None:
+    raise ArgumentError(f"api.{call}: {name} must be {wanted}, got {shown(value)}"
+                        f"{'' if value is None else f' ({type(value).__name__})'}")
+
+
+def _check_path(call: str, name: str, value, optional: bool = False) -> None:
+    if optional and value is None:
+        return
+    if not isinstance(value, (str, os.PathLike)) or (isinstance(value, str) and not value.strip()):
+        _refuse(call, name, "a path (str or os.PathLike)" + (" or None" if optional else ""), value)
+
+
+def _check_scenario(call: str, value) -> None:
+    if not isinstance(value, Scenario):
+        try:
+            _check_path(call, "scenario", value)
+        except ArgumentError:
+            _refuse(call, "scenario", "a Scenario (api.load), a shipped scene's name or a .toml path", value)
+
+
+def _check_overrides(call: str, overrides) -> None:
+    """None, a mapping of ``"table.key"`` strings to values, or a list of ``"KEY=VALUE"`` strings."""
+    wanted = "a mapping {'table.key': value} or a list of 'KEY=VALUE' strings"
+    if overrides is None:
+        return
+    if isinstance(overrides, Mapping):
+        bad = next((k for k in overrides if not isinstance(k, str)), None)
+        if bad is not None:
+            _refuse(call, "overrides' key", "a string 'table.key'", bad)
+    elif isinstance(overrides, (list, tuple)):
+        bad = next((item for item in overrides if not isinstance(item, str) or "=" not in item), None)
+        if bad is not None:
+            _refuse(call, "an item of overrides", "a 'KEY=VALUE' string", bad)
+    else:
+        _refuse(call, "overrides", wanted, overrides)
+
+
+def _check_flag(call: str, name: str, value, optional: bool = False) -> None:
+    if not (isinstance(value, bool) or (optional and value is None)):
+        _refuse(call, name, "True or False" + (" or None" if optional else ""), value)
+
+
+def _check_callable(call: str, name: str, value) -> None:
+    if value is not None and not callable(value):
+        _refuse(call, name, "a callable or None", value)
+
+
+def _check_run_arguments(call: str, scenario, overrides, fmu_dir, build, progress, notice, max_wall,
+                         **flags) -> None:
+    """The arguments :func:`simulate` and :func:`simulate_and_save` share (but step, tol and
+    algorithm, which :func:`~tribofmu.scene.checks.check_run` checks with the scene)."""
+    _check_scenario(call, scenario)
+    _check_overrides(call, overrides)
+    _check_path(call, "fmu_dir", fmu_dir, optional=True)
+    _check_flag(call, "build", build, optional=True)
+    for name, value in flags.items():
+        if name == "sink":
+            _check_callable(call, name, value)
+        else:
+            _check_flag(call, name, value)
+    _check_callable(call, "progress", progress)
+    _check_callable(call, "notice", notice)
+    if not (isinstance(max_wall, str) and max_wall == SCENE_MAX_WALL):
+        _arguments(call, lambda: check_max_wall(max_wall, "max_wall"))
+
+
+def _scenario(scenario: Scenario | str | Path, overrides) -> Scenario:
+    """The scenario to run: a :class:`Scenario` (with the overrides applied) or one loaded."""
+    if not isinstance(scenario, Scenario):
+        return load_scenario(resolve_scene(scenario), overrides)
+    return scenario.with_overrides(overrides) if overrides else scenario
 
 
 # The global tolerance of an adaptive run when neither the scene nor the caller gives one:
@@ -191,7 +294,7 @@ def simulate_and_save(scenario: Scenario | str | Path, out: str | Path,
                       overrides: dict[str, Any] | list[str] | None = None, *,
                       algorithm: str | None = None, step: float | None = None, tol: float | None = None,
                       fmu_dir: str | Path | None = None, build: bool | None = None, plots: bool = True,
-                      max_wall: float | None = -1.0, progress=None, notice=None,
+                      max_wall: float | None | str = SCENE_MAX_WALL, progress=None, notice=None,
                       command: list[str] | None = None) -> SimulationResult:
     """Simulate and write the result set ``tribofmu simulate`` writes, into the folder ``out``:
     ``result.csv`` (streamed to disk as the run goes: memory does not grow with the run),
@@ -210,18 +313,15 @@ def simulate_and_save(scenario: Scenario | str | Path, out: str | Path,
     writing. command: the command line recorded in the provenance (the CLI's; None from
     Python). Returns the result, holding the shown window only (the rest is in
     ``result.csv``)."""
-    import contextlib
 
-    from .atomic import result_set
-    from .provenance import overrides_dict
-    from .result_csv import ResultCsvWriter
-
-    scene_file = None
-    if not isinstance(scenario, Scenario):
-        scene_file = resolve_scene(scenario)
-        scenario = load_scenario(scene_file, overrides)
-    elif overrides:
-        scenario = scenario.with_overrides(overrides)
+    _check_run_arguments("simulate_and_save", scenario, overrides, fmu_dir, build, progress, notice, max_wall,
+                         plots=plots)
+    _check_path("simulate_and_save", "out", out)
+    if command is not None and not (isinstance(command, (list, tuple)) and all(isinstance(w, str) for w in command)):
+        _refuse("simulate_and_save", "command", "a list of strings or None", command)
+    scene_file = None if isinstance(scenario, Scenario) else resolve_scene(scenario)
+    scenario = _scenario(scenario if scene_file is None else scene_file, overrides)
+    _arguments("simulate_and_save", lambda: check_run(scenario, algorithm, step, tol))
     requested = {"algorithm": algorithm, "step": step, "tol": tol}
     with result_set(Path(out)) as tmp:  # swapped in whole when done; untouched on failure or Ctrl-C
         # rows go to disk as they come; only the shown window is kept (metrics, plots)
@@ -241,19 +341,22 @@ def save(result: SimulationResult, out: str | Path, plots: bool = True,
     The result must hold the whole run (a :func:`simulate` result without ``keep_window``);
     a window-only result raises ValueError. scene_file, overrides: recorded in the
     provenance (the scene's file and its sha256; default: none, a scene from Python)."""
-    from .atomic import result_set
-    from .provenance import overrides_dict
 
+    if not isinstance(result, SimulationResult):
+        _refuse("save", "result", "a SimulationResult (what api.simulate returns)", result)
+    _check_path("save", "out", out)
+    _check_flag("save", "plots", plots)
+    _check_path("save", "scene_file", scene_file, optional=True)
+    _check_overrides("save", overrides)
     completed = result.stats.get("completed", result.ok)
     if completed and (len(result.time) == 0 or result.time[0] != 0.0):
-        raise ValueError("the result holds the shown window only (keep_window=True): save needs the whole "
+        raise ArgumentError("api.save: the result holds the shown window only (keep_window=True): save needs the whole "
                          "run; use simulate_and_save, which streams result.csv as the run goes")
     stats = result.stats
     requested = {"algorithm": stats.get("algorithm"), "step": stats.get("step"), "tol": stats.get("tol")}
     out = Path(out)
     with result_set(out) as tmp:
         if completed:
-            from .result_csv import write_result_csv
             write_result_csv(result, tmp / "result.csv")
         _write_result_set(tmp, result, None if scene_file is None else Path(scene_file),
                           overrides_dict(overrides), requested, plots, None)
@@ -264,12 +367,7 @@ def _write_result_set(folder: Path, result: SimulationResult, scene_file: Path |
                       requested: dict[str, Any], plots: bool, command: list[str] | None) -> None:
     """stats.json (and the plots) of a result set whose result.csv and columns.json are in
     ``folder``; a failed run's set is its stats.json alone."""
-    import json
-
-    from .columns import SIDECAR_NAME
-    from .provenance import record
-    from .scene.scenario import to_dict
-    from .studies.metrics import result_metrics
+    from .studies.metrics import result_metrics  # studies import this module (issue 37's arrow)
 
     stats = dict(result.stats)
     completed = stats.get("completed", result.ok)  # ran to the end (a run may complete short of a target)
@@ -285,7 +383,7 @@ def _write_result_set(folder: Path, result: SimulationResult, scene_file: Path |
         (folder / "result.csv").unlink(missing_ok=True)
         (folder / SIDECAR_NAME).unlink(missing_ok=True)
     elif plots:  # drawn once the rows and stats are on disk, swapped in with them
-        from .plots import plot_result
+        from .plots import plot_result  # matplotlib: ~0.5 s of imports a run without plots skips
         plot_result(result, folder)
 
 

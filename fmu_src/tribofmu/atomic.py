@@ -15,17 +15,27 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import errno
+import json
 import os
 import shutil
 import stat
 import tempfile
 from pathlib import Path
 
+# A folder a command keeps writing into across runs (plot, sweep, figures) holds this
+# marker, naming the command: the proof that the folder is tribofmu's (a file's name is
+# none: a user's time.png is named as ours). Read within MARKER_BYTES, never through a link
+# or from a FIFO. Result sets (simulate, accuracy) and FMU folders (build) carry no marker:
+# their own files are the proof (:data:`RECORDS`).
+MARKER = ".tribofmu-output"
+MARKER_BYTES = 4096
 # What a run may find in its output folder and replace; anything else there is the user's,
 # and a result set never replaces a folder holding it.
 RESULT_NAMES = frozenset({"stats.json", "result.csv", "columns.json", "time.png", "phase.png",
                           "kinetics.png"})
 ACCURACY_NAMES = frozenset({"accuracy.png", "accuracy.csv", "summary.json"})
+RECORD_BYTES = 16_000_000  # the largest JSON record read to see whether a folder is ours
+FMU_BYTES = 50_000_000  # the largest .fmu looked into (ours are < 1 MB)
 PARTIAL, OLD = "partial", "old"
 _RENAME_EXCHANGE = 2
 _published: list[Path] = []  # result sets this process has swapped in (for the Ctrl-C message)
@@ -123,19 +133,133 @@ def clean_leftovers(out: Path) -> None:
             shutil.rmtree(path, ignore_errors=True)
 
 
+def _read_small(path: Path, limit: int) -> bytes | None:
+    """The bytes of ``path`` if it is a regular file (not a link, FIFO or device; checked
+    before it is opened, and opened without blocking) of at most ``limit`` bytes; else None."""
+    try:
+        if not stat.S_ISREG(os.lstat(path).st_mode):
+            return None
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as fh:
+            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+                return None
+            data = fh.read(limit + 1)
+    except OSError:
+        return None
+    return data if len(data) <= limit else None
+
+
+def json_object(path: Path, limit: int) -> dict | None:
+    """The JSON object in ``path`` (read as :func:`_read_small` reads), or None."""
+    data = _read_small(path, limit)
+    try:
+        value = json.loads(data) if data is not None else None
+    except ValueError:
+        return None
+    return value if isinstance(value, dict) else None
+
+
+def made_by(folder: Path) -> str | None:
+    """The command whose marker ``folder`` holds (None: no marker, or not a readable one)."""
+    marker = json_object(Path(folder) / MARKER, MARKER_BYTES)
+    command = marker.get("command") if marker else None
+    return command if isinstance(command, str) else None
+
+
+def mark(folder: Path, command: str) -> None:
+    """Write ``command``'s marker into ``folder`` (one it made)."""
+    from . import __version__
+    atomic_write_bytes(Path(folder) / MARKER, (json.dumps({"command": command, "tribofmu": __version__})
+                                               + "\n").encode())
+
+
+def _has_record(name: str, key: str):
+    """A folder whose JSON object ``name`` (at most RECORD_BYTES) has ``key``: what the
+    command writes there (and wrote before markers existed)."""
+    def check(folder: Path) -> bool:
+        record = json_object(Path(folder) / name, RECORD_BYTES)
+        return record is not None and key in record
+    return check
+
+
+def _fmus_of_ours(folder: Path) -> bool:
+    """A folder holding only FMUs built by tribofmu (and leftovers of a killed build)."""
+    from .fmu_cache import fmu_source  # fmu_cache imports this module
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            if entry.name.startswith(".") and ".fmu.partial-" in entry.name:
+                continue
+            if not (entry.name.endswith(".fmu") and entry.is_file(follow_symlinks=False)
+                    and entry.stat(follow_symlinks=False).st_size <= FMU_BYTES
+                    and fmu_source(Path(entry.path)) is not None):
+                return False
+    return True
+
+
+# How a folder made by each command is known without a marker.
+RECORDS = {"simulate": _has_record("stats.json", "provenance"),
+           "accuracy": _has_record("summary.json", "columns"),
+           "sweep": _has_record("sweep.json", "fmu_source"),  # a sweep of an earlier version
+           "build": _fmus_of_ours}
+
+
+def ours(folder: Path, commands: tuple[str, ...]) -> bool:
+    """Whether ``folder`` was made by one of ``commands``: its marker names one, or (without
+    a marker) its own files show it (:data:`RECORDS`)."""
+    if made_by(folder) in commands:
+        return True
+    if os.path.lexists(Path(folder) / MARKER):
+        return False  # another command's, or not a marker at all
+    return any(command in RECORDS and RECORDS[command](folder) for command in commands)
+
+
+def first_entries(folder: Path, count: int = 4) -> list[str]:
+    """Up to ``count`` names in ``folder`` (a folder of millions is not listed whole)."""
+    names = []
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            names.append(entry.name)
+            if len(names) >= count:
+                break
+    return sorted(names)
+
+
+def check_output_folder(out: Path, commands: tuple[str, ...]) -> None:
+    """The output rule every command keeps: ``out`` is new, an empty folder, or a folder one
+    of ``commands`` made (:func:`ours`); a symbolic link, a file or any other folder raises
+    FileExistsError (one line) and nothing is written."""
+    out = Path(out)
+    if out.is_symlink():
+        raise FileExistsError(f"{out} is a symbolic link; give the folder it points to, or a new one")
+    if not os.path.lexists(out):
+        return
+    if not out.is_dir():
+        raise FileExistsError(f"{out} is a file, not a folder")
+    names = first_entries(out)
+    if not names or ours(out, commands):
+        return
+    shown = ", ".join(names[:3]) + (", ..." if len(names) > 3 else "")
+    raise FileExistsError(f"{out} holds files that tribofmu {commands[0]} did not write ({shown}); "
+                          f"give a new or empty folder")
+
+
 def check_replaceable(out: Path, names=RESULT_NAMES) -> None:
-    """Raise FileExistsError when ``out`` holds files other than ``names`` (a result set
+    """Raise FileExistsError unless ``out`` is new, empty, or a result set of the command that
+    writes ``names`` (:func:`check_output_folder`) holding no other files (a result set
     replaces the whole folder, and must never take the user's files with it)."""
     out = Path(out)
-    if out.is_symlink() or (out.exists() and not out.is_dir()):
-        raise FileExistsError(f"{out} is {'a symbolic link' if out.is_symlink() else 'a file'}, not a folder")
+    check_output_folder(out, (_command_of(names),))
     if not out.is_dir():
         return
     foreign = sorted(name for name in os.listdir(out) if name not in names)
     if foreign:
         shown = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
         raise FileExistsError(f"{out} holds files that are not a tribofmu result ({shown}); "
-                              f"give an empty or new folder as --out")
+                              f"give a new or empty folder")
+
+
+def _command_of(names) -> str:
+    return "accuracy" if names == ACCURACY_NAMES else "simulate"
 
 
 @contextlib.contextmanager

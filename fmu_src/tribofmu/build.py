@@ -279,7 +279,11 @@ def _native_digest(fmi: int) -> bytes:
     if not native_loader_supported():
         return b""
     parts = [(NATIVE / "loader_common.h").read_bytes(), (NATIVE / LOADER_SOURCES[fmi]).read_bytes()]
-    parts += [f"{k}={v}".encode() for k, v in sorted(recorded_python().items())]
+    # what the loader binds to (libpython, its soname, the environment the embedded interpreter
+    # starts in, sys.prefix), not the name the interpreter was started by: `tribofmu` and
+    # `python -m tribofmu` in one venv share one cache
+    parts += [f"{k}={v}".encode() for k, v in sorted(recorded_python().items()) if k != "executable"]
+    parts.append(f"prefix={sys.prefix} abi={sys.implementation.cache_tag}{getattr(sys, 'abiflags', '')}".encode())
     parts.append(b"loader" if c_compiler() else b"no compiler: pythonfmu's binary only")
     return b"\0".join(parts)
 

@@ -29,6 +29,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .run_folder import run_folder
+
 # The per-step tolerances of a check pair are this far apart. With errors e ~ tol^p, the
 # pair differs by e_tight (r^p - 1), so the reported (difference over r^MIN_ORDER - 1) is
 # (r^p - 1)/(r^MIN_ORDER - 1) times the true error: 1 at p = MIN_ORDER, 4.3 at p = 1 and 7.9
@@ -129,7 +131,8 @@ class Spool:
     whatever the span); :meth:`replay` hands them to the real sink in order."""
 
     def __init__(self):
-        fd, self.path = tempfile.mkstemp(prefix="tribofmu-spool-", suffix=".pickle")
+        # in this process's run folder, which goes with it (killed runs' by the next run)
+        fd, self.path = tempfile.mkstemp(prefix="tribofmu-spool-", suffix=".pickle", dir=run_folder())
         self._file = os.fdopen(fd, "wb")
 
     def __call__(self, start: int, signals: dict) -> None:

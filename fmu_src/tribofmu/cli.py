@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 from . import __version__
-from .cli_checks import (PLOT_BYTES, one_line, SSP_BYTES, SWEEP_POINT_BYTES, check_algorithm_options,
+from .cli_checks import (PLOT_BYTES, one_line, SSP_BYTES, SWEEP_POINT_BYTES, check_algorithm_options, claim_out,
                          check_number, check_out_dir, check_out_file, label_overrides, output_folder,
                          preflight, preflight_folder, require, resolve_fmu_dir)
 from .errors import UsageError
@@ -276,7 +276,7 @@ def cmd_build(args) -> int:
         folder = find_fmus(fmu_names(), None, fmi=args.fmi, build=True)
         paths = [folder / f"{name}.fmu" for name in fmu_names()]
     else:
-        preflight_folder(Path(args.out), BUILD_BYTES)
+        claim_out(Path(args.out), "build", BUILD_BYTES)
         paths = build_fmus(args.out, fmi=args.fmi)
     for path in paths:
         print(path)
@@ -306,7 +306,7 @@ def cmd_simulate(args) -> int:
         result = api.simulate_and_save(
             scene_file, out, args.overrides, algorithm=args.algorithm, step=args.step, tol=args.tol,
             fmu_dir=fmu_dir, build=False, plots=not args.no_plots, progress=bar, notice=bar.notice,
-            max_wall=-1.0 if args.max_wall is None else args.max_wall, command=["tribofmu", *sys.argv[1:]])
+            max_wall=api.SCENE_MAX_WALL if args.max_wall is None else args.max_wall, command=["tribofmu", *sys.argv[1:]])
     finally:
         bar.close()  # also when the call failed before the run began
     work_done()  # the result set is complete (or the failure is known): what follows only says so
@@ -360,7 +360,7 @@ def cmd_plot(args) -> int:
     missing = [k for k in ("time", "X", "V", "x", "v") if k not in signals]
     if missing:
         raise UsageError(f"{csv}: no column {missing[0]!r}")
-    out = check_out_dir(Path(args.out)) if args.out else folder
+    out = claim_out(Path(args.out), "plot", PLOT_BYTES, also=("simulate",)) if args.out else folder
     out.mkdir(parents=True, exist_ok=True)
     for path in plot_signals(signals, scenario, out):
         print(path)
@@ -410,7 +410,7 @@ def cmd_sweep(args) -> int:
     out = Path(args.out) if args.out else output_folder(scene_file.stem, {}, "-sweep", "the scenario file's name")
     grid = parse_grid(args.grid)
     points = math.prod(len(values) for values in grid.values())
-    preflight_folder(out, points * SWEEP_POINT_BYTES + (0 if args.no_plots else PLOT_BYTES))
+    claim_out(out, "sweep", points * SWEEP_POINT_BYTES + (0 if args.no_plots else PLOT_BYTES))
     try:
         rows = sweep(scene_file, grid, out, scheduler=args.scheduler,
                      workers=args.workers, overrides=args.overrides, algorithm=args.algorithm,
@@ -472,9 +472,9 @@ def cmd_figures(args) -> int:
             raise UsageError(f"--only {args.only}: unknown figure {unknown[0] if unknown else '(none)'!r} "
                              f"(known: {', '.join(FIGURES)})")
     out = check_out_dir(Path(args.out))
-    preflight_folder(out, 5 * PLOT_BYTES)
+    claim_out(out, "figures", 5 * PLOT_BYTES)
     if args.data:
-        check_out_dir(Path(args.data), "--data")
+        claim_out(Path(args.data), "figures", PLOT_BYTES, "--data")
     paths = make_figures(out, only=only, scenarios_dir=args.scenarios, fmu_dir=args.fmu_dir,
                          rerun=args.rerun, quiet=args.quiet, data_dir=args.data)
     for path in paths:

@@ -8,14 +8,21 @@ exit 2) or an OSError (one line, exit 1), raised before the run.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import importlib.util
 import math
+import os
 import re
 import sys
+import tempfile
 from pathlib import Path
 
-from .coupling.interpolation import NS
-from .errors import UsageError  # noqa: F401 (re-exported: bad input, exit code 2)
+from .atomic import MARKER, check_output_folder, check_replaceable, mark
+from .fmu_cache import check_writable, find_fmus, write_error
+from .provenance import overrides_dict, run_label
+from .errors import MAX_MESSAGE, UsageError, readable  # noqa: F401 (UsageError re-exported: bad input, exit code 2)
+from .scene.checks import (MIN_MAX_WALL, check_max_wall, check_resolution,  # noqa: F401 (re-exported)
+                           check_run)
 
 OUTPUT_ROOT = Path("out")  # default output folders: OUTPUT_ROOT/<scene name>[--<overrides>]
 # A scene name that may name a folder: printable, no separators, no "..", not too long.
@@ -48,7 +55,6 @@ def output_folder(name: str, overrides: dict[str, str], suffix: str = "", what: 
     """``out/<name>[--<overrides>][<suffix>]`` for a scene name that can name a folder (a
     name from a scenario file must not choose where files go: no separators, no "..", no
     absolute path, printable, at most 100 characters)."""
-    from .provenance import run_label
     if not FOLDER_NAME.match(name) or ".." in name:
         shown = name.encode("unicode_escape").decode("ascii")
         shown = shown if len(shown) <= 60 else f"{shown[:60]}... ({len(name)} characters)"
@@ -60,7 +66,6 @@ def output_folder(name: str, overrides: dict[str, str], suffix: str = "", what: 
 def preflight(out: Path, needed_bytes: int, option: str = "--out") -> None:
     """Before any work: ``out``'s parent can take a new folder and has the space the results
     need (OSError, one line, exit 1, otherwise); ``out`` holds nothing but results (exit 2)."""
-    from .atomic import check_replaceable
     check_out_dir(out, option)
     check_swappable(out, option)
     try:
@@ -75,7 +80,6 @@ def check_swappable(out: Path, option: str = "--out") -> None:
     """A result set replaces ``out`` as a whole (a sibling folder renamed in its place): the
     current folder, one of its parents or a mount point cannot be, so they are refused
     before the run rather than at its end (``--out .``: "Device or resource busy")."""
-    import os
     absolute = Path(os.path.abspath(out))
     if out.name in ("", ".", "..") or absolute == Path(absolute.anchor):
         raise UsageError(f"{option} {out}: a result set replaces its folder as a whole, and "
@@ -100,9 +104,6 @@ def lock_path(out: Path) -> Path:
     """The lock of the folder ``out`` names: a file in this user's private lock folder in the
     temp dir, named by a hash of the folder's real path (not beside it: the preflight makes no
     folder, and the folder itself is swapped out by the run)."""
-    import hashlib
-    import os
-    import tempfile
     real = os.path.realpath(out)
     uid = os.getuid() if hasattr(os, "getuid") else 0
     name = hashlib.sha256(os.fsencode(real)).hexdigest()[:24]
@@ -113,8 +114,7 @@ def lock_out(out: Path, option: str = "--out") -> None:
     """Hold ``out``'s lock until :func:`release_out_locks` (the end of the command) or the
     process's end: a second run writing into the same folder meanwhile is refused with one
     line (UsageError) before it simulates, instead of silently replacing the other's set."""
-    import fcntl
-    import os
+    import fcntl  # POSIX only: the rest of the command runs where it is missing
     path = lock_path(out)
     if any(held == path for held, _ in _held):
         return
@@ -166,8 +166,16 @@ def _lock_holder(path: Path) -> str:
 
 
 def release_out_locks() -> None:
-    """Give up the locks :func:`lock_out` took (the lock file removed, then unlocked)."""
-    import os
+    """Give up the locks :func:`lock_out` took (the lock file removed, then unlocked), and
+    remove the folders :func:`claim_out` made that hold nothing but their marker (a command
+    refused or failed before it wrote anything leaves no folder behind)."""
+    while _claimed:
+        folder = _claimed.pop()
+        with contextlib.suppress(OSError):
+            if os.listdir(folder) in ([MARKER], []):
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(folder / MARKER)
+                os.rmdir(folder)
     while _held:
         path, fd = _held.pop()
         try:
@@ -178,6 +186,33 @@ def release_out_locks() -> None:
         os.close(fd)
         with contextlib.suppress(OSError):
             path.parent.rmdir()  # when no other run holds a lock: the temp dir as it was
+
+
+_claimed: list[Path] = []  # folders claim_out made in this process
+UNMARKED = ("build",)  # a folder of FMUs is known by its FMUs (tribofmu.atomic.RECORDS)
+
+
+def claim_out(out: Path, command: str, needed_bytes: int, option: str = "--out",
+              also: tuple[str, ...] = ()) -> Path:
+    """The output rule for a folder a command writes into and keeps (build, plot, sweep,
+    figures): ``out`` must be new, empty, or a folder ``command`` (or one of ``also``) made,
+    never a symbolic link (UsageError, one line, before any work); then it is made, with
+    ``command``'s marker (:func:`tribofmu.atomic.mark`; build's FMUs are their own proof),
+    so the next run knows it as its own."""
+    try:
+        check_output_folder(out, (command, *also))
+    except FileExistsError as exc:
+        raise UsageError(f"{option} {exc}") from None
+    preflight_folder(out, needed_bytes, option)
+    try:
+        if not out.exists():
+            _claimed.append(out)  # removed again at the end if the command wrote nothing into it
+        out.mkdir(parents=True, exist_ok=True)
+        if command not in UNMARKED and not (out / MARKER).exists():
+            mark(out, command)
+    except OSError as exc:
+        raise write_error(f"cannot write into {option} {out}: {exc.strerror or exc}", exc.errno) from None
+    return out
 
 
 def preflight_folder(out: Path, needed_bytes: int, option: str = "--out") -> None:
@@ -191,7 +226,6 @@ def _writable_folder(folder: Path, needed_bytes: int, what: str) -> None:
     """The absolute ``folder`` takes files and has ``needed_bytes`` free; for a missing one its
     nearest existing ancestor is checked instead, and nothing is made (whatever fails later,
     before the results are written, leaves no empty folder behind)."""
-    from .fmu_cache import check_writable
     existing = next(p for p in (folder, *folder.parents) if p.exists())
     check_writable(existing, needed_bytes, what)
 
@@ -203,83 +237,19 @@ def check_number(name: str, value: float | None) -> None:
 
 def check_algorithm_options(scenario, algorithm: str | None, step: float | None, tol: float | None,
                             max_wall: float | None = None) -> str:
-    """The algorithm that will run; a --step/--tol it does not use is an error."""
-    from .coupling.algorithms import ALGORITHMS
-    for name, value in (("--step", step), ("--tol", tol)):
-        check_number(name, value)
-    if max_wall is not None and not (math.isfinite(max_wall) and max_wall >= 0):
-        raise UsageError(f"--max-wall must be >= 0 s (0: no limit), got {max_wall}")
-    least = min_max_wall()
-    if max_wall is not None and 0 < max_wall < least:
-        raise UsageError(f"--max-wall must be 0 (no limit) or at least {least:g} s (a run's projected "
-                         f"wall time is judged after its first seconds), got {max_wall:g}")
-    name = algorithm or scenario.simulation.algorithm
-    if name not in ALGORITHMS:
-        raise UsageError(f"unknown algorithm {name!r} (known: {', '.join(ALGORITHMS)})")
-    if tol is not None and name != "adaptive":
-        raise UsageError(f"--tol applies to the adaptive algorithm only, not {name} (use --step)")
-    check_resolution(scenario, name, step)
-    return name
+    """The algorithm that will run; a --step/--tol it does not use, or out of range, is an
+    error (the scene's own checks, :func:`tribofmu.scene.checks.check_run`, under the
+    options' names)."""
+    check_max_wall(max_wall, "--max-wall")
+    return check_run(scenario, algorithm, step, tol, OPTION_NAMES)
 
 
-# -- a run that can resolve its drive ------------------------------------------------------------
-# The coupling's time grid counts integer nanoseconds (coupling.interpolation.NS) in int64, with
-# steps of at least 2 ns; the adaptive algorithm's largest step is a twentieth of the drive
-# period. A fixed-step run needs a handful of communication points per drive period: with
-# fewer, the drive's motion is sampled below its Nyquist rate and the result is garbage (the
-# jacobi run at --step 0.2 on Fig. 2: one step, V ten times A*omega, x = v = 0).
-MIN_POINTS_PER_PERIOD = 10  # fixed-step algorithms: communication points per drive period
-ADAPTIVE_POINTS_PER_PERIOD = 20  # the adaptive algorithm's largest step is period/20
-GRID_NS = 2  # the smallest step of the integer-nanosecond time grid
-LONGEST_RUN = 2.0 ** 62 / NS  # s (~146 years): the time grid is int64 nanoseconds
-
-
-MIN_MAX_WALL = 1.0  # s
+OPTION_NAMES = {"algorithm": "--algorithm", "step": "--step", "tol": "--tol"}
 
 
 def min_max_wall() -> float:
-    """The smallest --max-wall but 0 (no limit) [s]. The limit is on a run's projected wall
-    time, which the master judges once the run has gone for a few seconds (3 s): a smaller
-    positive limit (1e-100) could only ever mean "stop at the first judgement", and reads
-    like a promise the run cannot keep, so it is refused rather than accepted and ignored."""
+    """The smallest --max-wall but 0 (no limit) [s] (:data:`tribofmu.scene.checks.MIN_MAX_WALL`)."""
     return MIN_MAX_WALL
-
-
-def check_resolution(scenario, algorithm: str, step: float | None) -> None:
-    """Refuse, before the run, a drive or a communication step the run cannot resolve: one
-    line naming the limit (UsageError, exit 2)."""
-    from .coupling.algorithms import ALGORITHMS
-    omega, period = scenario.drive.omega, scenario.drive.period
-    stop = scenario.stop_time
-    if not (math.isfinite(stop) and stop <= LONGEST_RUN):
-        raise UsageError(f"drive.omega = {omega:g} rad/s and time.periods = {scenario.time.periods:g} "
-                         f"make a run of {stop:.3g} s, longer than the time grid holds "
-                         f"({LONGEST_RUN:.3g} s in integer nanoseconds): raise drive.omega or lower "
-                         f"time.periods")
-    points = ADAPTIVE_POINTS_PER_PERIOD if algorithm == "adaptive" else MIN_POINTS_PER_PERIOD
-    fastest = 2 * math.pi / (points * GRID_NS / NS)
-    if omega > fastest:
-        raise UsageError(f"drive.omega = {omega:g} rad/s: its period {period:.3g} s is shorter than "
-                         f"the {algorithm} coupling can resolve ({points} steps per period of at "
-                         f"least {GRID_NS} ns); drive.omega must be <= {fastest:.3g} rad/s")
-    if algorithm == "adaptive":
-        return  # its steps are at most period/20, whatever the first try
-    if step is not None:
-        source, h = "--step", step
-    elif scenario.simulation.step is not None:
-        source, h = "simulation.step", scenario.simulation.step
-    else:
-        try:
-            default = float(ALGORITHMS[algorithm]().default_step)
-        except Exception:  # the coupling's own default; 1e-4 s when it cannot be read
-            default = 1e-4
-        source, h = f"the {algorithm} default step", default
-    h = max(GRID_NS, round(h * NS)) / NS  # the step the run takes, on the grid
-    if period / h < MIN_POINTS_PER_PERIOD:
-        raise UsageError(f"{source} {h:g} s gives {period / h:.3g} communication points per drive "
-                         f"period ({period:.3g} s at drive.omega = {omega:g} rad/s); the {algorithm} "
-                         f"coupling needs at least {MIN_POINTS_PER_PERIOD}: use a step <= "
-                         f"{period / MIN_POINTS_PER_PERIOD:.3g} s")
 
 
 def require(module: str, install: str, purpose: str) -> None:
@@ -295,7 +265,6 @@ def require(module: str, install: str, purpose: str) -> None:
 def resolve_fmu_dir(fmu_dir: str | None, names, quiet: bool = False, fmi: int | None = None) -> Path:
     """The FMUs a command uses (:func:`tribofmu.fmu_cache.find_fmus`): an explicit folder
     must hold them; the per-user cache is checked and filled when needed."""
-    from .fmu_cache import find_fmus
     notice = None if quiet else (lambda text: print(f"tribofmu: {text} (once per installed version)",
                                                     file=sys.stderr))
     return find_fmus(names, fmu_dir, fmi=fmi, build=None if fmu_dir is None else False, notice=notice)
@@ -309,8 +278,7 @@ def label_overrides(overrides, algorithm=None, step=None, tol=None, max_wall=Non
     ``scenario``, each --set value is written as the scenario holds it (``--step 1e-3`` and
     ``--set simulation.step=0.001`` give the same label); given the ``base`` scene too, a
     value equal to the scene's own is dropped (the same run, the same folder)."""
-    from .provenance import overrides_dict
-    from .scene.scenario import to_dict
+    from .scene.scenario import to_dict  # the scene parser: not loaded for --help or 'scenes'
     data = to_dict(scenario) if scenario is not None else {}
     old = to_dict(base) if base is not None else {}
     label = {}
@@ -350,4 +318,4 @@ def one_line(exc: BaseException) -> str:
         text = f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
     else:
         text = str(exc)
-    return " ".join(text.split())
+    return readable(" ".join(text.split()), MAX_MESSAGE - 50)  # room for "tribofmu: " and a suffix

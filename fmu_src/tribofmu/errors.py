@@ -9,7 +9,8 @@ written against earlier versions still catches them:
 - :class:`ScenarioError` (a ``ValueError``): a scenario file, override or setting is wrong;
   :class:`SweepError` the same for a sweep's grid, options or output directory;
 - :class:`UsageError`: bad input from the command line or to an API call
-  that is not a scenario's (an option, a folder); exit code 2;
+  that is not a scenario's (an option, a folder); exit code 2; :class:`ArgumentError` an
+  API argument of the wrong type or out of range;
 - :class:`FMUError`: an FMU file is missing or unreadable (:class:`FMUFileError`), an FMU
   refused a call (:class:`FMUCallError`), the FMUs of a run could not be set up
   (:class:`FMUSetupError`), the FMU cache cannot be used (:class:`FMUCacheError`);
@@ -25,8 +26,51 @@ from __future__ import annotations
 from typing import Sequence
 
 
+# An error line a person reads: at most this many characters. A longer message (a 990 kB
+# string or a 200,000-element array echoed as the culprit) has its long words cut, then its
+# middle, keeping the start (what is wrong) and the end (what to do).
+MAX_MESSAGE = 300
+LONG_WORD = 200  # characters: a word this long is a value, cut to its start and length
+SHORT_WORD = 40  # a word (a path) longer than this is cut to its start and end when the line is too long
+
+
+def readable(text: str, limit: int = MAX_MESSAGE) -> str:
+    """``text`` cut to at most ``limit`` characters (unchanged when it fits): its longest
+    words first (a value keeps its start and its length, a path its start and its file
+    name), then, if still too long, its middle."""
+    if len(text) <= limit:
+        return text
+    words = text.split(" ")
+    length = len(text)
+    for short in (SHORT_WORD, SHORT_WORD // 2):  # a second, closer cut before the middle goes
+        for i in sorted(range(len(words)), key=lambda i: -len(words[i])):
+            word = words[i]
+            if len(word) <= short or length <= limit:
+                break
+            tail = short - short // 4 - 3
+            if "/" in word[-LONG_WORD:]:  # a path: its file name whole
+                tail = max(tail, len(word) - word.rindex("/", 0, len(word) - 1))
+            cut = (f"{word[:30]}...({len(word)} characters)" if len(word) > LONG_WORD
+                   else f"{word[:short // 4]}...{word[-tail:]}")
+            if len(cut) < len(word):
+                words[i] = cut
+                length -= len(word) - len(cut)
+    text = " ".join(words)
+    if len(text) <= limit:
+        return text
+    tail = limit // 4
+    head = limit - tail - len(f" [...{len(text)} characters...] ")
+    return f"{text[:head]} [...{len(text) - head - tail} characters...] {text[-tail:]}"
+
+
 class TriboFMUError(Exception):
-    """Base of every error tribofmu raises on purpose; the message is one line."""
+    """Base of every error tribofmu raises on purpose; the message is one line, at most
+    :data:`MAX_MESSAGE` characters (:func:`readable`)."""
+
+    def __init__(self, *args):
+        if args and isinstance(args[0], str):
+            args = (readable(args[0]), *args[1:])
+        super().__init__(*args)
 
 
 class ScenarioError(TriboFMUError, ValueError):
@@ -48,6 +92,12 @@ class NumericalError(TriboFMUError, RuntimeError):
 class UsageError(TriboFMUError):
     """Bad input from the command line (or an API argument that is no scenario's): reported as
     one line, exit code 2."""
+
+
+class ArgumentError(UsageError, ValueError, TypeError):
+    """An argument of a public API call of the wrong type or out of range, found before any
+    work: one line naming the call, the argument and its value. Also a ValueError and a
+    TypeError, what such an argument raised from deeper down before."""
 
 
 # -- FMUs -------------------------------------------------------------------------------------

@@ -22,10 +22,12 @@ import os
 import shutil
 import stat
 import tempfile
+import zipfile
 from pathlib import Path
 from typing import Callable, Iterable
 
-from .errors import FMUCacheError, FMUError  # noqa: F401 (FMUCacheError re-exported)
+from .atomic import atomic_write_bytes, json_object, left_by_gone_process, pid_alive
+from .errors import FMUCacheError, FMUError, FMUFileError  # noqa: F401 (FMUCacheError re-exported)
 
 MANIFEST = "manifest.json"
 LOCK = ".build.lock"
@@ -34,8 +36,12 @@ BUILD_BYTES = 20_000_000
 
 
 def sha256_file(path: Path) -> str:
-    """sha256 of a regular file, opened without following a symbolic link."""
-    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    """sha256 of a regular file: checked with lstat before it is opened (a FIFO, a device or
+    a folder is never opened: an open of a FIFO blocks until a writer comes), opened without
+    following a symbolic link and without blocking, and checked again on the open file."""
+    if not stat.S_ISREG(os.lstat(path).st_mode):
+        raise OSError(f"{path} is not a regular file")
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
     with os.fdopen(fd, "rb") as fh:
         if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
             raise OSError(f"{path} is not a regular file")
@@ -48,8 +54,7 @@ def sha256_file(path: Path) -> str:
 def fmu_source(path: Path) -> str | None:
     """The source an FMU built by tribofmu carries: the name of its private package
     (``_tribofmu_fmu_<version>_<source hash>``), read from the archive; None if not ours."""
-    import zipfile
-    from .build import PRIVATE_PREFIX
+    from .build import PRIVATE_PREFIX  # build loads the scene's wiring and physics: ~0.1 s on every import
     try:
         with zipfile.ZipFile(path) as archive:
             for name in archive.namelist():
@@ -81,24 +86,28 @@ def find_fmus(names: Iterable[str], fmu_dir: str | Path | None = None, *, fmi: i
     folder = default_fmu_dir(fmi)
     _private_folder(folder)
     manifest = _read_manifest(folder)
-    stale = names if build else tuple(n for n in names if not _verified(folder, n, manifest))
+    stale = names if build else tuple(n for n in names if not _verified(folder, n, manifest, fmi))
     if not stale:
         return folder
     if build is False:
-        from .master.instance import FMUFileError
         raise FMUFileError(f"FMU file not found or not as built: {folder / (stale[0] + '.fmu')} "
                            f"(run 'tribofmu build')")
-    with _build_lock(folder):
-        manifest = _read_manifest(folder)  # another process may have built them meanwhile
-        stale = names if build else tuple(n for n in names if not _verified(folder, n, manifest))
-        if stale:
-            _build_into(folder, stale, fmi, notice, manifest)
+    try:
+        with _build_lock(folder):
+            manifest = _read_manifest(folder)  # another process may have built them meanwhile
+            stale = names if build else tuple(n for n in names if not _verified(folder, n, manifest, fmi))
+            if stale:
+                _build_into(folder, stale, fmi, notice, manifest)
+    except FMUError:
+        raise
+    except OSError as exc:  # the cache removed or made unwritable while building: exit 1, not "missing input"
+        raise write_error(f"cannot write the FMU cache {folder}: {exc.strerror or exc} (was it removed or "
+                          f"changed while the FMUs were built? run the command again)", exc.errno) from None
     return folder
 
 
 def _given_folder(path: Path, names: tuple[str, ...], fmi: int | None, build: bool | None,
                   notice) -> Path:
-    from .master.instance import FMUFileError
     missing = [n for n in names if not (path / f"{n}.fmu").is_file()]
     todo = names if build else tuple(missing) if build is None else ()
     if todo:
@@ -127,34 +136,58 @@ def _build_into(folder: Path, names: tuple[str, ...], fmi: int, notice, manifest
     remove_build_leftovers(folder)
     check_writable(folder, BUILD_BYTES, "the FMU folder")
     check_writable(Path(tempfile.gettempdir()), BUILD_BYTES, "the temp dir (FMUs are staged there)")
+    for name in names:
+        path = folder / f"{name}.fmu"
+        if manifest is not None:
+            _clear_for_build(path)  # the cache is ours: a folder or FIFO there is damage
+        elif os.path.lexists(path) and not stat.S_ISREG(os.lstat(path).st_mode):
+            raise FMUFileError(f"{path} is not an FMU file (a folder, a link or a special file); "
+                               f"remove it or give another folder")
     if notice is not None:
         notice(f"building the FMI {fmi}.0 FMUs {', '.join(names)} into {folder}/")
     built = build_fmus(folder, names, fmi=fmi)
     if manifest is not None:
         manifest.update({path.stem: sha256_file(path) for path in built})
-        from .atomic import atomic_write_bytes
         atomic_write_bytes(folder / MANIFEST, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
 
 
-def _verified(folder: Path, name: str, manifest: dict[str, str]) -> bool:
+def _verified(folder: Path, name: str, manifest: dict[str, str], fmi: int) -> bool:
+    """The cached ``<name>.fmu`` is what this install built: a regular file whose sha256 is
+    the one recorded when it was built and which carries this source's private package (an
+    FMU of another build under a manifest rewritten to match is still not ours)."""
+    from .build import private_package_name
     path = folder / f"{name}.fmu"
     expected = manifest.get(name)
     if expected is None:
         return False
     try:
-        return sha256_file(path) == expected
-    except OSError:  # missing, a link, not a file
+        return sha256_file(path) == expected and fmu_source(path) == private_package_name(fmi)
+    except OSError:  # missing, a link, a FIFO, a folder
         return False
 
 
-def _read_manifest(folder: Path) -> dict[str, str]:
+def _clear_for_build(path: Path) -> None:
+    """Make way in the cache for a rebuilt ``path``: whatever is there and is not a regular
+    file (a folder, a FIFO, a link, a socket) is removed; a regular file is replaced by the
+    build's rename. Only ever called on the private cache."""
     try:
-        data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-    if not isinstance(data, dict):
-        return {}
-    return {str(k): str(v) for k, v in data.items()}
+        info = os.lstat(path)
+    except FileNotFoundError:
+        return
+    if stat.S_ISDIR(info.st_mode):
+        shutil.rmtree(path)
+    elif not stat.S_ISREG(info.st_mode):
+        os.unlink(path)
+
+
+MANIFEST_BYTES = 100_000  # six hashes take 500 bytes
+
+
+def _read_manifest(folder: Path) -> dict[str, str]:
+    """The recorded hashes (empty when the manifest is missing, not a small regular file, or
+    not a JSON object: the FMUs are then rebuilt)."""
+    data = json_object(folder / MANIFEST, MANIFEST_BYTES)
+    return {str(k): str(v) for k, v in data.items()} if data else {}
 
 
 def _private_folder(folder: Path) -> None:
@@ -187,8 +220,11 @@ def _private_folder(folder: Path) -> None:
 
 @contextlib.contextmanager
 def _build_lock(folder: Path):
-    import fcntl
-    with open(folder / LOCK, "a") as fh:
+    import fcntl  # POSIX only
+    _clear_for_build(folder / LOCK)  # a FIFO there would block the open
+    fd = os.open(folder / LOCK, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0),
+                 0o600)
+    with os.fdopen(fd, "r+b") as fh:
         fcntl.flock(fh, fcntl.LOCK_EX)
         try:
             yield
@@ -225,7 +261,6 @@ def check_writable(folder: Path, needed_bytes: int, what: str) -> None:
 def remove_build_leftovers(folder: Path | None = None) -> None:
     """Remove what killed builds left: ``.<Name>.fmu.partial-<pid>`` in ``folder`` and this
     user's ``tribofmu_build_<pid>_*`` staging folders in the temp dir, of processes that are gone."""
-    from .atomic import left_by_gone_process, pid_alive
     from .build import BUILD_PREFIX
     if folder is not None and folder.is_dir():
         for path in folder.glob(".*.fmu.partial-*"):

@@ -19,6 +19,8 @@ import sys
 import time
 
 _state = {"running": 0, "requested": False, "own_process": False}
+# Ctrl-C, kill, and a closed terminal or ssh session: each a clean stop (temp files removed)
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
 
 
 def _handler(signum, _frame):
@@ -34,8 +36,10 @@ def install_signal_handlers(own_process: bool = False) -> None:
     caller is the process's entry point (the ``tribofmu`` command), so :func:`work_done` may
     take the signals for the rest of the process's life."""
     _state["own_process"] = _state["own_process"] or own_process
-    for sig in (signal.SIGINT, signal.SIGTERM):
+    for sig in STOP_SIGNALS:
         try:
+            if sig not in (signal.SIGINT, signal.SIGTERM) and signal.getsignal(sig) == signal.SIG_IGN:
+                continue  # started under nohup: the run is to outlive its terminal
             signal.signal(sig, _handler)
         except ValueError:  # not the main thread: leave signals to the host
             return
@@ -50,7 +54,7 @@ def work_done() -> None:
     process itself: a host that calls ``cli.main`` keeps its own signal handling."""
     if not _state["own_process"]:
         return
-    for sig in (signal.SIGINT, signal.SIGTERM):
+    for sig in STOP_SIGNALS:
         try:
             signal.signal(sig, signal.SIG_IGN)
         except ValueError:  # not the main thread

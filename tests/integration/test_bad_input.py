@@ -110,12 +110,34 @@ def test_a_scene_name_never_chooses_where_files_go(tmp_path, capsys, monkeypatch
     (["--max-wall", "inf"], ["--max-wall"]),
     (["--set", "drive.omega=1e-300"], ["drive.omega", "1e-300"]),
     (["--set", "time.periods=1e5"], ["time.periods", "output samples"]),
+    # issue 39: a tolerance of 100 % or more accepts any answer (1e300 was "ok", 4.6 % off)
+    (["--tol", "1e300"], ["--tol", "< 1", "1e+300"]),
+    (["--tol", "1"], ["--tol", "< 1"]),
+    (["--tol", "1e-300"], ["--tol", "1e-300"]),
+    (["--set", "simulation.tol=5"], ["simulation.tol", "< 1"]),
+    # one --set is one value: a second line of TOML was dropped silently
+    (["--set", "drive.omega=30\nx=1"], ["--set drive.omega", "not one value"]),
+    (["--set", "scenario.title=a\nb"], ["--set scenario.title", "not one value"]),
 ])
 def test_options_out_of_range_are_one_line_exit_2(tmp_path, capsys, monkeypatch, args, words):
     monkeypatch.setenv("TRIBOFMU_CACHE", str(tmp_path / "cache"))  # periods = 1e5: refused before any build
     code, err, elapsed = run(["simulate", str(FIG2), "--out", str(tmp_path / "o"), "-q", *args], capsys)
     assert code == 2 and len(err.splitlines()) == 1 and all(w in err for w in words), err
     assert not (tmp_path / "o").exists() and not (tmp_path / "cache" / "fmus").exists()
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--set", "friction.regime=" + "x" * 990_000], ["friction.regime", "990002 characters"]),
+    (["--set", "time.window=[" + ", ".join(map(str, range(200_000))) + "]"], ["time.window"]),
+    (["--set", "t" * 5000 + ".x=1"], ["unknown table"]),
+    (["--algorithm", "n" * 100_000], ["unknown algorithm"]),
+], ids=["regime-990k", "window-200k", "table-5000", "algorithm-100k"])
+def test_an_error_line_cuts_a_long_value(tmp_path, capsys, monkeypatch, args, words):
+    """Issue 39: the line echoed the whole value (600-990 kB); now at most 300 characters."""
+    monkeypatch.setenv("TRIBOFMU_CACHE", str(tmp_path / "cache"))
+    code, err, _ = run(["simulate", str(FIG2), "--out", str(tmp_path / "o"), "-q", *args], capsys)
+    assert code == 2 and len(err.splitlines()) == 1 and all(w in err for w in words), err[:400]
+    assert len(err) <= 300, len(err)
 
 
 def test_an_out_folder_with_other_files_is_refused(tmp_path, capsys, fmu_dir):

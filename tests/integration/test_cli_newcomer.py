@@ -192,9 +192,9 @@ def test_killed_run_writes_nothing_and_removes_its_extracted_fmus(tmp_path, env,
                                     "--out", out, "--set", "time.periods=400"),
                             cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
-    while not list(tmp.glob(f"{EXTRACT_PREFIX}{proc.pid}-*")) and time.monotonic() < deadline:
+    while not list(tmp.rglob(f"{EXTRACT_PREFIX}{proc.pid}-*")) and time.monotonic() < deadline:
         time.sleep(0.05)
-    assert list(tmp.glob(f"{EXTRACT_PREFIX}{proc.pid}-*")), "the run never unzipped its FMUs"
+    assert list(tmp.rglob(f"{EXTRACT_PREFIX}{proc.pid}-*")), "the run never unzipped its FMUs"
     assert not orphan.exists()  # reaped by the new process
     time.sleep(0.5)
     proc.send_signal(signal.SIGTERM)

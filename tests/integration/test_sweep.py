@@ -318,7 +318,7 @@ def test_a_sweep_runs_on_workers_that_cannot_see_the_clients_disk(tmp_path, fmu_
     local = sweep(FIG2, grid, tmp_path / "local", workers=0, **kw)
     for a, b in zip(remote, local):
         assert all(a[m] == b[m] or (math.isnan(a[m]) and math.isnan(b[m])) for m in M.METRICS)
-    copies = list(cluster_without_client_disk.tmp.glob("tribofmu-fmus-*/bundle-*/Friction.fmu"))
+    copies = list(cluster_without_client_disk.tmp.glob("**/tribofmu-fmus-*/bundle-*/Friction.fmu"))
     assert copies and all(c.read_bytes() == (fmu_dir / "Friction.fmu").read_bytes() for c in copies)
 
 

@@ -34,8 +34,8 @@ os.rename = killing(os.rename)
 shutil.rmtree = killing(shutil.rmtree)
 A._exchange = killing(A._exchange) if exchange else (lambda a, b: False)
 with A.result_set(out) as tmp:
-    for name in ("stats.json", "result.csv", "time.png"):
-        (tmp / name).write_text(token)
+    for name in ("stats.json", "result.csv", "time.png"):  # a stats.json with provenance: a set of ours
+        (tmp / name).write_text('{"provenance": "%s"}' % token if name == "stats.json" else token)
 print("steps", count[0])
 """
 
@@ -46,8 +46,10 @@ def write_set(out: Path, token: str, kill_at: int = 0, exchange: bool = True) ->
 
 
 def tokens(out: Path) -> set[str]:
+    import json
     assert sorted(p.name for p in out.iterdir()) == sorted(FILES)
-    return {(out / name).read_text() for name in FILES}
+    return {json.loads((out / name).read_text())["provenance"] if name == "stats.json" else (out / name).read_text()
+            for name in FILES}
 
 
 @pytest.mark.parametrize("exchange", [True, False], ids=["renameat2-exchange", "two-renames"])
@@ -102,3 +104,52 @@ def test_results_are_as_readable_as_any_new_file(tmp_path):
         os.umask(mask)
     assert (tmp_path / "run").stat().st_mode & 0o777 == 0o755
     assert (tmp_path / "sweep.csv").stat().st_mode & 0o777 == 0o644
+
+
+@pytest.mark.parametrize("files", [{"time.png": b"mine"}, {"stats.json": b"[1, 2]", "time.png": b"mine"},
+                                   {"stats.json": b"{}", "result.csv": b"1,2\n"}],
+                         ids=["result-names-only", "stats-not-ours", "stats-without-provenance"])
+def test_a_folder_of_result_names_without_our_marker_is_never_replaced(tmp_path, files):
+    """Issue 39: a file's name proves nothing (a user's time.png): a result set is known by
+    its stats.json with provenance (a folder kept across runs, by its command's marker)."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    for name, data in files.items():
+        (out / name).write_bytes(data)
+    with pytest.raises(FileExistsError, match="did not write"):
+        with atomic.result_set(out):
+            pass
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == files
+
+
+def test_a_result_set_is_known_by_its_stats_and_replaced(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "stats.json").write_text('{"provenance": {"tribofmu": "0.0.9"}}')
+    (out / "time.png").write_bytes(b"old plot")
+    with atomic.result_set(out) as tmp:
+        (tmp / "stats.json").write_text("{}")
+    assert sorted(p.name for p in out.iterdir()) == ["stats.json"]
+
+
+@pytest.mark.parametrize("kind", ["fifo", "link", "huge", "not-json", "folder"])
+def test_a_marker_that_is_not_a_small_regular_file_is_not_trusted(tmp_path, kind):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "time.png").write_bytes(b"mine")
+    marker = out / atomic.MARKER
+    good = b'{"command": "plot"}'
+    if kind == "fifo":
+        os.mkfifo(marker)  # never opened: it would block
+    elif kind == "link":
+        (tmp_path / "elsewhere").write_bytes(good)
+        marker.symlink_to(tmp_path / "elsewhere")
+    elif kind == "huge":
+        marker.write_bytes(good + b" " * atomic.MARKER_BYTES)
+    elif kind == "not-json":
+        marker.write_bytes(b"simulate")
+    else:
+        marker.mkdir()
+    assert atomic.made_by(out) is None
+    with pytest.raises(FileExistsError):
+        atomic.check_output_folder(out, ("plot",))

@@ -21,6 +21,7 @@ from typing import Any, Sequence
 
 from ..atomic import left_by_gone_process
 from ..coupling.system import CALL_KINDS
+from ..run_folder import remove_gone_runs, run_folder
 from ..errors import STATUS_NAMES, FMUCallError, FMUError, FMUFileError, FMUSetupError  # noqa: F401 (re-exported)
 
 
@@ -40,7 +41,8 @@ def remove_orphan_extractions(tmp: Path | None = None) -> None:
     """Remove the extraction folders of processes that are gone (killed, crashed, or
     terminated without exit handlers, as Dask stops its worker processes)."""
     tmp = Path(tmp) if tmp is not None else Path(tempfile.gettempdir())
-    for folder in tmp.glob(EXTRACT_PREFIX + "*"):
+    remove_gone_runs(tmp)  # the run folders the unzipped FMUs live in now
+    for folder in tmp.glob(EXTRACT_PREFIX + "*"):  # straight in the temp dir: earlier versions
         if left_by_gone_process(folder, EXTRACT_PREFIX):  # (an all-digit hash is no pid: not ours)
             shutil.rmtree(folder, ignore_errors=True)
 
@@ -56,9 +58,8 @@ def extraction_root() -> Path:
     global _extract_root
     with _extract_lock:
         if _extract_root is None or _extract_root[0] != os.getpid():
-            tmp = Path(tempfile.gettempdir())
-            remove_orphan_extractions(tmp)
-            folder = Path(tempfile.mkdtemp(prefix=f"{EXTRACT_PREFIX}{os.getpid()}-", dir=tmp))
+            remove_orphan_extractions()
+            folder = Path(tempfile.mkdtemp(prefix=f"{EXTRACT_PREFIX}{os.getpid()}-", dir=run_folder()))
             _extract_root = (os.getpid(), folder)
             _extracted.clear()
             atexit.register(_remove_root, os.getpid(), folder)

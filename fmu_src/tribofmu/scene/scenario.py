@@ -20,7 +20,7 @@ from ..physics.friction import Effects, FrictionLaw, LubricantConstants
 from ..physics.laws import LAWS, MixedLaw, law_class, make_law, regime_problem
 from ..physics.load import PROGRAMS, LoadProgram
 from ..physics.thermal import ThermalParams
-from .scenario_file import _number, _short, _text_problem, read_scenario_text
+from .scenario_file import _number, _short, _text_problem, one_toml_value, read_scenario_text
 from .wiring import scene_problems
 
 # What a scene lists when it does not say: the paper's rig, n and T held constant.
@@ -366,14 +366,10 @@ def _coerce(value: Any, default: Any, key: str, source: str) -> Any:
 
 def _split_assignment(item: str, source: str) -> tuple[str, Any]:
     if "=" not in item:
-        raise ScenarioError(f"{source}: --set expects KEY=VALUE, got {item!r}")
+        raise ScenarioError(f"{source}: --set expects KEY=VALUE, got {_short(repr(item))}")
     key, text = item.split("=", 1)
     key, text = key.strip(), text.strip()
-    try:
-        value = tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        value = text  # a bare word, e.g. friction.regime=boundary
-    return key, value
+    return key, one_toml_value(text, f"{source}: --set {_short(key)}")
 
 
 def _assign(data: dict[str, dict[str, Any]], key: str, value: Any, source: str) -> None:

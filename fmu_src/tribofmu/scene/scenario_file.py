@@ -4,6 +4,9 @@ one :class:`~tribofmu.errors.ScenarioError` line naming the file."""
 from __future__ import annotations
 
 import math
+import os
+import stat
+import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -23,8 +26,6 @@ def read_scenario_text(path: Path) -> str:
 
     Opened without blocking and checked before reading, so a FIFO or /dev/zero is refused
     instead of waited on or read without end."""
-    import os
-    import stat
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
     except OSError as exc:
@@ -104,6 +105,23 @@ def _text_problem(text: str) -> str | None:
                 return f"line {line}: a key or table nested more than {MAX_KEY_DEPTH} levels deep"
         i += 1
     return None
+
+
+def one_toml_value(text: str, what: str) -> Any:
+    """``text`` read as one TOML value (``80``, ``1e-3``, ``true``, ``[5, 6.5]``, ``"a b"``), or
+    as a bare word (``boundary``) when it is no TOML at all; anything more (a second line of
+    TOML after the value: ``30\nx=1``, whose rest would be silently dropped) or a bare word
+    with control characters is refused, naming ``what`` (e.g. ``--set drive.omega``)."""
+    try:
+        parsed = tomllib.loads(f"v = {text}")
+    except tomllib.TOMLDecodeError:
+        parsed = None
+    if parsed is not None and list(parsed) == ["v"]:
+        return parsed["v"]
+    if parsed is None and text.isprintable():
+        return text  # a bare word, e.g. friction.regime=boundary
+    raise ScenarioError(f"{what}: {_short(text)} is not one value (a number, true/false, a string, "
+                        f"[an, array] or a bare word on one line)")
 
 
 def _short(text: str, limit: int = 60) -> str:

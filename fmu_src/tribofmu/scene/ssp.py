@@ -130,6 +130,9 @@ def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None, pair:
     return out
 
 
+SSD_BYTES = 1_000_000  # an SSD tribofmu writes is a few kB
+
+
 def check_replaceable_archive(out: Path) -> None:
     """Raise :class:`FileExistsError` unless ``out`` is missing or a regular file that is an
     SSP archive tribofmu wrote (a zip whose ``SystemStructure.ssd`` names tribofmu as its
@@ -141,11 +144,14 @@ def check_replaceable_archive(out: Path) -> None:
         kind = "a symbolic link" if out.is_symlink() else "a folder" if out.is_dir() else "not a regular file"
         raise FileExistsError(f"{out} is {kind}; give a new file or an archive written by tribofmu export-ssp")
     try:
-        with zipfile.ZipFile(out) as archive:
-            root = ET.fromstring(archive.read("SystemStructure.ssd"))
+        with zipfile.ZipFile(out) as archive, archive.open("SystemStructure.ssd") as ssd:
+            text = ssd.read(SSD_BYTES + 1)  # bounded: an SSD that inflates to 6 GB is not ours
+        if len(text) > SSD_BYTES:
+            raise ValueError("not an SSD of ours: too large")
+        root = ET.fromstring(text)
         ours = (root.tag == f"{{{SSD}}}SystemStructureDescription"
                 and root.get("generationTool", "").split(" ")[0] == GENERATION_TOOL)
-    except (OSError, KeyError, ValueError, zipfile.BadZipFile, ET.ParseError):
+    except Exception:  # a damaged or hostile archive fails in many ways (zlib, EOF, encryption): none is ours
         ours = False
     if not ours:
         raise FileExistsError(f"{out} exists and is not an archive written by tribofmu export-ssp; "

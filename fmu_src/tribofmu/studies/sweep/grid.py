@@ -167,7 +167,7 @@ def plan(scenario_path, grid: dict[str, list], overrides, algorithm, step, tol) 
             raise SweepError(f"--algorithm: {exc}") from None
     # every point must resolve its drive (the CLI checks the base scene alone): one line
     # naming the point, before any runs, instead of an ok row that does not resolve it
-    from ...cli_checks import check_resolution
+    from ...scene.checks import check_resolution
     from ...errors import UsageError
     for point, sc in zip(points, scenarios):
         try:
