@@ -172,7 +172,9 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
     def _setter(self, name: str, kind: type, is_parameter: bool) -> Callable[[Any], None]:
         def setter(value: Any) -> None:
             value = kind(value)
-            self._forget_outputs()  # even for a refused value: the outputs read as refused now
+            # (_forget_outputs, inline: the hot path of a master) even for a refused value:
+            # the outputs read as refused now
+            self._output_values.clear()
             why = self._value_problem(name, kind, value)
             if why:
                 self._bad[name] = f"{name} {why}"
