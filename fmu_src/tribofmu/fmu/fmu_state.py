@@ -34,12 +34,12 @@ class OwnState:
     """An FMU state as :meth:`FMUStateMixin._get_fmu_state` took it, in this process: what the
     state's variables hold (inputs, stored outputs, time) and the model's internal state, in
     the model's own order, with the bookkeeping beside. A master takes and restores states
-    thousands of times a run (fig6: a save and a restore every communication point of every
-    FMU), so a save copies only what a step or a setter can change: the parameters are fixed
-    once initialization ends, and a state refers to the one dict of their values that every
-    state of the same parameter set shares (never changed: a setter makes a new one). Every
-    value is one this model wrote, so restoring needs none of the checks a state deserialized
-    from bytes (a plain dict, :meth:`as_dict`'s form) gets."""
+    thousands of times a run (fig6's default call: every FMU saves at each accepted step, the
+    friction FMU restores 1.8 times a step), so a save copies only what a step or a setter can
+    change: the parameters are fixed once initialization ends, and a state refers to the one
+    dict of their values that every state of the same parameter set shares (never changed: a
+    setter makes a new one). Every value is one this model wrote, so restoring needs none of
+    the checks a state deserialized from bytes (a plain dict, :meth:`as_dict`'s form) gets."""
 
     __slots__ = ("parameters", "names", "values", "internal_names", "internal", "bad", "initialized",
                  "token", "model", "mode", "error")
@@ -64,6 +64,15 @@ class OwnState:
 _NO_PROBLEMS: dict[str, str] = {}  # the refused values of a state that has none (never changed)
 
 
+def _not_ours(state: Any, model: str | None) -> str:
+    """What a state that another model or build made (or no model) is, for the refusal."""
+    if isinstance(state, dict) and "_invalid" in state:
+        return f"not an FMU state ({state['_invalid']})"
+    if model is None:
+        return "not an FMU state of a tribofmu model"
+    return f"an FMU state of {model}"
+
+
 class FMUStateMixin:
     """The FMU-state calls of :class:`.base.TriboModel`."""
 
@@ -78,22 +87,16 @@ class FMUStateMixin:
     _BOOKKEEPING = ("_bad", "_initialized", "_parameter_token", "_model", "_mode", "_error")
 
     def _set_fmu_state(self, state: Any) -> None:
-        if type(state) is OwnState and state.model == self._model_id:
+        own = type(state) is OwnState
+        model = state.model if own else (state.get("_model") if isinstance(state, dict) else None)
+        if model != self._model_id:
+            self._refuse(f"Set{_STATE}", f"{_not_ours(state, model)}, not of this model and build "
+                                         f"({self._model_id}); not restored", enter_error=True)
+            return
+        if own:
             # taken by this model and build in this process: its values are right, and
             # setting them cannot fail
             self._restore_own(state)
-            return
-        model = state.model if type(state) is OwnState else (
-            state.get("_model") if isinstance(state, dict) else None)
-        if model != self._model_id:
-            if isinstance(state, dict) and "_invalid" in state:
-                what = f"not an FMU state ({state['_invalid']})"
-            elif model is None:
-                what = "not an FMU state of a tribofmu model"
-            else:
-                what = f"an FMU state of {model}"
-            self._refuse(f"Set{_STATE}", f"{what}, not of this model and build ({self._model_id}); "
-                                         f"not restored", enter_error=True)
             return
         why = self._state_problem(state)
         if why is None:
