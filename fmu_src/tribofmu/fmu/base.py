@@ -27,7 +27,10 @@ therefore still cannot step on with a value it believes set. What a host sees, c
 is the state table of docs/hosts.md. A step is all or nothing: a refused step (bad value, numerical
 failure, non-finite outputs) leaves the state as it was.
 
-- saves and restores the complete state (:mod:`.fmu_state`).
+- saves and restores the complete state (:mod:`.fmu_state`);
+- computes an output declared with a getter once per state: where doStep checks that its
+  outputs are finite, or where a host first reads it after a set or a restore; the value is
+  kept until a doStep, a set or a restore changes what it is computed from.
 
 No physics here: the models live in :mod:`tribofmu.physics`.
 """
@@ -48,6 +51,8 @@ from .values import ValueAccessMixin
 
 if FMI_VERSION == 3:
     from .fmi import Fmi3StepResult
+
+_UNKNOWN = object()  # an output not computed for the present state
 
 __all__ = ["TriboModel", "DefaultExperiment", "PARAMETER", "INPUT", "OUTPUT", "positive", "non_negative"]
 
@@ -73,8 +78,12 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         self._checks: dict[str, Callable[[Any], str | None]] = {}
         self._bad: dict[str, str] = {}  # variable name -> why its value was refused
         self._getters: dict[str, Callable[[], Any]] = {}  # outputs computed on demand
+        # The values those outputs have for the present state, inputs and parameters: each is
+        # computed once, where doStep checks it or a host reads it first, and forgotten by
+        # every call that changes what it is computed from (_forget_outputs).
+        self._output_values: dict[str, Any] = {}
         self._initialized = False  # initialize() ran (it is skipped while values are bad)
-        self._real_output_names: list[str] | None = None  # caches: variables are declared once
+        self._real_output_getters: list | None = None  # caches: variables are declared once
         self._dynamic_state_names: list[str] | None = None
         self._parameter_names: list[str] = []
         self._parameter_set: set[str] = set()
@@ -163,6 +172,9 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
     def _setter(self, name: str, kind: type, is_parameter: bool) -> Callable[[Any], None]:
         def setter(value: Any) -> None:
             value = kind(value)
+            # (_forget_outputs, inline: the hot path of a master) even for a refused value:
+            # the outputs read as refused now
+            self._output_values.clear()
             why = self._value_problem(name, kind, value)
             if why:
                 self._bad[name] = f"{name} {why}"
@@ -195,6 +207,9 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
     def _safe_getter(self, name: str, getter: Callable[[], Any]) -> Callable[[], Any]:
         # An exception escaping a getter would make fmi2GetReal return fmi2Fatal.
         def get() -> Any:
+            value = self._output_values.get(name, _UNKNOWN)
+            if value is not _UNKNOWN:
+                return value
             if self._describing:
                 return getter()
             # the model's own validation runs once per parameter set: usually nothing to join
@@ -214,8 +229,14 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
             if isinstance(value, float) and not math.isfinite(value):
                 self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} is not finite ({value}) at "
                           f"{self._inputs_text()}", Status.error, CALL_STATUS_CATEGORY)
+            else:  # a refusal is not kept: every read of it logs it again
+                self._output_values[name] = value
             return value
         return get
+
+    def _forget_outputs(self) -> None:
+        """The state, an input or a parameter changed: the outputs are computed again when read."""
+        self._output_values.clear()
 
     def _log(self, msg: str, status: Status, category: str | None = None) -> None:
         text = f"{self.instance_name}: {msg}"
@@ -249,6 +270,7 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         if self._in_mode("SetupExperiment" if FMI_VERSION == 2 else "EnterInitializationMode",
                          INSTANTIATED):
             self.time = start_time
+            self._forget_outputs()
 
     def enter_initialization_mode(self) -> None:
         if self._in_mode("EnterInitializationMode", INSTANTIATED):
@@ -258,6 +280,7 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         if not self._in_mode("ExitInitializationMode", INITIALIZATION):
             return
         self._mode = STEP
+        self._forget_outputs()  # initialize() sets the state
         try:
             problems = self.problems()
             if not problems:
@@ -283,6 +306,7 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
                                   f"{_PREFIX}ExitInitializationMode, before {_PREFIX}Terminate)")
             self._log(f"{_PREFIX}DoStep: {why}; step refused", Status.error, CALL_STATUS_CATEGORY)
             return self._refused(misuse=True)
+        self._forget_outputs()
         saved = None
         misuse = True
         try:
@@ -301,6 +325,7 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         if saved is not None:
             for name, value in saved.items():
                 setattr(self, name, value)
+        self._forget_outputs()  # the check may have kept values of the state just undone
         # misuse and bad values: fmi2Error through the native loader; a numerical failure
         # stays fmi2Discard (a smaller step may succeed)
         category = CALL_STATUS_CATEGORY if misuse else None
@@ -332,25 +357,31 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         if why:
             return [why], True
         self.time = t + h
+        # A step whose outputs would not be finite is refused (all or nothing), so each output
+        # is computed here; what is computed is kept for the host's reads of this state.
         bad = []
-        for name in self._real_outputs():
+        computed = self._output_values
+        for name, getter in self._real_outputs():
             try:
-                value = self._getters[name]() if name in self._getters else getattr(self, name)
+                value = getter() if getter is not None else getattr(self, name)
             except Exception as exc:
                 value = f"<{type(exc).__name__}: {exc}>"
             else:
                 if math.isfinite(value):
+                    if getter is not None:
+                        computed[name] = value
                     continue
             bad.append(f"{name}={value}")
         if bad:
             return [f"outputs would not be finite ({', '.join(bad)}) at {self._inputs_text()}, h={h}"], False
         return [], False
 
-    def _real_outputs(self) -> list[str]:
-        if self._real_output_names is None:
-            self._real_output_names = [v.name for v in self.vars.values()
-                                       if v.causality == Causality.output and isinstance(v, Real)]
-        return self._real_output_names
+    def _real_outputs(self) -> list[tuple[str, Callable[[], Any] | None]]:
+        """Each Real output's name and its getter (None: a stored value)."""
+        if self._real_output_getters is None:
+            self._real_output_getters = [(v.name, self._getters.get(v.name)) for v in self.vars.values()
+                                         if v.causality == Causality.output and isinstance(v, Real)]
+        return self._real_output_getters
 
     def _dynamic_names(self) -> list[str]:
         """Scalars advance() and initialize() may change: stored outputs, time (the internal

@@ -30,48 +30,73 @@ def parameter_cached(method):
     return cached
 
 
-class OwnState(dict):
-    """An FMU state as :meth:`FMUStateMixin._get_fmu_state` took it, in this process: every key
-    and value is one this model wrote, so restoring it needs none of the checks a state
-    deserialized from bytes (a plain dict) gets. A master restores states thousands of times
-    a run (fig6: the checks were 2/3 of a restore's cost, a fifth of the whole run)."""
+class OwnState:
+    """An FMU state as :meth:`FMUStateMixin._get_fmu_state` took it, in this process: what the
+    state's variables hold (inputs, stored outputs, time) and the model's internal state, in
+    the model's own order, with the bookkeeping beside. A master takes and restores states
+    thousands of times a run (fig6's default call: every FMU saves at each accepted step, the
+    friction FMU restores 1.8 times a step), so a save copies only what a step or a setter can
+    change: the parameters are fixed once initialization ends, and a state refers to the one
+    dict of their values that every state of the same parameter set shares (never changed: a
+    setter makes a new one). Every value is one this model wrote, so restoring needs none of
+    the checks a state deserialized from bytes (a plain dict, :meth:`as_dict`'s form) gets."""
 
-    __slots__ = ()
+    __slots__ = ("parameters", "names", "values", "internal_names", "internal", "bad", "initialized",
+                 "token", "model", "mode", "error")
+
+    def __init__(self, parameters, names, values, internal_names, internal, bad, initialized, token,
+                 model, mode, error):
+        self.parameters, self.names, self.values = parameters, names, values
+        self.internal_names, self.internal = internal_names, internal
+        self.bad, self.initialized, self.token = bad, initialized, token
+        self.model, self.mode, self.error = model, mode, error
+
+    def as_dict(self) -> dict[str, Any]:
+        """The state as a plain dict: the form serialized to bytes and restored with checks."""
+        state = dict(self.parameters)
+        state.update(zip(self.names, self.values))
+        state.update(zip(self.internal_names, self.internal))
+        state.update(_bad=dict(self.bad), _initialized=self.initialized, _parameter_token=self.token,
+                     _model=self.model, _mode=self.mode, _error=self.error)
+        return state
+
+
+_NO_PROBLEMS: dict[str, str] = {}  # the refused values of a state that has none (never changed)
+
+
+def _not_ours(state: Any, model: str | None) -> str:
+    """What a state that another model or build made (or no model) is, for the refusal."""
+    if isinstance(state, dict) and "_invalid" in state:
+        return f"not an FMU state ({state['_invalid']})"
+    if model is None:
+        return "not an FMU state of a tribofmu model"
+    return f"an FMU state of {model}"
 
 
 class FMUStateMixin:
     """The FMU-state calls of :class:`.base.TriboModel`."""
 
-    def _get_fmu_state(self) -> dict[str, Any]:
-        state = OwnState(self._parameter_values())
-        state.update({name: getattr(self, name) for name in self._variable_names()})  # immutable values
-        state.update({name: copy.copy(getattr(self, name)) for name in self.internal_state_names})
-        state["_bad"] = dict(self._bad)
-        state["_initialized"] = self._initialized
-        state["_parameter_token"] = self._parameter_token
-        state["_model"] = self._model_id
-        state["_mode"] = self._mode
-        state["_error"] = self._error
-        return state
+    def _get_fmu_state(self) -> OwnState:
+        names = self._variable_names()
+        internal_names = self.internal_state_names
+        return OwnState(self._parameter_values(), names, tuple([getattr(self, name) for name in names]),
+                        internal_names, tuple([copy.copy(getattr(self, name)) for name in internal_names]),
+                        dict(self._bad) if self._bad else _NO_PROBLEMS, self._initialized,
+                        self._parameter_token, self._model_id, self._mode, self._error)
 
     _BOOKKEEPING = ("_bad", "_initialized", "_parameter_token", "_model", "_mode", "_error")
 
-    def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        model = state.get("_model") if isinstance(state, dict) else None
+    def _set_fmu_state(self, state: Any) -> None:
+        own = type(state) is OwnState
+        model = state.model if own else (state.get("_model") if isinstance(state, dict) else None)
         if model != self._model_id:
-            if isinstance(state, dict) and "_invalid" in state:
-                what = f"not an FMU state ({state['_invalid']})"
-            elif model is None:
-                what = "not an FMU state of a tribofmu model"
-            else:
-                what = f"an FMU state of {model}"
-            self._refuse(f"Set{_STATE}", f"{what}, not of this model and build ({self._model_id}); "
-                                         f"not restored", enter_error=True)
+            self._refuse(f"Set{_STATE}", f"{_not_ours(state, model)}, not of this model and build "
+                                         f"({self._model_id}); not restored", enter_error=True)
             return
-        if type(state) is OwnState:
-            # taken by this model and build in this process (the _model check above): its keys
-            # and value types are right, and setting them cannot fail
-            self._apply_fmu_state(state)
+        if own:
+            # taken by this model and build in this process: its values are right, and
+            # setting them cannot fail
+            self._restore_own(state)
             return
         why = self._state_problem(state)
         if why is None:
@@ -81,12 +106,27 @@ class FMUStateMixin:
             except Exception as exc:  # a value the model cannot take: back to where it was
                 why = f"{type(exc).__name__}: {exc}"
                 try:
-                    self._apply_fmu_state(before, every_value=True)
+                    self._apply_fmu_state(before.as_dict(), every_value=True)
                 except Exception as again:  # cannot happen for a state just taken; say so if it does
                     why += f"; restoring the previous state failed too ({type(again).__name__}: {again})"
         if why is not None:
             self._refuse(f"Set{_STATE}", f"a damaged FMU state of this model ({why}); not restored",
                          enter_error=True)
+
+    def _restore_own(self, state: OwnState) -> None:
+        self._forget_outputs()
+        self._bad = dict(state.bad) if state.bad else {}
+        self._initialized, self._mode, self._error = state.initialized, state.mode, state.error
+        same_parameters = state.token == self._parameter_token
+        if not same_parameters:  # e.g. a state taken before a reset: its parameters first
+            for name, value in state.parameters.items():
+                setattr(self, name, value)
+        for name, value in zip(state.names, state.values):
+            setattr(self, name, value)
+        for name, value in zip(state.internal_names, state.internal):
+            setattr(self, name, value)
+        if not same_parameters:
+            self._new_parameters(state.token)
 
     def _state_problem(self, state: dict[str, Any]) -> str | None:
         """Why a state that names this model cannot be one this model made (keys, types)."""
@@ -123,6 +163,7 @@ class FMUStateMixin:
         return True
 
     def _apply_fmu_state(self, state: dict[str, Any], every_value: bool = False) -> None:
+        self._forget_outputs()
         token = state.get("_parameter_token")
         same_parameters = token == self._parameter_token and not every_value
         self._bad = dict(state["_bad"])
@@ -139,8 +180,9 @@ class FMUStateMixin:
 
     @parameter_cached
     def _parameter_values(self) -> dict[str, Any]:
-        """The parameters' values, taken once per parameter set: a state holds them all, but
-        they change only through their setters."""
+        """The parameters' values, taken once per parameter set and shared by every state taken
+        with it (never changed): a state holds them all, but they change only through their
+        setters."""
         return {name: getattr(self, name) for name in self._parameter_names}
 
     def _variable_names(self) -> list[str]:
@@ -155,7 +197,8 @@ class FMUStateMixin:
             names = [v.name for v in self.vars.values() if v.causality != Causality.output]
             names += [v.name for v in self.vars.values()
                       if v.causality == Causality.output and v.name not in self._getters]
-            self._scalar_state_names = names + ["time"]
+            # (FMI 3.0 declares time as a variable; FMI 2.0 keeps it beside them)
+            self._scalar_state_names = list(dict.fromkeys(names + ["time"]))
         return self._scalar_state_names
 
     internal_state_names: tuple[str, ...] = ()
@@ -166,7 +209,7 @@ class FMUStateMixin:
     @staticmethod
     def _fmu_state_to_bytes(state: Any) -> bytes:
         try:
-            return json.dumps(state).encode("utf-8")
+            return json.dumps(state.as_dict() if type(state) is OwnState else state).encode("utf-8")
         except Exception as exc:
             return json.dumps({"_invalid": f"{type(exc).__name__}: {exc}"}).encode("utf-8")
 

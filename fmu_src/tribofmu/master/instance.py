@@ -213,18 +213,20 @@ class FMUInstance:
         return fmi3LogMessageCallback(log)
 
     def _bind_hot_path(self):
-        """The calls a coupling step makes thousands of times, straight to the C functions.
+        """The calls a coupling step makes thousands of times: fmpy's public per-function
+        methods (``fmi2SetReal(component, vr, n, values)`` and the like, in every fmpy since
+        0.3.20), with the value-reference and value arrays built once per set of references.
 
-        The one place that reaches into fmpy's private ``FMU2Slave._functions`` (the ctypes
-        functions fmpy loaded). fmpy's public calls rebuild ctypes arrays and dispatch
-        through Python wrappers: measured by ``benchmarks/bench_slave_calls.py`` (set/get reals,
-        do step, get/set/free state on a BlockSpring), 2.6 us per call here against 3.4 us
-        for fmpy's public ``fmi2SetReal(component, ...)`` methods with the same arrays and
-        4.3 us for ``setReal``/``getReal``/``doStep``: a 1.3-1.6x saving, seconds on a
-        boundary-friction run of ~10 M calls. If fmpy renames the attribute, switch these
-        lookups to ``getattr(self._fmu, name)`` (the public methods, same signatures).
+        fmpy's convenience calls (``setReal``, ``getReal``, ``doStep``) build those arrays on
+        every call. Its private ``_functions`` (the bare ctypes functions) save the Python
+        wrapper around each call: 0.2-0.4 us of 3.0-3.5 us a call, under 1 % of a whole fig6
+        or fig2 call's CPU time (``benchmarks/bench_slave_calls.py``, its docstring has the
+        numbers and dates), too little for a private name that exists only from fmpy 0.3.26
+        on (this package asks for 0.3.20).
         """
-        functions = self._fmu._functions
+        from fmpy.fmi1 import FMICallException
+
+        self._call_failed = FMICallException  # what these methods raise on a status above Warning
         self._component = self._fmu.component
         self._buffers: dict[tuple[int, ...], tuple[Any, int, Any]] = {}
         if self.fmi_version == 3:
@@ -246,7 +248,7 @@ class FMUInstance:
             self._real, self._vr = fmi2Real, fmi2ValueReference
         # the operations under version-neutral names (set/get reals, do step, get/set/free state)
         self._names = dict(zip(("set", "get", "step", "save", "restore", "free"), names))
-        self._c = {key: functions[name] for key, name in self._names.items()}
+        self._c = {key: getattr(self._fmu, name) for key, name in self._names.items()}
 
     def _buffer(self, refs) -> tuple[Any, int, Any]:
         key = tuple(refs)
@@ -256,9 +258,10 @@ class FMUInstance:
             buf = self._buffers[key] = ((self._vr * n)(*key), n, (self._real * n)())
         return buf
 
-    def _check(self, function: str, status: int, mark: int) -> None:
-        if status > 1:
-            raise FMUCallError(self.instance, function, status, self.messages[mark:])
+    def _failed(self, key: str, exc, mark: int) -> FMUCallError:
+        """The error of a hot-path call fmpy raised on (status above Warning), with the
+        messages the FMU logged during the call."""
+        return FMUCallError(self.instance, self._names[key], exc.status, self.messages[mark:])
 
     def call(self, function: str, *args, **kwargs):
         """Call an fmpy FMU2Slave/FMU3Slave method; a bad status raises :class:`FMUCallError`."""
@@ -299,7 +302,10 @@ class FMUInstance:
         buf[:] = values
         args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)  # FMI 3: + nValues
         mark = len(self.messages)  # before the call: its messages explain a bad status
-        self._check(self._names["set"], self._c["set"](self._component, *args), mark)
+        try:
+            self._c["set"](self._component, *args)
+        except self._call_failed as exc:
+            raise self._failed("set", exc, mark) from None
 
     def get_reals(self, refs: list[int]) -> list[float]:
         """fmi2GetReal / fmi3GetFloat64."""
@@ -308,7 +314,10 @@ class FMUInstance:
         vr, n, buf = self._buffer(refs)
         args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)
         mark = len(self.messages)
-        self._check(self._names["get"], self._c["get"](self._component, *args), mark)
+        try:
+            self._c["get"](self._component, *args)
+        except self._call_failed as exc:
+            raise self._failed("get", exc, mark) from None
         return buf[:]
 
     def do_step(self, t: float, h: float) -> None:
@@ -318,11 +327,13 @@ class FMUInstance:
         self.calls += 1
         self.calls_by_kind["doStep"] += 1
         mark = len(self.messages)
-        if self.fmi_version == 3:
-            status = self._c["step"](self._component, t, h, False, *self._step_refs)
-        else:
-            status = self._c["step"](self._component, t, h, 1)
-        self._check(self._names["step"], status, mark)
+        try:
+            if self.fmi_version == 3:
+                self._c["step"](self._component, t, h, False, *self._step_refs)
+            else:
+                self._c["step"](self._component, t, h, 1)
+        except self._call_failed as exc:
+            raise self._failed("step", exc, mark) from None
 
     def save(self):
         state = self._state_type()
@@ -342,19 +353,28 @@ class FMUInstance:
         self.calls += 1
         self.calls_by_kind["save"] += 1
         mark = len(self.messages)
-        self._check(self._names["save"], self._c["save"](self._component, ctypes.byref(state)), mark)
+        try:
+            self._c["save"](self._component, ctypes.byref(state))
+        except self._call_failed as exc:
+            raise self._failed("save", exc, mark) from None
 
     def restore(self, state) -> None:
         self.calls += 1
         self.calls_by_kind["restore"] += 1
         mark = len(self.messages)
-        self._check(self._names["restore"], self._c["restore"](self._component, state), mark)
+        try:
+            self._c["restore"](self._component, state)
+        except self._call_failed as exc:
+            raise self._failed("restore", exc, mark) from None
 
     def free_state(self, state) -> None:
         self.calls += 1
         self.calls_by_kind["free"] += 1
         mark = len(self.messages)
-        self._check(self._names["free"], self._c["free"](self._component, ctypes.byref(state)), mark)
+        try:
+            self._c["free"](self._component, ctypes.byref(state))
+        except self._call_failed as exc:
+            raise self._failed("free", exc, mark) from None
 
     def close(self) -> None:
         """Terminate and free the instance (errors here lose nothing: ignore them). The

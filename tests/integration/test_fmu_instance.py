@@ -1,0 +1,55 @@
+"""The master's hot path (:class:`tribofmu.master.instance.FMUInstance`: set and get reals, do a
+step, restore a state) goes through fmpy's public per-function methods: a refused call still
+arrives as one :class:`FMUCallError` naming the instance, the FMI function, the status and the
+FMU's own messages, FMI 2.0 and 3.0.
+
+Integration tier: the FMUs are built from the working tree (``fmu_dir``, ``fmu3_dir``).
+"""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from tribofmu.master.instance import FMUCallError, FMUInstance
+
+pytestmark = pytest.mark.integration
+
+
+@pytest.fixture(params=[2, 3], ids=["fmi2", "fmi3"])
+def block(request, fmu_dir, fmu3_dir):
+    folder = fmu3_dir if request.param == 3 else fmu_dir
+    slave = FMUInstance(folder / "BlockSpring.fmu", instance="block", parameters={"M": 0.6})
+    yield slave
+    slave.close()
+
+
+def refused(call, *args) -> FMUCallError:
+    with pytest.raises(FMUCallError) as caught:
+        call(*args)
+    return caught.value
+
+
+def test_each_hot_path_call_that_is_refused_names_its_function_status_and_reason(block):
+    fmi = f"fmi{block.fmi_version}"
+    real = "Float64" if block.fmi_version == 3 else "Real"
+    r = block.refs
+    good = block.save()
+    unknown = max(r.values()) + 1000
+    error = refused(block.get_reals, [unknown])
+    assert (error.call, error.status) == (f"{fmi}Get{real}", 3)
+    assert any(f"unknown value reference {unknown}" in m for m in error.messages), error.messages
+
+    error = refused(block.do_step, 0.0, 0.0)
+    assert (error.call, error.status) == (f"{fmi}DoStep", 3)
+    assert any("communication step size" in m for m in error.messages), error.messages
+
+    error = refused(block.set_reals, [r["F"]], [math.nan])
+    assert (error.call, error.status) == (f"{fmi}Set{real}", 3)
+    assert any("F must be finite, got nan" in m for m in error.messages), error.messages
+
+    block.restore(good)  # a good state leaves the error state the refused set left
+    block.do_step(0.0, 1e-3)
+    block.free_state(good)
+    assert block.calls_by_kind == {**block.calls_by_kind, "get": 1, "set": 1, "doStep": 2, "save": 1,
+                                   "restore": 1, "free": 1}
