@@ -269,7 +269,7 @@ def _write_result_set(folder: Path, result: SimulationResult, scene_file: Path |
     from .columns import SIDECAR_NAME
     from .provenance import record
     from .scene.scenario import to_dict
-    from .studies.metrics import result_metrics
+    from .metrics import result_metrics
 
     stats = dict(result.stats)
     completed = stats.get("completed", result.ok)  # ran to the end (a run may complete short of a target)

@@ -2,8 +2,8 @@
 
 The master (:mod:`tribofmu.api` builds the coupled system from it), the SSP export
 (:mod:`tribofmu.scene.ssp`), the scenario's validation and the README's wiring list all read
-what is declared here, and the build builds every FMU it declares (:func:`fmu_names`). To add
-an FMU to scenes, declare it once in :data:`FMUS` (file, instance name, start values from the
+what is declared here; each FMU is one the build builds (:mod:`tribofmu.fmu.registry`, where an
+FMU's adapter is registered). To add an FMU to scenes, declare it in :data:`FMUS` (file, instance name, start values from the
 scenario, recorded outputs, constant inputs, which FMUs it needs) and its connections in
 :data:`CONNECTIONS`; a constant input that a connection feeds in a scene is left to the
 connection (e.g. a Load FMU's ``n`` replaces the constant ``n``).
@@ -36,6 +36,7 @@ from dataclasses import dataclass, fields
 from typing import Callable
 
 from ..fmu.effect_parameters import EFFECT_PARAMETERS
+from ..fmu.registry import fmu_names
 from ..physics.friction import Effects, LubricantConstants
 from ..physics.laws import law_class, law_parameters
 from ..physics.load import PROGRAMS
@@ -65,6 +66,11 @@ class FMU:
     constant_inputs: Callable[["Scenario"], dict[str, float]] = lambda scenario: {}
     needs: tuple[str, ...] = ()
     required: bool = False
+
+    def __post_init__(self):
+        if self.name not in fmu_names():  # a scene could list it, but no FMU file would exist
+            raise ValueError(f"FMU {self.name!r} is not one the build builds "
+                             f"(tribofmu.fmu.registry.FMU_NAMES: {', '.join(fmu_names())})")
 
     @property
     def file(self) -> str:
@@ -175,12 +181,6 @@ PAIR_CONNECTIONS: tuple[Connection, ...] = (
     Connection("Drive", "a", "TriboPair", "a_drive"),
     *(_to_the_pair(c) for c in CONNECTIONS if not (c.start in PAIRED and c.end in PAIRED)),
 )
-
-
-def fmu_names() -> tuple[str, ...]:
-    """Every FMU tribofmu builds (``tribofmu build``, the FMU cache): the scene FMUs of
-    :data:`FMUS`, then the pair; read when called, so a new entry in :data:`FMUS` is built too."""
-    return tuple(fmu.name for fmu in (*FMUS, PAIR))
 
 
 def scene_problems(names: tuple[str, ...] | list[str]) -> list[str]:
