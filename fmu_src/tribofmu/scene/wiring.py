@@ -32,14 +32,17 @@ replaces.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Callable
 
-from ..fmu.effect_parameters import EFFECT_PARAMETERS
 from ..fmu.registry import fmu_names
-from ..physics.friction import Effects, LubricantConstants
-from ..physics.laws import law_class, law_parameters
-from ..physics.load import PROGRAMS
+from ..physics.block import BlockParams
+from ..physics.drive import DriveParams
+from ..physics.friction import START_F, Conditions, Effects, FrictionLaw, LubricantConstants
+from ..physics.laws import law_class, law_fields
+from ..physics.load import PROGRAMS, LoadProgram
+from ..physics.parameters import declared
+from ..physics.thermal import START_T, ThermalParams
 
 # "Scenario" in annotations is :class:`tribofmu.scene.scenario.Scenario`, not imported: the
 # scenario module validates scenes with this one, which must not import it back.
@@ -100,27 +103,28 @@ class Instance:
     constant_inputs: dict[str, float]
 
 
+def _declared(obj, parameters) -> dict[str, Value]:
+    """The values of declared parameters on a scene table, by FMU variable name, typed as the
+    declarations (Real, Integer, Boolean)."""
+    return {p.fmu_variable: type(p.default)(getattr(obj, p.name)) for p in parameters}
+
+
 def _drive(sc: "Scenario") -> dict[str, Value]:
-    return {"A": float(sc.drive.A), "omega": float(sc.drive.omega)}
+    return _declared(sc.drive, declared(DriveParams))
 
 
 def _block(sc: "Scenario") -> dict[str, Value]:
-    b = sc.block
-    return {"M": float(b.M), "K": float(b.K), "x0": float(b.x0), "v0": float(b.v0)}
+    return _declared(sc.block, declared(BlockParams))
 
 
 def _friction(sc: "Scenario") -> dict[str, Value]:
-    fr = sc.friction
-    values: dict[str, Value] = {"regime": int(law_class(fr.regime).code)}
-    values.update({key: float(getattr(fr, key)) for key in ("mu_friction", "S", "m", "gamma", "f0",
-                                                            *law_parameters())})
-    values.update({f.name: float(getattr(fr.lubricant, f.name)) for f in fields(LubricantConstants)})
-    values.update({EFFECT_PARAMETERS[f.name][0]: bool(getattr(fr.effects, f.name)) for f in fields(Effects)})
-    return values
+    fr, shared = sc.friction, declared(FrictionLaw)  # every law's, f0, then those a law adds
+    return {"regime": int(law_class(fr.regime).code), **_declared(fr, (*shared, START_F, *law_fields()[len(shared):])),
+            **_declared(fr.lubricant, declared(LubricantConstants)), **_declared(fr.effects, declared(Effects))}
 
 
 def _conditions(sc: "Scenario") -> dict[str, float]:
-    return {"n": float(sc.conditions.n), "T": float(sc.conditions.T)}
+    return _declared(sc.conditions, declared(Conditions))
 
 
 def _pair(sc: "Scenario") -> dict[str, Value]:
@@ -131,16 +135,13 @@ def _pair(sc: "Scenario") -> dict[str, Value]:
 
 
 def _thermal(sc: "Scenario") -> dict[str, Value]:
-    th = sc.thermal
-    return {"C": float(th.C), "q": float(th.q), "G": float(th.G), "T_ambient": float(th.T_ambient),
-            "T0": float(sc.conditions.T)}  # the film starts at the scene's T
+    # the film starts at the scene's T
+    return {**_declared(sc.thermal, declared(ThermalParams)), START_T.name: float(sc.conditions.T)}
 
 
 def _load(sc: "Scenario") -> dict[str, Value]:
     ld = sc.load_program
-    return {"program": int(PROGRAMS[ld.program]), "n0": float(ld.n0), "n1": float(ld.n1),
-            "t_start": float(ld.t_start), "t_end": float(ld.t_end), "amplitude": float(ld.amplitude),
-            "period": float(ld.period), "phase": float(ld.phase)}
+    return {"program": int(PROGRAMS[ld.program]), **_declared(ld, declared(LoadProgram)[1:])}
 
 
 # Declaration order is the order of instantiation and of the SSP components.
