@@ -13,6 +13,7 @@ from dataclasses import dataclass, field, fields, make_dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from ..coupling.algorithms import ALGORITHMS
 from ..errors import ScenarioError
 from ..physics.block import BlockParams
 from ..physics.drive import DriveParams
@@ -366,7 +367,6 @@ def enum_choices(key: str) -> list[str]:
     if key == "load.program":
         return list(PROGRAMS)
     if key == "simulation.algorithm":
-        from ..coupling.algorithms import ALGORITHMS
         return list(ALGORITHMS)
     return []
 

@@ -35,6 +35,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+from ..coupling.interpolation import NS
+from ..errors import ScenarioError
 from ..fmu.registry import fmu_names
 from ..physics.block import BlockParams
 from ..physics.drive import DriveParams
@@ -210,7 +212,6 @@ def _fmus(scenario: "Scenario", pair: bool) -> list[FMU]:
         return [fmu for fmu in FMUS if fmu.name in scenario.fmus]
     problems = pair_problems(scenario)
     if problems:
-        from ..errors import ScenarioError
         raise ScenarioError(problems[0])
     listed = [fmu for fmu in FMUS if fmu.name in scenario.fmus and fmu.name not in PAIRED]
     at = next(i for i, fmu in enumerate(listed) if fmu.name == "Drive") + 1
@@ -247,9 +248,9 @@ def constant_inputs(scenario: "Scenario") -> dict[str, float]:
 def input_signals(points, grid) -> dict:
     """The friction's inputs T [K], n [Pa] and the heat the Thermal FMU received Q [J], on
     the time grid [s], interpolated linearly between communication points."""
+    # numpy here, not at the top: the scene is read by commands that never interpolate, and
+    # numpy costs 0.27 s of start-up (python -X importtime, 2026-11-26 23:25 UTC, load 12)
     import numpy as np
-
-    from ..coupling.interpolation import NS
 
     t = np.array([p.t_ns for p in points], dtype=np.int64) / NS
     return {name: np.interp(grid, t, np.array([getattr(p, name) for p in points]))
