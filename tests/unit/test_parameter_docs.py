@@ -25,9 +25,21 @@ def test_every_declared_group_has_its_table_once():
 
 def test_a_table_row_says_what_the_declaration_says():
     row = next(line for line in parameter_docs.table("friction").splitlines() if "`friction.gamma`" in line)
-    assert row == ("| `γ` | `friction.gamma` | `gamma` | 1 | 0 | > -1 | "
+    assert row == ("| `γ` | `friction.gamma` | `gamma` | 1 | 0 | > -1 (force must vanish at rest) | "
                    "power-law exponent: < 0 pseudoplastic, 0 Newtonian, > 0 dilatant |")
     q = next(p for p in declared(ThermalParams) if p.name == "q")
     assert f"| {q.check.text} | {q.description} |" in parameter_docs.table("thermal")
     assert parameter_docs.number(2e11) == "2·10¹¹" and parameter_docs.number(1e-9) == "10⁻⁹"
     assert parameter_docs.unit("J/(K.m3)") == "J/(K m³)"
+
+
+def test_the_tables_name_every_physics_key_a_scene_and_set_accept():
+    """--set and a scene file accept exactly the keys of the tables (besides friction.regime
+    and the scene's own tables: scenario, time, simulation)."""
+    from tribofmu.scene.scenario import Scenario, to_dict
+
+    tables = to_dict(Scenario("x"))
+    accepted = {f"{table}.{key}" for table, keys in tables.items() if table not in ("scenario", "time", "simulation")
+                for key in keys} - {"friction.regime"}
+    documented = {f"{table}.{p.name}" for table, parameters in parameter_docs.groups().values() for p in parameters}
+    assert accepted == documented

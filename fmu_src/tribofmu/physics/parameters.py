@@ -39,12 +39,17 @@ class Range:
             return f"in [{self.low:g}, {self.high:g}]"
         return f"{'>' if self.strict else '>='} {self.low:g}" + (f" {self.unit}" if self.unit else "")
 
+    @property
+    def described(self) -> str:
+        """:attr:`text` and why: ``> -1 (force must vanish at rest)``."""
+        return f"{self.text} ({self.why})" if self.why else self.text
+
     def __call__(self, value: float) -> str | None:
         """None in range, else ``must be ..., got value`` (the FMU check's form)."""
         low_ok = value > self.low if self.strict else value >= self.low
         if low_ok and (self.high is None or value <= self.high):
             return None
-        return f"must be {self.text}{f' ({self.why})' if self.why else ''}, got {value}"
+        return f"must be {self.described}, got {value}"
 
 
 @dataclass(frozen=True)
@@ -58,6 +63,10 @@ class OneOf:
         """``0 (constant), 1 (ramp) or 2 (step)``."""
         codes = [f"{code} ({name})" for code, name in self.names.items()]
         return f"{', '.join(codes[:-1])} or {codes[-1]}"
+
+    @property
+    def described(self) -> str:
+        return self.text
 
     def __call__(self, value: int) -> str | None:
         return None if value in self.names else f"must be {self.text}, got {value}"

@@ -62,7 +62,7 @@ def table(name: str) -> str:
             "|---|---|---|---|---|---|---|"]
     for p in parameters:
         meaning = p.description + (f"; {p.note}" if p.note else "")
-        allowed = p.check.text if p.check else "finite"
+        allowed = p.check.described if p.check else "finite"
         cells = [f"`{p.symbol or p.name}`", f"`{scene_table}.{p.name}`", f"`{p.fmu_variable}`", unit(p.unit),
                  number(p.default), allowed, meaning]
         rows.append("| " + " | ".join(cell.replace("|", "\\|") for cell in cells) + " |")
