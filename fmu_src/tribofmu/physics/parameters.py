@@ -41,7 +41,7 @@ class Range:
 
     @property
     def described(self) -> str:
-        """:attr:`text` and why: ``> -1 (force must vanish at rest)``."""
+        """:attr:`text` and why: ``> 0 (why)``."""
         return f"{self.text} ({self.why})" if self.why else self.text
 
     def __call__(self, value: float) -> str | None:
