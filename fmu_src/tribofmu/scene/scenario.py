@@ -70,7 +70,8 @@ class ThermalTable(ThermalParams):
 
 def _program(self) -> LoadProgram:
     """The program of the Load FMU (its code for the name)."""
-    return LoadProgram(program=PROGRAMS[self.program], **{p.name: getattr(self, p.name) for p in declared(LoadProgram)[1:]})
+    return LoadProgram(program=PROGRAMS[self.program],
+                       **{p.name: getattr(self, p.name) for p in declared(LoadProgram)[1:]})
 
 
 # [load]: the Load FMU's normal-stress program n(t), named (constant | ramp | step | sine) where

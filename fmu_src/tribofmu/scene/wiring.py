@@ -2,11 +2,11 @@
 
 The master (:mod:`tribofmu.api` builds the coupled system from it), the SSP export
 (:mod:`tribofmu.scene.ssp`), the scenario's validation and the README's wiring list all read
-what is declared here; each FMU is one the build builds (:mod:`tribofmu.fmu.registry`, where an
-FMU's adapter is registered). To add an FMU to scenes, declare it in :data:`FMUS` (file, instance name, start values from the
-scenario, recorded outputs, constant inputs, which FMUs it needs) and its connections in
-:data:`CONNECTIONS`; a constant input that a connection feeds in a scene is left to the
-connection (e.g. a Load FMU's ``n`` replaces the constant ``n``).
+what is declared here; each FMU is one the build builds (:mod:`tribofmu.fmu.registry`, where
+an FMU's adapter is registered). To add an FMU to scenes, declare it in :data:`FMUS` (file,
+instance name, start values from the scenario, recorded outputs, constant inputs, which FMUs it
+needs) and its connections in :data:`CONNECTIONS`; a constant input that a connection feeds in
+a scene is left to the connection (e.g. a Load FMU's ``n`` replaces the constant ``n``).
 
 Today's system (SSP connections cannot subtract, so BlockSpring forms ``dv = V - v`` itself)::
 

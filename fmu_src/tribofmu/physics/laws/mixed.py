@@ -58,10 +58,8 @@ def lower_gamma_regularized(a: float, x: float) -> float:
 
 @dataclass(frozen=True)
 class MixedLaw(FrictionLaw):
-    """mu_friction the kinetic (Coulomb) coefficient mu_c, mu_static the static one mu_s,
-    v_stribeck the velocity v_s over which the coefficient falls from mu_s to mu_c,
-    stribeck_exponent delta, m the viscous coefficient (the fluid law's m at gamma = 0), S the
-    contact area (units and ranges: their declarations)."""
+    """The Stribeck curve above: mu_c is mu_friction, m the fluid law's m at gamma = 0, S the
+    contact area; what the law adds is declared below."""
 
     name, code, label = "mixed", 3, "mixed friction"
     keys = frozenset({"mu_friction", "m", "S"})  # and its own parameters, below
