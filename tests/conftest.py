@@ -18,7 +18,7 @@ import pytest
 
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory) -> Path:
-    """Every FMU (:func:`tribofmu.scene.wiring.fmu_names`) built from the working tree into a
+    """Every FMU (:func:`tribofmu.fmu.registry.fmu_names`) built from the working tree into a
     fresh temporary directory, once per session: a test uses these instead of building again,
     unless the build or the cache is what it tests."""
     from tribofmu.build import build_fmus

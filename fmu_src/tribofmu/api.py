@@ -35,6 +35,7 @@ from .coupling.interpolation import INPUT_SIGNALS, NS, SAMPLES_PER_PERIOD, SIGNA
 from .coupling.system import CoupledSystem
 from .master import FMUCallError, FMUFileError, FMUInstance, GridRecorder, RunLimits, run
 from .master.energy import EnergyAudit
+from .metrics import result_metrics
 from .scene.checks import check_max_wall, check_run, shown
 from .scene.library import resolve_scene
 from .scene.scenario import Scenario, ScenarioError, load_scenario, scales, to_dict
@@ -367,7 +368,6 @@ def _write_result_set(folder: Path, result: SimulationResult, scene_file: Path |
                       requested: dict[str, Any], plots: bool, command: list[str] | None) -> None:
     """stats.json (and the plots) of a result set whose result.csv and columns.json are in
     ``folder``; a failed run's set is its stats.json alone."""
-    from .studies.metrics import result_metrics  # studies import this module (issue 37's arrow)
 
     stats = dict(result.stats)
     completed = stats.get("completed", result.ok)  # ran to the end (a run may complete short of a target)

@@ -32,7 +32,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from . import __version__
-from .scene.wiring import fmu_names
+from .fmu.registry import fmu_names
 
 PACKAGE = Path(__file__).resolve().parent
 MODELS = PACKAGE / "fmu" / "models"
@@ -187,7 +187,7 @@ def _stage_model(root: Path, name: str, private: str, fmi: int = 2) -> Path:
 def build_fmus(out_dir: str | Path | None = None, names: tuple[str, ...] | None = None,
                fmi: int = 2) -> list[Path]:
     """Build ``out_dir/<Name>.fmu`` (default: :func:`default_fmu_dir`) for each name (default:
-    every FMU of :func:`tribofmu.scene.wiring.fmu_names`) as FMI 2.0 or (fmi=3) FMI 3.0
+    every FMU of :func:`tribofmu.fmu.registry.fmu_names`) as FMI 2.0 or (fmi=3) FMI 3.0
     co-simulation FMUs; returns their paths.
 
     Each file appears whole or not at all (built aside, then renamed into place).

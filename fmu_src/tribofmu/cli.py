@@ -131,7 +131,7 @@ def _parser() -> argparse.ArgumentParser:
         return sub.add_parser(name, help=summary, description=description or summary[0].upper() + summary[1:] + ".",
                               epilog=_examples(name), formatter_class=plain)
 
-    from .scene.wiring import fmu_names
+    from .fmu.registry import fmu_names
     p = command("build", f"build the FMUs ({', '.join(fmu_names())})")
     p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: the per-user FMU cache)")
     p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
@@ -271,7 +271,7 @@ def _add_algorithm(p) -> None:
 def cmd_build(args) -> int:
     from .build import build_fmus
     from .fmu_cache import BUILD_BYTES, find_fmus
-    from .scene.wiring import fmu_names
+    from .fmu.registry import fmu_names
     if args.out is None:  # the cache: rebuilt, with the hashes it checks recorded
         folder = find_fmus(fmu_names(), None, fmi=args.fmi, build=True)
         paths = [folder / f"{name}.fmu" for name in fmu_names()]

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping
 
+import numpy as np
+
 CSV_NAME = "result.csv"
 SIDECAR_NAME = "columns.json"
 
@@ -40,7 +42,6 @@ def _dv(s, sc):
 
 
 def _a(s, sc):
-    import numpy as np
     # slipping: the block's equation of motion, M a = F - 2 K x (what BlockSpring integrates);
     # stuck to the drive: the drive's acceleration, -w^2 X (X = A cos wt)
     free = (s["F"] - 2.0 * sc.block.K * s["x"]) / sc.block.M
@@ -78,7 +79,6 @@ def header(columns) -> str:
 
 def rows(signals: Mapping, scenario, columns=None):
     """A 2-D array (samples x columns) of a chunk of signals (``time`` included)."""
-    import numpy as np
     columns = columns or columns_for(scenario)
     return np.column_stack([np.asarray(c.values(signals, scenario), dtype=float) for c in columns])
 
@@ -100,7 +100,6 @@ def result_signals(result) -> dict:
 
 def read_result_csv(path: Path) -> dict:
     """``result.csv`` back as ``{column name: array}``."""
-    import numpy as np
     path = Path(path)
     with path.open(encoding="utf-8") as fh:
         names = fh.readline().strip().split(",")

@@ -27,7 +27,7 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
 from tribofmu.master.instance import extract as extract_once
-from tribofmu.scene.wiring import fmu_names
+from tribofmu.fmu.registry import fmu_names
 
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 FMU_NAMES = fmu_names()

@@ -254,7 +254,7 @@ def test_built_fmus_never_import_the_name_tribofmu(fmu_dir):
 
 # -- stick is what the coupling held, not a threshold on |V - v| (creeping slip is no stick) ------
 def test_stick_fraction_comes_from_the_coupling_state(fmu_dir):
-    from tribofmu.studies import metrics
+    from tribofmu import metrics
     result = api.simulate(SCENES / "fig4_dry_w130.toml", fmu_dir=fmu_dir, build=False)
     m = result.window_mask()
     got = metrics.result_metrics(result)
@@ -265,7 +265,7 @@ def test_stick_fraction_comes_from_the_coupling_state(fmu_dir):
 
 
 def test_boundary_friction_is_never_stuck_and_says_so_through_melting(fmu_dir):
-    from tribofmu.studies import metrics
+    from tribofmu import metrics
     result = api.simulate(SCENES / "fig6_boundary.toml", {"time.periods": 1.5, "time.window": [0.5, 1.5],
                                                           "drive.omega": 35.0},
                           algorithm="implicit", step=2e-4, fmu_dir=fmu_dir, build=False)

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tribofmu.studies import metrics as M
+from tribofmu import metrics as M
 
 from cli_run import main, tribofmu
 from scenes import FIG2, NEWTONIAN
@@ -135,7 +135,7 @@ def stamp(row):
 
 @pytest.mark.integration
 def test_small_sweep_on_two_dask_workers_writes_rows_portraits_pictures(tmp_path, fmu_dir, cluster):
-    from tribofmu.studies.metrics import METRICS
+    from tribofmu.metrics import METRICS
     from tribofmu.studies.sweep import sweep
     out = tmp_path / "s"
     rows = sweep(FIG2, {"drive.omega": [30, 80, 130]}, out, scheduler=cluster.scheduler_address,

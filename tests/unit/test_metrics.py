@@ -1,4 +1,4 @@
-"""The sweep metrics (tribofmu.studies.metrics) against synthetic signals with known answers."""
+"""The sweep metrics (tribofmu.metrics) against synthetic signals with known answers."""
 from __future__ import annotations
 
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from tribofmu.studies import metrics as M
+from tribofmu import metrics as M
 
 
 # -- metrics on synthetic signals ---------------------------------------------------------
@@ -173,7 +173,7 @@ def test_a_law_that_cannot_stick_reports_no_stick_whatever_the_mask():
 
 
 def test_stuck_mask_episodes_at_a_point_no_scene_uses():
-    from tribofmu.studies import metrics
+    from tribofmu import metrics
     T = 0.37
     t = np.linspace(0, 3 * T, 3001)
     phase = (t / T) % 1.0

@@ -13,7 +13,7 @@ def test_counts_are_points_and_portraits_name_their_units(tmp_path, monkeypatch)
     import matplotlib.pyplot as plt
 
     from tribofmu import api
-    from tribofmu.studies.metrics import METRICS
+    from tribofmu.metrics import METRICS
     from tribofmu.studies.sweep import plots
     from tribofmu.studies.sweep.worker import STATUS_OK
 

@@ -90,7 +90,7 @@ def test_sine_extremes_match_dense_sampling(t0, t1):
 
 
 @pytest.mark.parametrize("kwargs, text", [
-    (dict(program=9), "program must be one of"),
+    (dict(program=9), "program must be 0 (constant), 1 (ramp), 2 (step) or 3 (sine), got 9"),
     (dict(program=PROGRAMS["ramp"], t_start=1.0, t_end=1.0), "t_end must be > t_start"),
     (dict(program=PROGRAMS["sine"], period=0.0), "period must be > 0"),
     (dict(n1=math.inf), "n1 must be finite"),

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import pytest
 
+from tribofmu.fmu import registry
 from tribofmu.scene import wiring
 from tribofmu.scene.scenario import ScenarioError, load_scenario
 from tribofmu.scene.ssp import parameter_values, system_structure
@@ -58,7 +59,9 @@ def test_a_new_fmu_is_added_in_one_place(monkeypatch):
     """An FMU no scene has (a hydraulic press whose n feeds Friction.n), declared only in
     wiring.FMUS and wiring.CONNECTIONS: the scene validates, instantiates and connects it,
     stops holding n constant, the SSP export declares it, and the build and the CLI's
-    ``build`` command list it."""
+    ``build`` command list it (its adapter registered in tribofmu.fmu.registry, the FMU side)."""
+    names = registry.FMU_NAMES
+    monkeypatch.setattr(registry, "FMU_NAMES", names[:-1] + ("Press",) + names[-1:])
     press = wiring.FMU("Press", "press", lambda sc: {"n0": float(sc.conditions.n)}, outputs=("n",),
                        needs=("Friction",))
     monkeypatch.setattr(wiring, "FMUS", wiring.FMUS + (press,))
@@ -79,9 +82,18 @@ def test_a_new_fmu_is_added_in_one_place(monkeypatch):
     # without the new FMU the archive is unchanged
     assert system_structure(base) == system_structure(dataclasses.replace(sc, fmus=base.fmus))
     # what gets built, and the CLI's help, follow the same declaration
-    assert wiring.fmu_names()[-2:] == ("Press", "TriboPair")
+    from tribofmu import build
+    assert build.fmu_names()[-2:] == ("Press", "TriboPair")
     from tribofmu import cli
     assert "Thermal, Load, Press, TriboPair)" in " ".join(cli._parser().format_help().split())
+
+
+def test_the_wiring_names_only_fmus_the_build_builds(monkeypatch):
+    """Every FMU a scene can list is one tribofmu builds; an entry naming another is refused
+    where it is declared."""
+    assert {fmu.name for fmu in (*wiring.FMUS, wiring.PAIR)} == set(registry.fmu_names())
+    with pytest.raises(ValueError, match="'Gearbox' is not one the build builds"):
+        wiring.FMU("Gearbox", "gearbox", lambda sc: {}, outputs=())
 
 
 def test_the_readme_lists_the_wiring():

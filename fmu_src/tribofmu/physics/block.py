@@ -1,11 +1,13 @@
 """The lower block between two springs, eq. (3): ``M x'' + 2 K x = F``. Pure physics.
 
-x [m], v [m/s], a [m/s^2]; M [kg]; K [N/m] per spring; F [N].
+x [m], v [m/s], a [m/s^2]; F [N]; M, K (per spring) and the start: :class:`BlockParams`.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+from .parameters import above, at_least, parameter, problems_of
 
 
 @dataclass(frozen=True)
@@ -14,13 +16,18 @@ class BlockState:
     v: float = 0.0  # m/s
 
 
-def block_problems(M: float, K: float) -> list[str]:
-    out = []
-    if not (math.isfinite(M) and M > 0):
-        out.append(f"M must be > 0, got {M}")
-    if not (math.isfinite(K) and K >= 0):
-        out.append(f"K must be >= 0, got {K}")
-    return out
+@dataclass(frozen=True)
+class BlockParams:
+    """The lower block between its springs: the parameters of eq. (3) and its start."""
+
+    M: float = parameter(0.6, "kg", "mass of the lower block", above(0), symbol="M")
+    K: float = parameter(7000.0, "N/m", "stiffness of each of the two springs", at_least(0), symbol="K")
+    x0: float = parameter(0.0, "m", "position at the start", symbol="x0")
+    v0: float = parameter(0.0, "m/s", "velocity at the start", symbol="v0")
+
+    def problems(self) -> list[str]:
+        """Every parameter that is not finite or out of range, as ``name must be ..., got value``."""
+        return problems_of(self)
 
 
 def advance_block(state: BlockState, F: float, F_rate: float, h: float,

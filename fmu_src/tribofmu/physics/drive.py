@@ -2,15 +2,26 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+
+from .parameters import above, parameter, problems_of
 
 
-def drive_problems(A: float, omega: float) -> list[str]:
-    out = []
-    if not math.isfinite(A):
-        out.append(f"A must be finite, got {A}")
-    if not (math.isfinite(omega) and omega > 0):
-        out.append(f"omega must be > 0, got {omega}")
-    return out
+@dataclass(frozen=True)
+class DriveParams:
+    """The harmonic drive of eqs. (1)-(2)."""
+
+    A: float = parameter(2e-3, "m", "drive amplitude", symbol="A")
+    omega: float = parameter(30.0, "rad/s", "drive angular frequency", above(0), symbol="ω")
+
+    @property
+    def period(self) -> float:
+        """Drive period T = 2 pi / omega [s]."""
+        return 2.0 * math.pi / self.omega
+
+    def problems(self) -> list[str]:
+        """Every parameter that is not finite or out of range, as ``name must be ..., got value``."""
+        return problems_of(self)
 
 
 def drive(t: float, A: float, omega: float) -> tuple[float, float, float]:

@@ -12,8 +12,10 @@ Equation numbers refer to the seed paper (see docs/model.md).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import ClassVar
+
+from .parameters import Parameter, above, at_least, parameter, problems_of
 
 
 def sign(x: float) -> float:
@@ -24,42 +26,70 @@ def sign(x: float) -> float:
 
 @dataclass(frozen=True)
 class LubricantConstants:
-    """Landau boundary-lubricant constants (paper ref. [19]); SI units."""
+    """Landau boundary-lubricant constants (paper ref. [19]); SI units. Eq. numbers: the seed paper's."""
 
-    phi0_star: float = 5.0  # J/m^3
-    lam: float = 2e11  # Pa, lambda
-    lam_bar: float = 1e8  # Pa, lambda-bar
-    mu_shear: float = 4.1e11  # Pa, shear modulus mu (not the friction coefficient)
-    mu_shear_bar: float = 4e11  # Pa, mu-bar
-    phi1: float = 1100.0  # J/m^3
-    phi2: float = 2700.0  # J/m^3
-    phi3: float = 2070.0  # J/m^3
-    alpha: float = 0.45  # J/(K m^3)
-    h: float = 1e-9  # m, lubricant thickness
-    tau_f: float = 0.01  # Pa s, relaxation time of f
-    tau_e: float = 1e-8  # s, Maxwell time
+    phi0_star: float = parameter(
+        5.0, "J/m3", "phi0*: constant part of phi0, eq. (15)", symbol="φ0*",
+        note="the paper prints a second `Φ0* = 5`; `Φ0* = 20 J/m³` enters only the free energy, not the dynamics")
+    lam: float = parameter(2e11, "Pa", "lambda: bulk elastic modulus of the solid-like lubricant, eq. (20)",
+                           above(0), symbol="λ")
+    lam_bar: float = parameter(1e8, "Pa", "lambda-bar: melting decrement of lambda, eq. (20)", at_least(0),
+                               symbol="λ̄")
+    # mu: the shear modulus, not the friction coefficient
+    mu_shear: float = parameter(
+        4.1e11, "Pa", "mu: shear modulus of the solid-like lubricant, eq. (19)", above(0), symbol="μ",
+        note="called `mu_shear` in code: the paper also uses `μ` for the dry friction coefficient")
+    mu_shear_bar: float = parameter(4e11, "Pa", "mu-bar: melting decrement of the shear modulus, eq. (19)",
+                                    at_least(0), symbol="μ̄")
+    phi1: float = parameter(1100.0, "J/m3", "phi1: Landau expansion coefficient, eq. (13)", symbol="φ1")
+    phi2: float = parameter(2700.0, "J/m3", "phi2: Landau expansion coefficient, eq. (13)", symbol="φ2")
+    phi3: float = parameter(2070.0, "J/m3", "phi3: Landau expansion coefficient, eq. (13)", above(0),
+                            symbol="φ3")
+    alpha: float = parameter(0.45, "J/(K.m3)", "alpha: temperature coefficient of phi0, eq. (15)", symbol="α")
+    h: float = parameter(1e-9, "m", "lubricant layer thickness, eq. (22)", above(0), symbol="h")
+    tau_f: float = parameter(0.01, "Pa.s", "relaxation time of the excess volume, eq. (21)", above(0),
+                             symbol="τ_f", note="relaxation time of `f` (as a viscosity)")
+    tau_e: float = parameter(1e-8, "s", "Maxwell time of internal stress relaxation, eq. (22)", above(0),
+                             symbol="τ_ε")
 
 
 @dataclass(frozen=True)
 class Effects:
-    """Which terms of the boundary model are simulated (all on = the paper's model)."""
+    """Which terms of the boundary model are simulated (all on = the paper's model); each a
+    Boolean parameter of the FMUs, named as ``fmu_name`` says."""
 
-    melting: bool = True  # f evolves by eq. (21); off: f stays at its start value
-    pressure: bool = True  # the normal-stress terms (e_ii in eq. 15, last term of eq. 21)
-    temperature: bool = True  # alpha T in eq. (15)
-    viscous: bool = True  # m sgn(dv)|dv|^(gamma+1) in eq. (23)
-    elastic: bool = True  # tau S in eq. (23)
+    melting: bool = parameter(True, "1", "boundary: f evolves by eq. (21) (false: f stays at f0)",
+                              fmu_name="melting")
+    pressure: bool = parameter(True, "1", "boundary: normal-stress terms of eqs. (15), (21)",
+                               fmu_name="pressure_term")
+    temperature: bool = parameter(True, "1", "boundary: alpha T in eq. (15)", fmu_name="temperature_term")
+    viscous: bool = parameter(True, "1", "boundary: viscous force m sgn(dv)|dv|^(gamma+1) in eq. (23)",
+                              fmu_name="viscous_term")
+    elastic: bool = parameter(True, "1", "boundary: elastic force tau S in eq. (23)", fmu_name="elastic_term")
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """The friction's inputs besides dv, which a scene holds constant unless an FMU feeds them."""
+
+    n: float = parameter(-20.0, "Pa", "normal stress on the contact (negative in compression)", symbol="n",
+                         note="dry and mixed friction need n <= 0 (their input_problems)")
+    T: float = parameter(290.0, "K", "lubricant temperature", symbol="T",
+                         note="boundary friction needs T >= 0 K (its input_problems)")
+
+
+# The lubricant's excess volume at the start (the state of a law with has_state).
+START_F = Parameter("f0", 0.0, "1", "boundary: excess volume at the start", symbol="f0")
 
 
 @dataclass(frozen=True)
 class FrictionLaw:
     """One friction pair's law and its parameters; a subclass per law (:mod:`.laws`).
 
-    The parameters every law carries (each law reads those in its ``keys``):
-    mu_friction [1] friction coefficient (dry; the kinetic one of mixed friction); S [m^2]
-    contact area (load ``L = -n S``); m and gamma [1] the power-law fluid
-    ``m sgn(dv)|dv|^(gamma+1)``, eq. (11)-(12), m in N (s/m)^(gamma+1); the lubricant's
-    constants and the boundary model's switches. A law adds its own fields.
+    The parameters every law carries (each law reads those in its ``keys``) are declared
+    below (:func:`~tribofmu.physics.parameters.parameter`: unit, range, description), with
+    the lubricant's constants and the boundary model's switches. A law adds its own fields,
+    declared the same way; the keys it reads include them.
     """
 
     # -- what the law is (class attributes of each law) ----------------------------------
@@ -73,44 +103,25 @@ class FrictionLaw:
     # How a figure states the load: "L" [N], "n" [Pa], or None: the law does not read n.
     load_shown_as: ClassVar[str | None] = None
     reads_temperature: ClassVar[bool] = False  # the force or state depends on T
-    # Extra FMU parameters of this law: name -> (unit, description, check); defaults are the
-    # law's own field defaults. Shared ones (mu_friction, S, m, gamma, ...) are declared once.
-    fmu_parameters: ClassVar[dict] = {}
 
-    mu_friction: float = 0.5
-    S: float = 1.0
-    m: float = 25.0
-    gamma: float = 0.0
+    # The parameters every law carries (a law adds its own as fields declared the same way;
+    # the FMUs and scenes carry every law's).
+    mu_friction: float = parameter(0.5, "1", "dry friction coefficient, eq. (4); mixed: the kinetic one",
+                                   at_least(0), symbol="μ")
+    S: float = parameter(1.0, "m2", "contact area; dry load L = -n S", above(0), symbol="S")
+    m: float = parameter(25.0, "N.(s/m)^(gamma+1)",
+                         "viscous coefficient m = k S / h^(gamma+1), eq. (12); mixed: m dv, N.s/m",
+                         at_least(0), symbol="m")
+    gamma: float = parameter(0.0, "1", "power-law exponent: < 0 pseudoplastic, 0 Newtonian, > 0 dilatant",
+                             above(-1, "force must vanish at rest"), symbol="γ")
     lubricant: LubricantConstants = field(default_factory=LubricantConstants)
     effects: Effects = field(default_factory=Effects)
 
     # -- validation -------------------------------------------------------------------
     def problems(self) -> list[str]:
-        """Every parameter that is out of range, as ``name must be ..., got value``."""
-        out = []
-        for name in ("mu_friction", "S", "m", "gamma"):
-            if not math.isfinite(getattr(self, name)):
-                out.append(f"{name} must be finite, got {getattr(self, name)}")
-        if self.mu_friction < 0:
-            out.append(f"mu_friction must be >= 0, got {self.mu_friction}")
-        if not self.S > 0:
-            out.append(f"S must be > 0, got {self.S}")
-        if self.m < 0:
-            out.append(f"m must be >= 0, got {self.m}")
-        if not self.gamma > -1:
-            out.append(f"gamma must be > -1 (force must vanish at rest), got {self.gamma}")
-        lub = self.lubricant
-        for f in fields(lub):
-            value = getattr(lub, f.name)
-            if not math.isfinite(value):
-                out.append(f"{f.name} must be finite, got {value}")
-        for name in ("lam", "mu_shear", "h", "tau_f", "tau_e", "phi3"):
-            if not getattr(lub, name) > 0:
-                out.append(f"{name} must be > 0, got {getattr(lub, name)}")
-        for name in ("lam_bar", "mu_shear_bar"):
-            if getattr(lub, name) < 0:
-                out.append(f"{name} must be >= 0, got {getattr(lub, name)}")
-        return out
+        """Every parameter that is out of range, as ``name must be ..., got value``: the
+        declared ranges of the law's and the lubricant's parameters."""
+        return problems_of(self) + problems_of(self.lubricant)
 
     def input_problems(self, dv: float, n: float, T: float) -> list[str]:
         """Out-of-range inputs for this law (the base: not finite)."""

@@ -16,30 +16,30 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from .parameters import OneOf, parameter, problems_of
+
 PROGRAMS = {"constant": 0, "ramp": 1, "step": 2, "sine": 3}
 PROGRAM_NAMES = {code: name for name, code in PROGRAMS.items()}
 
 
 @dataclass(frozen=True)
 class LoadProgram:
-    program: int = PROGRAMS["constant"]
-    n0: float = -20.0  # Pa
-    n1: float = -20.0  # Pa, ramp and step: the value after
-    t_start: float = 0.0  # s, ramp and step
-    t_end: float = 1.0  # s, ramp: when n reaches n1
-    amplitude: float = 0.0  # Pa, sine
-    period: float = 1.0  # s, sine
-    phase: float = 0.0  # rad, sine
+    """A program and its parameters (those a program does not use are ignored)."""
+
+    program: int = parameter(PROGRAMS["constant"], "1", "0 = constant, 1 = ramp, 2 = step, 3 = sine",
+                             OneOf(PROGRAM_NAMES), symbol="program", note='a scene names it: `"ramp"`')
+    n0: float = parameter(-20.0, "Pa", "normal stress: constant value, value before a ramp or step, mean of "
+                          "a sine (negative in compression)", symbol="n0")
+    n1: float = parameter(-20.0, "Pa", "ramp and step: normal stress after", symbol="n1")
+    t_start: float = parameter(0.0, "s", "ramp: start; step: time of the step", symbol="t_start")
+    t_end: float = parameter(1.0, "s", "ramp: end (n reaches n1)", symbol="t_end", note="> t_start for a ramp")
+    amplitude: float = parameter(0.0, "Pa", "sine: amplitude", symbol="amplitude")
+    period: float = parameter(1.0, "s", "sine: period", symbol="period", note="> 0 for a sine")
+    phase: float = parameter(0.0, "rad", "sine: phase at t = 0", symbol="phase")
 
     def problems(self) -> list[str]:
         """Every parameter that is out of range, as ``name must be ..., got value``."""
-        out = []
-        if self.program not in PROGRAM_NAMES:
-            out.append(f"program must be one of {', '.join(f'{c} ({n})' for c, n in PROGRAM_NAMES.items())}, "
-                       f"got {self.program}")
-        for name in ("n0", "n1", "t_start", "t_end", "amplitude", "period", "phase"):
-            if not math.isfinite(getattr(self, name)):
-                out.append(f"{name} must be finite, got {getattr(self, name)}")
+        out = problems_of(self)
         if self.program == PROGRAMS["ramp"] and not self.t_end > self.t_start:
             out.append(f"t_end must be > t_start ({self.t_start}) for a ramp, got {self.t_end}")
         if self.program == PROGRAMS["sine"] and not self.period > 0:

@@ -18,27 +18,26 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from .parameters import Parameter, above, at_least, parameter, problems_of, within
+
+# The film's temperature at the start (the Thermal FMU's; a scene starts it at conditions.T).
+START_T = Parameter("T0", 290.0, "K", "film temperature at the start", at_least(0))
+
 
 @dataclass(frozen=True)
 class ThermalParams:
-    C: float = 6e-12  # J/K, heat capacity
-    q: float = 1.0  # 1, share of the friction power that heats the film
-    G: float = 1e-11  # W/K, conductance to the surroundings
-    T_ambient: float = 290.0  # K
+    """The heat balance's parameters."""
+
+    C: float = parameter(6e-12, "J/K", "heat capacity of the film", above(0), symbol="C")
+    q: float = parameter(1.0, "1", "share of the friction power that heats the film", within(0, 1), symbol="q")
+    G: float = parameter(1e-11, "W/K", "thermal conductance from the film to the surroundings", at_least(0),
+                         symbol="G")
+    T_ambient: float = parameter(290.0, "K", "temperature of the surroundings", at_least(0, unit="K"),
+                                 symbol="T_ambient")
 
     def problems(self) -> list[str]:
-        """Every parameter that is out of range, as ``name must be ..., got value``."""
-        out = [f"{name} must be finite, got {getattr(self, name)}"
-               for name in ("C", "q", "G", "T_ambient") if not math.isfinite(getattr(self, name))]
-        if not self.C > 0:
-            out.append(f"C must be > 0, got {self.C}")
-        if not 0 <= self.q <= 1:
-            out.append(f"q must be in [0, 1], got {self.q}")
-        if not self.G >= 0:
-            out.append(f"G must be >= 0, got {self.G}")
-        if not self.T_ambient >= 0:
-            out.append(f"T_ambient must be >= 0 K, got {self.T_ambient}")
-        return out
+        """Every parameter that is not finite or out of range, as ``name must be ..., got value``."""
+        return problems_of(self)
 
     @property
     def time_constant(self) -> float:

@@ -9,16 +9,18 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields, make_dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from ..coupling.algorithms import ALGORITHMS
 from ..errors import ScenarioError
-from ..physics.block import block_problems
-from ..physics.drive import drive_problems
-from ..physics.friction import Effects, FrictionLaw, LubricantConstants
-from ..physics.laws import LAWS, MixedLaw, law_class, make_law, regime_problem
+from ..physics.block import BlockParams
+from ..physics.drive import DriveParams
+from ..physics.friction import START_F, Conditions, Effects, FrictionLaw, LubricantConstants
+from ..physics.laws import LAWS, law_class, law_fields, make_law, regime_problem
 from ..physics.load import PROGRAMS, LoadProgram
+from ..physics.parameters import declared, display_unit
 from ..physics.thermal import ThermalParams
 from .scenario_file import _number, _short, _text_problem, one_toml_value, read_scenario_text
 from .wiring import scene_problems
@@ -27,104 +29,71 @@ from .wiring import scene_problems
 DEFAULT_FMUS = ("Drive", "BlockSpring", "Friction")
 
 
-# The unit of each scene key a user sweeps or sets (for axis labels); lubricant constants
-# carry theirs in the Friction FMU's descriptions.
-UNITS = {"drive.A": "m", "drive.omega": "rad/s", "block.M": "kg", "block.K": "N/m", "block.x0": "m",
-         "block.v0": "m/s", "friction.mu_friction": "1", "friction.S": "m^2",
-         "friction.m": "N (s/m)^(gamma+1)", "friction.gamma": "1", "friction.f0": "1",
-         "friction.mu_static": "1", "friction.v_stribeck": "m/s", "friction.stribeck_exponent": "1",
-         "conditions.n": "Pa", "conditions.T": "K", "thermal.C": "J/K", "thermal.q": "1",
-         "thermal.G": "W/K", "thermal.T_ambient": "K", "load.n0": "Pa", "load.n1": "Pa",
-         "load.t_start": "s", "load.t_end": "s", "load.amplitude": "Pa", "load.period": "s",
-         "load.phase": "rad", "time.periods": "drive periods", "simulation.step": "s",
-         "simulation.tol": "1", "simulation.max_wall": "s"}
+def _fields(parameters) -> list:
+    """A scene table's fields for declared parameters, their defaults the declarations'."""
+    return [(p.name, type(p.default), field(default=p.default)) for p in parameters]
+
+
+def _table(name: str, table_fields: list, doc: str, **methods) -> type:
+    """A scene table's frozen dataclass (picklable: named in this module)."""
+    return make_dataclass(name, table_fields, frozen=True,
+                          namespace={"__module__": __name__, "__qualname__": name, "__doc__": doc, **methods})
+
+
+def _law(self) -> FrictionLaw:
+    """The law object of ``regime`` (KeyError for an unknown name: :func:`validate` says so)."""
+    return make_law(self.regime, **{f.name: getattr(self, f.name) for f in fields(self) if f.name != "regime"})
+
+
+# [friction]: the regime's name, every law's parameters (a law reads those of its keys) and f0;
+# the lubricant's constants are friction.* keys too, the switches the [effects] table.
+_LAW_FIELDS = law_fields()
+FrictionParams = _table(
+    "FrictionParams",
+    [("regime", str, field(default="dry")),  # a name of tribofmu.physics.laws.LAWS
+     *_fields((*_LAW_FIELDS, START_F)),
+     ("lubricant", LubricantConstants, field(default_factory=LubricantConstants)),
+     ("effects", Effects, field(default_factory=Effects))],
+    "[friction]: the law's name (regime), every law's parameters and f0, the lubricant, the switches.", law=_law)
+
+
+@dataclass(frozen=True)
+class ThermalTable(ThermalParams):
+    """[thermal]: the Thermal FMU's heat balance C dT/dt = q F (V - v) - G (T - T_ambient), its
+    parameters those of :class:`~tribofmu.physics.thermal.ThermalParams`; the film starts at
+    conditions.T."""
+
+    def params(self) -> ThermalParams:
+        """The heat balance's parameters (the table is them)."""
+        return self
+
+
+def _program(self) -> LoadProgram:
+    """The program of the Load FMU (its code for the name)."""
+    return LoadProgram(program=PROGRAMS[self.program],
+                       **{p.name: getattr(self, p.name) for p in declared(LoadProgram)[1:]})
+
+
+# [load]: the Load FMU's normal-stress program n(t), named (constant | ramp | step | sine) where
+# the FMU takes its code; replaces conditions.n. See :mod:`tribofmu.physics.load`.
+LoadTable = _table("LoadTable", [("program", str, field(default="constant")), *_fields(declared(LoadProgram)[1:])],
+                   "[load]: the Load FMU's normal-stress program n(t); replaces conditions.n.", program_=_program)
+
+
+# The unit of each scene key a user sweeps or sets (for axis labels): the declarations', and
+# those of the keys that are no physics parameter.
+UNITS = {**{f"{table}.{p.name}": display_unit(p.unit) for table, parameters in (
+            ("drive", declared(DriveParams)), ("block", declared(BlockParams)),
+            ("friction", (*_LAW_FIELDS, START_F, *declared(LubricantConstants))),
+            ("conditions", declared(Conditions)), ("thermal", declared(ThermalParams)),
+            ("load", declared(LoadProgram)[1:])) for p in parameters},
+         "time.periods": "drive periods", "simulation.step": "s", "simulation.tol": "1", "simulation.max_wall": "s"}
 
 
 def key_label(key: str) -> str:
     """``key [unit]`` for an axis label (the key alone where the unit is not known)."""
     unit = UNITS.get(key)
     return f"{key} [{unit}]" if unit else key
-
-
-@dataclass(frozen=True)
-class DriveParams:
-    A: float = 2e-3  # m, amplitude
-    omega: float = 30.0  # rad/s
-
-    @property
-    def period(self) -> float:
-        """Drive period T = 2 pi / omega [s]."""
-        return 2.0 * math.pi / self.omega
-
-
-@dataclass(frozen=True)
-class BlockParams:
-    M: float = 0.6  # kg
-    K: float = 7000.0  # N/m, each of the two springs
-    x0: float = 0.0  # m
-    v0: float = 0.0  # m/s
-
-
-@dataclass(frozen=True)
-class FrictionParams:
-    regime: str = "dry"  # a name of tribofmu.physics.laws.LAWS: dry | fluid | boundary | mixed
-    mu_friction: float = 0.5  # 1
-    S: float = 1.0  # m^2
-    m: float = 25.0  # N (s/m)^(gamma+1)
-    gamma: float = 0.0  # 1
-    f0: float = 0.0  # 1, excess volume at t = 0
-    mu_static: float = MixedLaw.mu_static  # 1
-    v_stribeck: float = MixedLaw.v_stribeck  # m/s
-    stribeck_exponent: float = MixedLaw.stribeck_exponent  # 1
-    lubricant: LubricantConstants = field(default_factory=LubricantConstants)
-    effects: Effects = field(default_factory=Effects)
-
-    def law(self) -> FrictionLaw:
-        """The law object of ``regime`` (KeyError for an unknown name: :func:`validate` says so)."""
-        return make_law(self.regime, **{f.name: getattr(self, f.name) for f in fields(self) if f.name != "regime"})
-
-
-@dataclass(frozen=True)
-class Conditions:
-    n: float = -20.0  # Pa, normal stress (negative in compression)
-    T: float = 290.0  # K
-
-
-@dataclass(frozen=True)
-class ThermalTable:
-    """[thermal]: the Thermal FMU's heat balance C dT/dt = q F (V - v) - G (T - T_ambient).
-
-    The film starts at conditions.T."""
-
-    C: float = 6e-12  # J/K, heat capacity of the film
-    q: float = 1.0  # 1, share of the friction power that heats the film
-    G: float = 1e-11  # W/K, conductance to the surroundings
-    T_ambient: float = 290.0  # K
-
-    def params(self) -> ThermalParams:
-        return ThermalParams(C=self.C, q=self.q, G=self.G, T_ambient=self.T_ambient)
-
-
-@dataclass(frozen=True)
-class LoadTable:
-    """[load]: the Load FMU's normal-stress program n(t); replaces conditions.n.
-
-    program: constant | ramp | step | sine. n0, n1, amplitude [Pa] (negative n in
-    compression); t_start, t_end, period [s]; phase [rad]. See :mod:`tribofmu.physics.load`.
-    """
-
-    program: str = "constant"
-    n0: float = -20.0  # Pa
-    n1: float = -20.0  # Pa
-    t_start: float = 0.0  # s
-    t_end: float = 1.0  # s
-    amplitude: float = 0.0  # Pa
-    period: float = 1.0  # s
-    phase: float = 0.0  # rad
-
-    def program_(self) -> LoadProgram:
-        return LoadProgram(program=PROGRAMS[self.program], n0=self.n0, n1=self.n1, t_start=self.t_start,
-                           t_end=self.t_end, amplitude=self.amplitude, period=self.period, phase=self.phase)
 
 
 @dataclass(frozen=True)
@@ -319,8 +288,8 @@ def validate(scenario: Scenario) -> list[str]:
             if any(p.startswith("n ") for p in law.input_problems(0.0, highest, scenario.conditions.T)):
                 out.append(f"load.n0 = {ld.n0} with load.program = {ld.program!r} makes n reach "
                            f"{highest:.6g} Pa > 0 within the run ({law.label} needs compression, n <= 0)")
-    out += [f"drive.{p}" for p in drive_problems(scenario.drive.A, scenario.drive.omega)]
-    out += [f"block.{p}" for p in block_problems(scenario.block.M, scenario.block.K)]
+    out += [f"drive.{p}" for p in scenario.drive.problems()]
+    out += [f"block.{p}" for p in scenario.block.problems()]
     if regime_problem(fr.regime) is not None:
         out.append(f"friction.regime {regime_problem(fr.regime)}")
     else:
@@ -328,8 +297,7 @@ def validate(scenario: Scenario) -> list[str]:
         out += [f"friction.{p}" for p in law.problems()]
         cond = scenario.conditions
         out += [f"conditions.{p}" for p in law.input_problems(0.0, cond.n, cond.T)]
-    if not math.isfinite(fr.f0):
-        out.append(f"friction.f0 must be finite, got {fr.f0}")
+    out += [f"friction.{p}" for p in START_F.problems(fr.f0)]
     ts = scenario.time
     if not (math.isfinite(ts.periods) and ts.periods > 0):
         out.append(f"time.periods must be > 0, got {ts.periods}")
@@ -396,7 +364,6 @@ def enum_choices(key: str) -> list[str]:
     if key == "load.program":
         return list(PROGRAMS)
     if key == "simulation.algorithm":
-        from ..coupling.algorithms import ALGORITHMS
         return list(ALGORITHMS)
     return []
 

@@ -2,11 +2,11 @@
 
 The master (:mod:`tribofmu.api` builds the coupled system from it), the SSP export
 (:mod:`tribofmu.scene.ssp`), the scenario's validation and the README's wiring list all read
-what is declared here, and the build builds every FMU it declares (:func:`fmu_names`). To add
-an FMU to scenes, declare it once in :data:`FMUS` (file, instance name, start values from the
-scenario, recorded outputs, constant inputs, which FMUs it needs) and its connections in
-:data:`CONNECTIONS`; a constant input that a connection feeds in a scene is left to the
-connection (e.g. a Load FMU's ``n`` replaces the constant ``n``).
+what is declared here; each FMU is one the build builds (:mod:`tribofmu.fmu.registry`, where
+an FMU's adapter is registered). To add an FMU to scenes, declare it in :data:`FMUS` (file,
+instance name, start values from the scenario, recorded outputs, constant inputs, which FMUs it
+needs) and its connections in :data:`CONNECTIONS`; a constant input that a connection feeds in
+a scene is left to the connection (e.g. a Load FMU's ``n`` replaces the constant ``n``).
 
 Today's system (SSP connections cannot subtract, so BlockSpring forms ``dv = V - v`` itself)::
 
@@ -32,13 +32,19 @@ replaces.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Callable
 
-from ..fmu.effect_parameters import EFFECT_PARAMETERS
-from ..physics.friction import Effects, LubricantConstants
-from ..physics.laws import law_class, law_parameters
-from ..physics.load import PROGRAMS
+from ..coupling.interpolation import NS
+from ..errors import ScenarioError
+from ..fmu.registry import fmu_names
+from ..physics.block import BlockParams
+from ..physics.drive import DriveParams
+from ..physics.friction import START_F, Conditions, Effects, FrictionLaw, LubricantConstants
+from ..physics.laws import law_class, law_fields
+from ..physics.load import PROGRAMS, LoadProgram
+from ..physics.parameters import declared
+from ..physics.thermal import START_T, ThermalParams
 
 # "Scenario" in annotations is :class:`tribofmu.scene.scenario.Scenario`, not imported: the
 # scenario module validates scenes with this one, which must not import it back.
@@ -65,6 +71,11 @@ class FMU:
     constant_inputs: Callable[["Scenario"], dict[str, float]] = lambda scenario: {}
     needs: tuple[str, ...] = ()
     required: bool = False
+
+    def __post_init__(self):
+        if self.name not in fmu_names():  # a scene could list it, but no FMU file would exist
+            raise ValueError(f"FMU {self.name!r} is not one the build builds "
+                             f"(tribofmu.fmu.registry.FMU_NAMES: {', '.join(fmu_names())})")
 
     @property
     def file(self) -> str:
@@ -94,27 +105,28 @@ class Instance:
     constant_inputs: dict[str, float]
 
 
+def _declared(obj, parameters) -> dict[str, Value]:
+    """The values of declared parameters on a scene table, by FMU variable name, typed as the
+    declarations (Real, Integer, Boolean)."""
+    return {p.fmu_variable: type(p.default)(getattr(obj, p.name)) for p in parameters}
+
+
 def _drive(sc: "Scenario") -> dict[str, Value]:
-    return {"A": float(sc.drive.A), "omega": float(sc.drive.omega)}
+    return _declared(sc.drive, declared(DriveParams))
 
 
 def _block(sc: "Scenario") -> dict[str, Value]:
-    b = sc.block
-    return {"M": float(b.M), "K": float(b.K), "x0": float(b.x0), "v0": float(b.v0)}
+    return _declared(sc.block, declared(BlockParams))
 
 
 def _friction(sc: "Scenario") -> dict[str, Value]:
-    fr = sc.friction
-    values: dict[str, Value] = {"regime": int(law_class(fr.regime).code)}
-    values.update({key: float(getattr(fr, key)) for key in ("mu_friction", "S", "m", "gamma", "f0",
-                                                            *law_parameters())})
-    values.update({f.name: float(getattr(fr.lubricant, f.name)) for f in fields(LubricantConstants)})
-    values.update({EFFECT_PARAMETERS[f.name][0]: bool(getattr(fr.effects, f.name)) for f in fields(Effects)})
-    return values
+    fr, shared = sc.friction, declared(FrictionLaw)  # every law's, f0, then those a law adds
+    return {"regime": int(law_class(fr.regime).code), **_declared(fr, (*shared, START_F, *law_fields()[len(shared):])),
+            **_declared(fr.lubricant, declared(LubricantConstants)), **_declared(fr.effects, declared(Effects))}
 
 
 def _conditions(sc: "Scenario") -> dict[str, float]:
-    return {"n": float(sc.conditions.n), "T": float(sc.conditions.T)}
+    return _declared(sc.conditions, declared(Conditions))
 
 
 def _pair(sc: "Scenario") -> dict[str, Value]:
@@ -125,16 +137,13 @@ def _pair(sc: "Scenario") -> dict[str, Value]:
 
 
 def _thermal(sc: "Scenario") -> dict[str, Value]:
-    th = sc.thermal
-    return {"C": float(th.C), "q": float(th.q), "G": float(th.G), "T_ambient": float(th.T_ambient),
-            "T0": float(sc.conditions.T)}  # the film starts at the scene's T
+    # the film starts at the scene's T
+    return {**_declared(sc.thermal, declared(ThermalParams)), START_T.name: float(sc.conditions.T)}
 
 
 def _load(sc: "Scenario") -> dict[str, Value]:
     ld = sc.load_program
-    return {"program": int(PROGRAMS[ld.program]), "n0": float(ld.n0), "n1": float(ld.n1),
-            "t_start": float(ld.t_start), "t_end": float(ld.t_end), "amplitude": float(ld.amplitude),
-            "period": float(ld.period), "phase": float(ld.phase)}
+    return {"program": int(PROGRAMS[ld.program]), **_declared(ld, declared(LoadProgram)[1:])}
 
 
 # Declaration order is the order of instantiation and of the SSP components.
@@ -177,12 +186,6 @@ PAIR_CONNECTIONS: tuple[Connection, ...] = (
 )
 
 
-def fmu_names() -> tuple[str, ...]:
-    """Every FMU tribofmu builds (``tribofmu build``, the FMU cache): the scene FMUs of
-    :data:`FMUS`, then the pair; read when called, so a new entry in :data:`FMUS` is built too."""
-    return tuple(fmu.name for fmu in (*FMUS, PAIR))
-
-
 def scene_problems(names: tuple[str, ...] | list[str]) -> list[str]:
     """What is wrong with a scene's list of FMU names, each as ``scenario.fmus ...``."""
     known = [fmu.name for fmu in FMUS]
@@ -209,7 +212,6 @@ def _fmus(scenario: "Scenario", pair: bool) -> list[FMU]:
         return [fmu for fmu in FMUS if fmu.name in scenario.fmus]
     problems = pair_problems(scenario)
     if problems:
-        from ..errors import ScenarioError
         raise ScenarioError(problems[0])
     listed = [fmu for fmu in FMUS if fmu.name in scenario.fmus and fmu.name not in PAIRED]
     at = next(i for i, fmu in enumerate(listed) if fmu.name == "Drive") + 1
@@ -246,9 +248,9 @@ def constant_inputs(scenario: "Scenario") -> dict[str, float]:
 def input_signals(points, grid) -> dict:
     """The friction's inputs T [K], n [Pa] and the heat the Thermal FMU received Q [J], on
     the time grid [s], interpolated linearly between communication points."""
+    # numpy here, not at the top: the scene is read by commands that never interpolate, and
+    # numpy costs 0.27 s of start-up (python -X importtime, 2026-11-26 23:25 UTC, load 12)
     import numpy as np
-
-    from ..coupling.interpolation import NS
 
     t = np.array([p.t_ns for p in points], dtype=np.int64) / NS
     return {name: np.interp(grid, t, np.array([getattr(p, name) for p in points]))

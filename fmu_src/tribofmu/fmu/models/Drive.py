@@ -1,9 +1,10 @@
 """Drive FMU: the upper block moved as X = A cos(omega t), V = -A omega sin(omega t) (eqs. 1-2)."""
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
-from tribofmu.fmu.base import (TriboModel as Fmi2Slave, DefaultExperiment, PARAMETER, OUTPUT,
-                                 positive)
-from tribofmu.physics.drive import drive
+from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, OUTPUT
+from tribofmu.fmu.parameters import declare_parameter
+from tribofmu.physics.drive import DriveParams, drive
+from tribofmu.physics.parameters import declared
 
 
 class Drive(Fmi2Slave):
@@ -12,8 +13,8 @@ class Drive(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self.declare("A", 2e-3, PARAMETER, "m", "drive amplitude")
-        self.declare("omega", 30.0, PARAMETER, "rad/s", "drive angular frequency", check=positive)
+        for p in declared(DriveParams):
+            declare_parameter(self, p)
         self.declare("X", 0.0, OUTPUT, "m", "upper block position",
                      getter=lambda: drive(self.time, self.A, self.omega)[0])
         self.declare("V", 0.0, OUTPUT, "m/s", "upper block velocity",

@@ -7,7 +7,7 @@ block's mass: a stuck contact is the coupling algorithm's business (sgn(0) = 0 h
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, INPUT, OUTPUT
-from tribofmu.fmu.parameters import declare_friction_parameters, friction_law, parameter_cached
+from tribofmu.fmu.parameters import declare_friction_inputs, declare_friction_parameters, friction_law, parameter_cached
 from tribofmu.physics.friction import FrictionLaw
 
 class Friction(Fmi2Slave):
@@ -20,8 +20,7 @@ class Friction(Fmi2Slave):
         self.dv_previous = None  # m/s, the input of the last step (None: none yet)
         declare_friction_parameters(self)
         self.declare("dv", 0.0, INPUT, "m/s", "relative velocity V - v of the rubbing surfaces")
-        self.declare("n", -20.0, INPUT, "Pa", "normal stress on the contact (negative in compression)")
-        self.declare("T", 290.0, INPUT, "K", "lubricant temperature")
+        declare_friction_inputs(self)
         self.declare("F", 0.0, OUTPUT, "N", "friction force on the lower block", depends_on=("dv", "n"),
                      getter=lambda: self.law().force(self.dv, self.n, self.f))
         self.declare("f", 0.0, OUTPUT, "1", "excess volume of the lubricant (0 = solid-like)")

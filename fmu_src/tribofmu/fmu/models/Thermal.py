@@ -9,14 +9,10 @@ far, for energy bookkeeping.
 """
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
-from tribofmu.fmu.base import (TriboModel as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT,
-                                 OUTPUT, non_negative, positive)
-from tribofmu.fmu.parameters import parameter_cached
-from tribofmu.physics.thermal import ThermalParams, advance_thermal
-
-
-def _share(value):
-    return None if 0.0 <= value <= 1.0 else f"must be in [0, 1], got {value}"
+from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, INPUT, OUTPUT
+from tribofmu.fmu.parameters import declare_parameter, parameter_cached
+from tribofmu.physics.parameters import declared
+from tribofmu.physics.thermal import START_T, ThermalParams, advance_thermal
 
 
 class Thermal(Fmi2Slave):
@@ -25,15 +21,8 @@ class Thermal(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        defaults = ThermalParams()
-        self.declare("C", defaults.C, PARAMETER, "J/K", "heat capacity of the film", check=positive)
-        self.declare("q", defaults.q, PARAMETER, "1", "share of the friction power that heats the film",
-                     check=_share)
-        self.declare("G", defaults.G, PARAMETER, "W/K", "thermal conductance from the film to the surroundings",
-                     check=non_negative)
-        self.declare("T_ambient", defaults.T_ambient, PARAMETER, "K", "temperature of the surroundings",
-                     check=non_negative)
-        self.declare("T0", 290.0, PARAMETER, "K", "film temperature at the start", check=non_negative)
+        for p in (*declared(ThermalParams), START_T):
+            declare_parameter(self, p)
         self.declare("P", 0.0, INPUT, "W", "friction power over the step (a master's exact mean)")
         self.declare("F", 0.0, INPUT, "N", "friction force, for masters that connect variables")
         self.declare("dv", 0.0, INPUT, "m/s", "relative velocity V - v, for masters that connect variables")
@@ -43,7 +32,7 @@ class Thermal(Fmi2Slave):
 
     @parameter_cached
     def params(self) -> ThermalParams:
-        return ThermalParams(C=self.C, q=self.q, G=self.G, T_ambient=self.T_ambient)
+        return ThermalParams(**{p.name: getattr(self, p.name) for p in declared(ThermalParams)})
 
     def model_problems(self):
         return self.params().problems()

@@ -13,8 +13,8 @@ Parameters: those of BlockSpring and Friction (same names, units and checks) and
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, PARAMETER, INPUT, OUTPUT, positive
-from tribofmu.fmu.parameters import (declare_block_outputs, declare_block_parameters, declare_friction_parameters,
-                                     friction_law, parameter_cached)
+from tribofmu.fmu.parameters import (declare_block_outputs, declare_block_parameters, declare_friction_inputs,
+                                     declare_friction_parameters, friction_law, parameter_cached)
 from tribofmu.coupling.pair import PairModel, PairParameters
 
 OUTPUTS = ("x", "v", "a", "F", "f", "dv", "stuck")
@@ -36,8 +36,7 @@ class TriboPair(Fmi2Slave):
         self.declare("a_drive", 0.0, INPUT, "m/s2",
                      "upper block acceleration at the start of the step: V + a_drive s is followed "
                      "within the step (0: V held)")
-        self.declare("n", -20.0, INPUT, "Pa", "normal stress on the contact (negative in compression)")
-        self.declare("T", 290.0, INPUT, "K", "lubricant temperature")
+        declare_friction_inputs(self)
         declare_block_outputs(self)
         self.declare("F", 0.0, OUTPUT, "N", "friction force on the lower block at the end of the step")
         self.declare("f", 0.0, OUTPUT, "1", "excess volume of the lubricant (0 = solid-like)")

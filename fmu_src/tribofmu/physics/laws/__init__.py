@@ -10,16 +10,24 @@ from __future__ import annotations
 
 from dataclasses import fields
 
-from ..friction import FrictionLaw
+from ..friction import Effects, FrictionLaw, LubricantConstants
+from ..parameters import Parameter, declared, own_parameters
 from .boundary import BoundaryLaw
 from .dry import DryLaw
 from .fluid import FluidLaw
 from .mixed import MixedLaw
 
-__all__ = ["LAWS", "law_class", "make_law", "regime_problem", "law_parameters",
+__all__ = ["LAWS", "law_class", "make_law", "regime_problem", "law_fields", "law_parameters",
            "DryLaw", "FluidLaw", "BoundaryLaw", "MixedLaw"]
 
-LAWS: dict[str, type[FrictionLaw]] = {law.name: law for law in (
+def _reading_its_own(law: type[FrictionLaw]) -> type[FrictionLaw]:
+    """The law, its ``keys`` completed by the parameters it declares itself (a law reads what
+    it adds)."""
+    law.keys = law.keys | {p.name for p in own_parameters(law, FrictionLaw)}
+    return law
+
+
+LAWS: dict[str, type[FrictionLaw]] = {law.name: _reading_its_own(law) for law in (
     DryLaw,
     FluidLaw,
     BoundaryLaw,
@@ -58,11 +66,14 @@ def make_law(regime: str | int, **parameters) -> FrictionLaw:
     return cls(**{k: v for k, v in parameters.items() if k in names})
 
 
-def law_parameters() -> dict[str, tuple[float, str, str]]:
-    """The FMU parameters the laws add to the shared ones: name -> (default, unit, description)."""
-    out = {}
-    for law in LAWS.values():
-        defaults = {f.name: f.default for f in fields(law)}
-        for name, (unit, text) in law.fmu_parameters.items():
-            out[name] = (defaults[name], unit, text)
-    return out
+def law_fields() -> tuple[Parameter, ...]:
+    """The laws' own parameters: those every law has (:class:`FrictionLaw`'s), then those each
+    law adds (a law reads those of its ``keys``; :func:`make_law` keeps its own)."""
+    return (*declared(FrictionLaw), *(p for law in LAWS.values() for p in own_parameters(law, FrictionLaw)))
+
+
+def law_parameters() -> tuple[Parameter, ...]:
+    """Every friction parameter an FMU carries, in the FMUs' order: those every law has, the
+    lubricant's constants, the boundary model's switches, then those each law adds."""
+    shared = declared(FrictionLaw)
+    return (*shared, *declared(LubricantConstants), *declared(Effects), *law_fields()[len(shared):])

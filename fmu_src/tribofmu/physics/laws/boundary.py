@@ -6,19 +6,18 @@ advanced inside a step by exponential Rosenbrock-Euler sub-steps (:meth:`Boundar
 from __future__ import annotations
 
 import math
-from dataclasses import fields
-
-from ..friction import FrictionLaw, LubricantConstants, power_mean
+from ..friction import START_F, FrictionLaw, LubricantConstants, power_mean
+from ..parameters import declared
 from ..roots import illinois
 from ..stepsize import KINETICS_SUBSTEPS
 
 
 class BoundaryLaw(FrictionLaw):
     """F = tau S + m sgn(dv)|dv|^(gamma+1), eq. (23), with the lubricant's constants and the
-    model's switches (``effects``). S [m^2] the contact area; m, gamma the viscous term."""
+    model's switches (``effects``). S the contact area; m, gamma the viscous term."""
 
     name, code, label = "boundary", 2, "boundary friction"
-    keys = frozenset({"S", "m", "gamma", "f0"} | {f.name for f in fields(LubricantConstants)})
+    keys = frozenset({"S", "m", "gamma", START_F.name} | {p.name for p in declared(LubricantConstants)})
     has_state = True
     load_shown_as = "n"
     reads_temperature = True

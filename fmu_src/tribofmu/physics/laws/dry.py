@@ -5,8 +5,8 @@ from ..friction import FrictionLaw, power_mean, sign
 
 
 class DryLaw(FrictionLaw):
-    """mu_friction [1] the friction coefficient, S [m^2] the contact area. The law is
-    single-valued (sgn(0) = 0); holding the blocks at dv = 0 up to mu L is the coupling's."""
+    """mu_friction the friction coefficient, S the contact area. The law is single-valued
+    (sgn(0) = 0); holding the blocks at dv = 0 up to mu L is the coupling's."""
 
     name, code, label = "dry", 0, "dry friction"
     keys = frozenset({"mu_friction", "S"})

@@ -5,8 +5,8 @@ from ..friction import FrictionLaw, power_mean
 
 
 class FluidLaw(FrictionLaw):
-    """m [N (s/m)^(gamma+1)] = k S / h^(gamma+1), eq. (12); gamma [1] < 0 pseudoplastic,
-    0 Newtonian, > 0 dilatant. Independent of the load and the temperature."""
+    """m = k S / h^(gamma+1), eq. (12); gamma < 0 pseudoplastic, 0 Newtonian, > 0 dilatant.
+    Independent of the load and the temperature."""
 
     name, code, label = "fluid", 1, "fluid friction"
     keys = frozenset({"m", "gamma"})

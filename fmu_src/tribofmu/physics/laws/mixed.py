@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 from ..friction import FrictionLaw, sign
+from ..parameters import above, parameter
 
 # Below this relative width of a step's dv path the exact mean (a difference of
 # antiderivatives over the width) loses more digits than the midpoint rule's error
@@ -57,37 +58,26 @@ def lower_gamma_regularized(a: float, x: float) -> float:
 
 @dataclass(frozen=True)
 class MixedLaw(FrictionLaw):
-    """mu_friction [1] the kinetic (Coulomb) coefficient mu_c; mu_static [1] the static one
-    mu_s >= mu_c; v_stribeck [m/s] the Stribeck velocity v_s over which the coefficient falls
-    from mu_s to mu_c; stribeck_exponent [1] delta; m [N s/m] the viscous coefficient (the
-    fluid law's m at gamma = 0); S [m^2] the contact area."""
+    """The Stribeck curve above: mu_c is mu_friction, m the fluid law's m at gamma = 0, S the
+    contact area; what the law adds is declared below."""
 
     name, code, label = "mixed", 3, "mixed friction"
-    keys = frozenset({"mu_friction", "mu_static", "v_stribeck", "stribeck_exponent", "m", "S"})
+    keys = frozenset({"mu_friction", "m", "S"})  # and its own parameters, below
     sticks = True
     load_shown_as = "L"
-    fmu_parameters = {
-        "mu_static": ("1", "mixed: static friction coefficient mu_s >= mu_friction (the kinetic mu_c)"),
-        "v_stribeck": ("m/s", "mixed: Stribeck velocity v_s over which mu falls from mu_s to mu_c"),
-        "stribeck_exponent": ("1", "mixed: exponent delta of the Stribeck curve exp(-(|dv|/v_s)^delta)"),
-    }
 
-    mu_static: float = 0.6
-    v_stribeck: float = 0.01
-    stribeck_exponent: float = 2.0
+    mu_static: float = parameter(0.6, "1", "mixed: static friction coefficient mu_s >= mu_friction (the kinetic mu_c)",
+                                 symbol="μs")
+    v_stribeck: float = parameter(0.01, "m/s", "mixed: Stribeck velocity v_s over which mu falls from mu_s to mu_c",
+                                  above(0), symbol="vs", note="0.01 m/s is a sixth of `A ω` on Fig. 2's rig")
+    stribeck_exponent: float = parameter(2.0, "1", "mixed: exponent delta of the Stribeck curve exp(-(|dv|/v_s)^delta)",
+                                         above(0), symbol="δ", note="2: a Gaussian")
 
     def problems(self) -> list[str]:
         out = super().problems()
-        for name in ("mu_static", "v_stribeck", "stribeck_exponent"):
-            if not math.isfinite(getattr(self, name)):
-                out.append(f"{name} must be finite, got {getattr(self, name)}")
         if not self.mu_static >= self.mu_friction:
             out.append(f"mu_static must be >= mu_friction ({self.mu_friction}: static friction is not "
                        f"below kinetic), got {self.mu_static}")
-        if not self.v_stribeck > 0:
-            out.append(f"v_stribeck must be > 0, got {self.v_stribeck}")
-        if not self.stribeck_exponent > 0:
-            out.append(f"stribeck_exponent must be > 0, got {self.stribeck_exponent}")
         return out
 
     def input_problems(self, dv: float, n: float, T: float) -> list[str]:

@@ -4,7 +4,7 @@
     rows = sweep("scenarios/fig2_dry.toml", {"drive.omega": [10, 20, 30, 50, 80, 130]}, "out/fig4")
 
 Each grid point is independent: a worker simulates it and returns its metrics
-(:mod:`tribofmu.studies.metrics`) and its phase portrait, downsampled. The modules, in the
+(:mod:`tribofmu.metrics`) and its phase portrait, downsampled. The modules, in the
 order a sweep uses them:
 
 - :mod:`.grid`: parse ``--grid``, expand the points, validate each before any work;

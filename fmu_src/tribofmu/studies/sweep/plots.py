@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ...scene.scenario import UNITS, Scenario, key_label
-from ..metrics import METRICS
+from ...metrics import METRICS
 from .grid import format_value, is_numeric, same_setting
 from .worker import STATUS_OK
 

@@ -1,7 +1,7 @@
 """The sweep's files in its output directory, as one small store object (:class:`SweepStore`).
 
 - ``sweep.csv``: the swept keys (one column each, named as the keys), ``status`` (ok /
-  failed), ``message``, the metrics (:data:`tribofmu.studies.metrics.METRICS`; empty = not
+  failed), ``message``, the metrics (:data:`tribofmu.metrics.METRICS`; empty = not
   defined), ``wall_time`` (s spent simulating the point) and ``finished_at`` (local ISO time).
   A row is appended (and fsynced) as each point finishes, so an interrupted sweep resumes:
   the rows already there are skipped. At the start and the end the file is rewritten whole,
@@ -35,7 +35,7 @@ import numpy as np
 
 from ...atomic import atomic_write_bytes
 from ...errors import SweepError
-from ..metrics import METRICS
+from ...metrics import METRICS
 from .grid import Plan, format_value, is_numeric, parse_value, point_id, point_key, point_label
 from .worker import PORTRAIT_POINTS, STATUS_FAILED, STATUS_OK
 

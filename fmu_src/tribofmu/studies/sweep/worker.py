@@ -19,7 +19,7 @@ import numpy as np
 from ...errors import PointTimeout, TriboFMUError  # noqa: F401 (PointTimeout re-exported)
 from ...master.unzipped import forget_fmus_loaded_since
 from ...scene.scenario import Scenario
-from ..metrics import result_metrics
+from ...metrics import result_metrics
 
 PORTRAIT_POINTS = 400
 STATUS_OK, STATUS_FAILED = "ok", "failed"
