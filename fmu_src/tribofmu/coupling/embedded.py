@@ -40,7 +40,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-from .algorithms import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
+from .algorithms import GRAZING_ERROR, W2_POSITION_FLOOR, ZERO_VELOCITY, ErrorControlledCoupling, grazes
 from .interpolation import NS
 from .system import Contact, CoupledSystem, Point
 
@@ -332,7 +332,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             return LocalError(x=dv_impulse * 2.0 * h / 3.0, F=0.5 * (new.F - point.F), impulse=impulse)
         filter_ = 1.0 / (1.0 + self.expected_gain(h))  # a stiff loop pulls an error back
         history = self.history
-        if new.ramped and history.h > 0.0 and history.mode == new.mode == point.mode:
+        if self.curvature_known(point, new):
             predicted = point.F + history.slope * h
             # F'' = 2 (F - F_predicted) / (h (h + h_prev)); the chord misses -F'' h^3 / 12
             curvature = 2.0 * (new.F - predicted) / (h * (h + history.h))
@@ -340,7 +340,10 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             v = miss * self.velocity_per_impulse * filter_
             f_predicted = point.f + history.f_slope * h
             f_miss = (new.f - f_predicted) * h / (h + history.h)
-            return LocalError(x=0.5 * h * v, v=v, F=curvature * h * h / 8.0, impulse=impulse, f=f_miss)
+            # (the force's own curvature filtered as the held branch's slope is: the solve
+            # resolves dv, and the force follows dv at the loop's slope, so without the filter
+            # a stiff loop's root resolution read as curvature whatever h; see force_resolution)
+            return LocalError(x=0.5 * h * v, v=v, F=curvature * h * h / 8.0 * filter_, impulse=impulse, f=f_miss)
         # held (or ramped with no history): the force held at its end value misses -F' h^2 / 2
         miss = -0.5 * (new.F - point.F) * h  # N s
         v = miss * self.velocity_per_impulse * filter_
@@ -365,7 +368,8 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             error = max(error, STICK_FORCE_WEIGHT * reach * late / (allowance * v_scale))
         elif new.f != 0.0 or point.f != 0.0:
             F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
-            error = max(error, FORCE_WEIGHT * abs(local.F) / (self.tol * F_scale))
+            allowed = self.tol * F_scale + self.force_term_floor(point, new, h)
+            error = max(error, FORCE_WEIGHT * abs(local.F) / allowed)
             f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
             error = max(error, STATE_WEIGHT * abs(local.f) / (self.tol * f_scale))
         if new.mode.slipping and (point.mode == new.mode or point.mode.stuck):
@@ -383,6 +387,39 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             if self.stick_bounds is not None and grazes(point, new, h, self.tol * v_scale):
                 error = max(error, GRAZING_ERROR)
         return error
+
+    def force_resolution(self, new: Point, h: float) -> float:
+        """The force [N] the slip solve of a step of h [s] ending at new cannot tell from its
+        root: it resolves dv to delta (ZERO_VELOCITY x the velocity scale, the root's
+        bracket), and the friction answers a change of dv at its slope dF/d(dv) = g / (c h
+        vpi) (g the loop gain, vpi the block's velocity per impulse, c the block's share of
+        the end force: 1/2 ramped, 1 held). A solid lubricant creeping at |dv| ~ 1e-12 m/s
+        with a slope of 6.5e7 N/(m/s) gives 2.7e-7 N: its force jitters by that from step to
+        step whatever h, and the force term read it as error (fig6 at gamma = -0.85, K = 2000,
+        per-step 5e-5: 241,063 steps at the 20 ns floor)."""
+        if self.velocity_per_impulse <= 0.0 or h <= 0.0 or not new.mode.slipping:
+            return 0.0
+        share = 0.5 if new.ramped else 1.0
+        slope = self.expected_gain(h) / (share * h * self.velocity_per_impulse)
+        return slope * ZERO_VELOCITY * self.scales.velocity
+
+    def curvature_known(self, point: Point, new: Point) -> bool:
+        """Whether the ramped step from point to new has its force's curvature estimated from
+        the step before it (the same slip mode all through): else it is charged as held."""
+        history = self.history
+        return new.ramped and history.h > 0.0 and history.mode == new.mode == point.mode
+
+    def force_term_floor(self, point: Point, new: Point, h: float) -> float:
+        """What the force term of :meth:`local_error` reads [N] when every force it combines
+        is off by the solve's resolution (:meth:`force_resolution`), at most: the term's
+        tolerance is widened by it, as an absolute tolerance, so that the error estimate
+        never sees the solver's own resolution. Ramped: (F - F_predicted) h / (4 (h + h_prev))
+        of three forces off by r each, at most r h / (2 h_prev); held: half the change of two
+        forces, at most r; both filtered by 1 / (1 + g) as the term is."""
+        resolution = self.force_resolution(new, h)
+        if self.curvature_known(point, new):
+            resolution *= 0.5 * h / self.history.h
+        return resolution / (1.0 + self.expected_gain(h))
 
     def breakaway_reach(self, point: Point, new: Point, F_miss: float, h: float) -> float:
         """How much the breakaway's timing counts for the stuck step from point to new, its
