@@ -63,14 +63,9 @@ BLOCK_PERIOD_FRACTION = 0.125
 # The planned step keeps its interpolation error to this fraction of tol (as the controller's
 # SAFETY: the jerk it is planned from is the last step's, not this one's).
 INTERPOLATION_SAFETY = 0.5
-# How the stick force's miss weighs against tol x the friction's bound (the breakaway's timing).
-STICK_FORCE_WEIGHT = 1.0
 # The breakaway's timing counts in full for a stuck step whose force could reach the friction's
 # bound within this many steps, less and less farther off (see EmbeddedCoupling.breakaway_reach).
 BREAKAWAY_REACH = 4.0
-# How the force's own deviation (a friction with internal state) weighs against tol x |F|:
-# the force's curvature (ramped) or slope (held) against the largest |F| so far.
-FORCE_WEIGHT = 1.0
 # How the friction's state f off its predicted path weighs against tol x |f|: 0.3 keeps the
 # lubricant's melts and re-solidifications timed (fig6 gamma=-0.3: 4.4e-3 nRMS(v) without
 # this term, 1.2e-3 at 1.0, 9.5e-4 at 0.3 in 25 % fewer steps than at 1.0).
@@ -365,11 +360,13 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             # grows as (F_rate / M) s^2 / 2 after it, so v misses F_rate/M dt^2 / 2 = dF^2 / (2 M F_rate).
             late = 0.5 * self.velocity_per_impulse * local.F * local.F / abs(new.F_rate)
             reach = self.breakaway_reach(point, new, local.F, h)
-            error = max(error, STICK_FORCE_WEIGHT * reach * late / (allowance * v_scale))
+            error = max(error, reach * late / (allowance * v_scale))
         elif new.f != 0.0 or point.f != 0.0:
             F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
             allowed = self.tol * F_scale + self.force_term_floor(point, new, h)
-            error = max(error, FORCE_WEIGHT * abs(local.F) / allowed)
+            # the force's own deviation (a friction with internal state): its curvature
+            # (ramped) or slope (held) against tol x the largest |F| so far
+            error = max(error, abs(local.F) / allowed)
             f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
             error = max(error, STATE_WEIGHT * abs(local.f) / (self.tol * f_scale))
         if new.mode.slipping and (point.mode == new.mode or point.mode.stuck):
