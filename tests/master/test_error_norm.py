@@ -24,10 +24,9 @@ def test_a_creeping_solid_lubricant_does_not_collapse_the_step_to_its_floor():
     """The force the solve finds jitters by its dv resolution times the friction's slope
     (2.7e-7 N here) from step to step whatever h; the force term read that as the force's
     curvature against tol x 8.8e-4 N and held the step at its 20 ns floor (241,063 steps a
-    run, 2,000 steps reached 4e-5 s). Filtered by the loop as the held force's slope is, and
-    with that resolution as its absolute tolerance, the steps grow past the start's transient:
-    2 ms in a few hundred steps, none forced, and past 0.5 ms none shorter than 1e-6 of the
-    drive's period."""
+    run, 2,000 steps reached 4e-5 s). With that resolution as the term's absolute tolerance
+    the steps grow past the start's transient: 2 ms in a few hundred steps, and past 0.5 ms
+    none shorter than 1e-6 of the drive's period."""
     system, algorithm, period = solid_lubricant(5e-5)
     stop_ns = 2_000_000
     points = [system.start_point()]
