@@ -3,7 +3,7 @@ its measured value, interleaved in one process.
 
     python benchmarks/bench_floor.py [--repeat 3] [--algorithms adaptive,doubling] [--cases fig2,fig6]
                                      [--span] [--out FILE.json]
-    python benchmarks/bench_floor.py --rejections [--betas 0,0.06]
+    python benchmarks/bench_floor.py --rejections [--betas 0,0.06] [--only NAME]
 
 Per case and algorithm (every case and algorithm once per round, ``--repeat`` rounds, median
 wall times), measured with ``tribofmu.api.simulate`` (the whole call: an adaptive run's check
@@ -83,8 +83,9 @@ def ours(scenario, ref, algorithm: str) -> dict:
             "estimated_nrms_v": (s.get("estimated_error") or {}).get("nrms_v")}
 
 
-def rejections(betas: list[float]) -> int:
-    """Every shipped scene and off-scene case once per PI weight: rejections, calls, runs."""
+def rejections(betas: list[float], only: str | None = None) -> int:
+    """Every shipped scene and off-scene case (those whose name holds ``only``) once per PI
+    weight: rejections, calls, runs."""
     from dataclasses import replace
 
     from tribofmu import api
@@ -93,6 +94,7 @@ def rejections(betas: list[float]) -> int:
 
     cases = [(name, resolve_scene(name), {}) for name in scene_names()]
     cases += [(name, SCENES / f"{scene}.toml", overrides) for name, (scene, overrides) in CASES.items() if overrides]
+    cases = [case for case in cases if only is None or only in case[0]]
     shipped = algorithms.ErrorControlledCoupling.controller
     print(f"bench_floor --rejections: {load_avg()}, PI weights {betas} (shipped: {shipped.beta})", flush=True)
     print("beta   case                  rejected/accepted  calls/step  runs  calls in all runs  ok")
@@ -127,11 +129,12 @@ def main() -> int:
     parser.add_argument("--out", default=None)
     parser.add_argument("--rejections", action="store_true", help="every scene and off-scene case once: rejections")
     parser.add_argument("--betas", default=None, help="with --rejections: PI weights to compare (default: the shipped)")
+    parser.add_argument("--only", default=None, help="with --rejections: the cases whose name holds this")
     args = parser.parse_args()
     if args.rejections:
         from tribofmu.physics.stepsize import COUPLING_STEPS
 
-        return rejections([float(b) for b in args.betas.split(",")] if args.betas else [COUPLING_STEPS.beta])
+        return rejections([float(b) for b in args.betas.split(",")] if args.betas else [COUPLING_STEPS.beta], args.only)
     from tribofmu import api
     from tribofmu.studies.reference import reference_solution
 

@@ -2,6 +2,7 @@
 run that misses it say so?
 
     python benchmarks/bench_trust.py [--tols default,1e-3,1e-4] [--only SUBSTRING] [--out FILE.json]
+    python benchmarks/bench_trust.py --one-run [--tols default] [--only SUBSTRING]
 
 At Fig. 2's and Fig. 6's scenes and at parameter points no scene uses (dry, fluid, boundary and
 mixed friction across docs/model.md's ranges), each run of ``tribofmu.api.simulate`` (whole
@@ -14,6 +15,11 @@ ratio, ``ok``, the wall time, the per-step tolerances run. Then the targets:
 - reported / true within [0.5, 10] (or both below tol/10);
 - true / tol within [0.03, 1.5];
 - at the defaults every point meets 1e-3, each run under 30 s.
+
+``--one-run`` asks instead whether one run could vouch for itself (issue 36): each point's
+first run of a call (per-step tolerance = tol, no check), its own propagated estimate
+(``coupling/estimate.py``) against its true error. A call could skip its check only where that
+ratio stays within [0.5, 10] at every point.
 
 Not collected by pytest (no test_ prefix). Timings are of a shared machine: see the load
 printed at the start and the end.
@@ -51,6 +57,9 @@ POINTS = [
     ("boundary gamma=1", "fig6_boundary", {"friction.gamma": 1.0}),
     ("boundary gamma=2", "fig6_boundary", {"friction.gamma": 2.0}),
     ("boundary omega=20", "fig6_boundary", {"drive.omega": 20.0}),
+    # a lubricant that stays solid: the block creeps at |dv| ~ 1e-12 m/s on a viscous slope of
+    # ~6.5e7 N/(m/s), where the solve's own resolution once collapsed the step (issue 36)
+    ("boundary solid gamma=-0.85 K=2000", "fig6_boundary", {"friction.gamma": -0.85, "block.K": 2000.0}),
     # mixed (Stribeck) friction: other frequency, coefficients, Stribeck velocity and exponent
     ("mixed omega=18 mu_s=0.7", "mixed_stribeck", {"drive.omega": 18.0, "friction.mu_static": 0.7}),
     ("mixed v_s=0.03 delta=1", "mixed_stribeck", {"friction.v_stribeck": 0.03, "friction.stribeck_exponent": 1.0}),
@@ -67,7 +76,11 @@ def main(argv=None) -> int:
     parser.add_argument("--table", default=None, metavar="ROWS.json[,ROWS.json]",
                         help="print the markdown summary of rows saved by --out (a point in a later file "
                              "replaces its row in an earlier one), run nothing")
+    parser.add_argument("--one-run", action="store_true",
+                        help="each point's first run only: its propagated estimate against its true error")
     args = parser.parse_args(argv)
+    if args.one_run:
+        return one_run([None if t == "default" else float(t) for t in args.tols.split(",")], args.only)
     if args.table:
         # a point measured again in a later file replaces its earlier row
         latest = {(row["point"], row["tol"]): row for path in args.table.split(",")
@@ -102,6 +115,7 @@ def main(argv=None) -> int:
             reported = result.stats["estimated_error"]["nrms_v"]
             asked = result.stats["tol"]
             row = {"point": label, "tol": asked, "tol_given": tol, "reported": reported, "true": true,
+                   "propagated": result.stats["estimated_error"].get("propagated"),
                    "ok": result.ok, "warned": bool(result.stats.get("warnings")), "wall": wall,
                    "step_tols": [r["step_tol"] for r in result.stats.get("check", {}).get("runs", [])]}
             rows.append(row)
@@ -124,11 +138,69 @@ def main(argv=None) -> int:
         met = [r for r in defaults if r["true"] <= 1e-3]
         print(f"defaults meeting 1e-3: {len(met)} of {len(defaults)}; slowest "
               f"{max(r['wall'] for r in defaults):.1f} s")
+    print(one_run_summary(rows))
     print(f"# load at the end {os.getloadavg()[0]:.1f}")
     print("\n" + summary_table(rows))
     if args.out:
         Path(args.out).write_text(json.dumps(rows, indent=2) + "\n")
     return 0
+
+
+def one_run(tols: list, only: str | None) -> int:
+    """Each point's first run (per-step tolerance = tol, unchecked): propagated / true."""
+    from tribofmu import api
+    from tribofmu.fmu_cache import find_fmus
+    from tribofmu.scene.library import resolve_scene
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.studies.reference import nrms, reference_solution
+
+    fmu_dir = find_fmus(("Drive", "BlockSpring", "Friction"))
+    print(f"# bench_trust --one-run {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
+          f"load {os.getloadavg()[0]:.1f}", flush=True)
+    print(f"{'point':36s} {'tol':>7s} {'propagated':>10s} {'true':>9s} {'prop/true':>9s} {'wall s':>7s}", flush=True)
+    ratios = []
+    for label, scene, overrides in POINTS:
+        if only is not None and only not in label:
+            continue
+        scenario = load_scenario(resolve_scene(scene), overrides)
+        reference = reference_solution(scenario)
+        for tol in tols:
+            step_tol = tol if tol is not None else (scenario.simulation.tol or api.DEFAULT_TOL)
+            begin = time.perf_counter()
+            # one run of the adaptive coupling, as a checked call's first run
+            result = api._run_once(scenario, "adaptive", None, step_tol, Path(fmu_dir), api.output_samples(scenario),
+                                   None, False, 300.0, None, None, False)
+            wall = time.perf_counter() - begin
+            true = nrms(result.time, result.v, reference.time, reference.v, scenario.window) \
+                if result.ok else float("nan")
+            propagated = result.stats["estimated_error"]["nrms_v"]
+            ratio = propagated / true if propagated is not None and true > 0 else float("nan")
+            ratios.append(ratio)
+            print(f"{label:36s} {step_tol:7.0e} {propagated if propagated is not None else float('nan'):10.2e} "
+                  f"{true:9.2e} {ratio:9.3g} {wall:7.1f}", flush=True)
+    finite = [q for q in ratios if q == q]
+    inside = [q for q in finite if 0.5 <= q <= 10.0]
+    if finite:
+        print(f"propagated / true within [0.5, 10] at {len(inside)} of {len(finite)} runs "
+              f"(range {min(finite):.2g}-{max(finite):.2g})")
+    print(f"# load at the end {os.getloadavg()[0]:.1f}")
+    return 0
+
+
+def one_run_summary(rows: list[dict]) -> str:
+    """What one run could vouch for (issue 36): the reported run's own propagated estimate
+    (coupling/estimate.py, ``stats["estimated_error"]["propagated"]``) against its true
+    error, and how many runs each call took."""
+    ratios = [(r["propagated"] / r["true"], r) for r in rows
+              if r.get("propagated") and r["true"] and r["true"] == r["true"]]
+    inside = [q for q, _ in ratios if 0.5 <= q <= 10.0]
+    runs = [len(r["step_tols"]) for r in rows]
+    lines = [f"one run: propagated / true within [0.5, 10] at {len(inside)} of {len(ratios)} runs"
+             + (f" (range {min(q for q, _ in ratios):.2g}-{max(q for q, _ in ratios):.2g})" if ratios else ""),
+             "  runs per call: " + ", ".join(f"{n}: {runs.count(n)}" for n in sorted(set(runs)))]
+    lines += [f"  {r['point']} tol {r['tol']:g}: propagated {r['propagated']:.2g} true {r['true']:.2g}"
+              for q, r in ratios if not 0.5 <= q <= 10.0]
+    return "\n".join(lines)
 
 
 def family(label: str) -> str:

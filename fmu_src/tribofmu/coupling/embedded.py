@@ -1,7 +1,7 @@
 """The adaptive coupling with one implicit solve per accepted step: an embedded error estimate
 instead of step doubling.
 
-Step doubling (:class:`~.algorithms.StepDoublingCoupling`, registered as ``doubling``) solves one
+Step doubling (``benchmarks/doubling.py``, kept out of the package for comparison) solves one
 full step and two halves to get two accepted points: three implicit solves per two accepted
 steps, plus the rejected ones. Here each step is solved once, and its error is estimated from
 what the solve and the steps before it already know (as an embedded Runge-Kutta pair, or a
@@ -63,14 +63,9 @@ BLOCK_PERIOD_FRACTION = 0.125
 # The planned step keeps its interpolation error to this fraction of tol (as the controller's
 # SAFETY: the jerk it is planned from is the last step's, not this one's).
 INTERPOLATION_SAFETY = 0.5
-# How the stick force's miss weighs against tol x the friction's bound (the breakaway's timing).
-STICK_FORCE_WEIGHT = 1.0
 # The breakaway's timing counts in full for a stuck step whose force could reach the friction's
 # bound within this many steps, less and less farther off (see EmbeddedCoupling.breakaway_reach).
 BREAKAWAY_REACH = 4.0
-# How the force's own deviation (a friction with internal state) weighs against tol x |F|:
-# the force's curvature (ramped) or slope (held) against the largest |F| so far.
-FORCE_WEIGHT = 1.0
 # How the friction's state f off its predicted path weighs against tol x |f|: 0.3 keeps the
 # lubricant's melts and re-solidifications timed (fig6 gamma=-0.3: 4.4e-3 nRMS(v) without
 # this term, 1.2e-3 at 1.0, 9.5e-4 at 0.3 in 25 % fewer steps than at 1.0).
@@ -332,7 +327,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             return LocalError(x=dv_impulse * 2.0 * h / 3.0, F=0.5 * (new.F - point.F), impulse=impulse)
         filter_ = 1.0 / (1.0 + self.expected_gain(h))  # a stiff loop pulls an error back
         history = self.history
-        if new.ramped and history.h > 0.0 and history.mode == new.mode == point.mode:
+        if self.curvature_known(point, new):
             predicted = point.F + history.slope * h
             # F'' = 2 (F - F_predicted) / (h (h + h_prev)); the chord misses -F'' h^3 / 12
             curvature = 2.0 * (new.F - predicted) / (h * (h + history.h))
@@ -362,10 +357,13 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             # grows as (F_rate / M) s^2 / 2 after it, so v misses F_rate/M dt^2 / 2 = dF^2 / (2 M F_rate).
             late = 0.5 * self.velocity_per_impulse * local.F * local.F / abs(new.F_rate)
             reach = self.breakaway_reach(point, new, local.F, h)
-            error = max(error, STICK_FORCE_WEIGHT * reach * late / (allowance * v_scale))
+            error = max(error, reach * late / (allowance * v_scale))
         elif new.f != 0.0 or point.f != 0.0:
             F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
-            error = max(error, FORCE_WEIGHT * abs(local.F) / (self.tol * F_scale))
+            allowed = self.tol * F_scale + self.force_term_floor(point, new, h)
+            # the force's own deviation (a friction with internal state): its curvature
+            # (ramped) or slope (held) against tol x the largest |F| so far
+            error = max(error, abs(local.F) / allowed)
             f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
             error = max(error, STATE_WEIGHT * abs(local.f) / (self.tol * f_scale))
         if new.mode.slipping and (point.mode == new.mode or point.mode.stuck):
@@ -383,6 +381,42 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             if self.stick_bounds is not None and grazes(point, new, h, self.tol * v_scale):
                 error = max(error, GRAZING_ERROR)
         return error
+
+    def force_resolution(self, new: Point, h: float) -> float:
+        """The force [N] the slip solve of a step of h [s] ending at new cannot tell from its
+        root: it resolves dv to delta (settings.zero_velocity x the velocity scale, the root's
+        bracket), and the friction answers a change of dv at its slope dF/d(dv) = g / (c h
+        vpi) (g the loop gain, vpi the block's velocity per impulse, c the block's share of
+        the end force: 1/2 ramped, 1 held). A solid lubricant creeping at |dv| ~ 1e-12 m/s
+        with a slope of 6.5e7 N/(m/s) gives 2.7e-7 N: its force jitters by that from step to
+        step whatever h, and the force term read it as error (fig6 at gamma = -0.85, K = 2000,
+        per-step 5e-5: 241,063 steps at the 20 ns floor)."""
+        if self.velocity_per_impulse <= 0.0 or h <= 0.0 or not new.mode.slipping:
+            return 0.0
+        share = 0.5 if new.ramped else 1.0
+        slope = self.expected_gain(h) / (share * h * self.velocity_per_impulse)
+        return slope * self.settings.zero_velocity * self.scales.velocity
+
+    def curvature_known(self, point: Point, new: Point) -> bool:
+        """Whether the ramped step from point to new has its force's curvature estimated from
+        the step before it (the same slip mode all through): else it is charged as held."""
+        history = self.history
+        return new.ramped and history.h > 0.0 and history.mode == new.mode == point.mode
+
+    def force_term_floor(self, point: Point, new: Point, h: float) -> float:
+        """What the force term of :meth:`local_error` reads [N] when every force it combines
+        is off by the solve's resolution (:meth:`force_resolution`), at most: the term's
+        tolerance is widened by it, as an absolute tolerance, so that the error estimate
+        never sees the solver's own resolution. Ramped: (F - F_predicted) h / (4 (h + h_prev))
+        of three forces off by r each, at most r h / (2 h_prev); held: half the change of two
+        forces, filtered by 1 / (1 + g) as the term is, at most r / (1 + g). (Filtering the
+        ramped term by 1 / (1 + g) as well also stopped the collapse, but loosened Fig. 6 where
+        that term times its melts: per-step 1e-3 1.14e-3 -> 1.55e-3 nRMS(v), and its check
+        took 4 runs instead of 3.)"""
+        resolution = self.force_resolution(new, h)
+        if self.curvature_known(point, new):
+            return resolution * 0.5 * h / self.history.h
+        return resolution / (1.0 + self.expected_gain(h))
 
     def breakaway_reach(self, point: Point, new: Point, F_miss: float, h: float) -> float:
         """How much the breakaway's timing counts for the stuck step from point to new, its

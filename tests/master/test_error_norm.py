@@ -1,0 +1,39 @@
+"""The embedded error estimate never sees the solver's own resolution (issue 36)."""
+from tribofmu.coupling.algorithms import Scales
+from tribofmu.coupling.embedded import EmbeddedCoupling
+from tribofmu.coupling.inprocess import BlockPart, FollowedDrive, FrictionPart
+from tribofmu.coupling.system import CoupledSystem
+from tribofmu.physics import BoundaryLaw
+
+
+def solid_lubricant(tol):
+    """Fig. 6's rig with a lubricant that stays solid (gamma = -0.85, K = 2000 N/m each), its
+    drive X = A cos(w t) from rest for the first milliseconds (V = 0, aX = -A w^2): the block
+    creeps on the lubricant at |dv| ~ 1e-12 m/s where the viscous slope is ~6.5e7 N/(m/s)."""
+    A, omega, n = 1.4e-6, 30.0, -1e6
+    law = BoundaryLaw(m=0.05, gamma=-0.85, S=3e-9)
+    system = CoupledSystem(BlockPart("block", 0.7, 2000.0, 0.0, 0.0), FollowedDrive("drive", 0.0, 0.0, -A * omega ** 2),
+                           FrictionPart("friction", law, 0.0, n, 290.0), {"n": n, "T": 290.0})
+    algorithm = EmbeddedCoupling(tol=tol)
+    period = 2.0 * 3.141592653589793 / omega
+    algorithm.prepare(system, Scales(position=A, velocity=A * omega, period=period))
+    return system, algorithm, period
+
+
+def test_a_creeping_solid_lubricant_does_not_collapse_the_step_to_its_floor():
+    """The force the solve finds jitters by its dv resolution times the friction's slope
+    (2.7e-7 N here) from step to step whatever h; the force term read that as the force's
+    curvature against tol x 8.8e-4 N and held the step at its 20 ns floor (241,063 steps a
+    run, 2,000 steps reached 4e-5 s). With that resolution as the term's absolute tolerance
+    the steps grow past the start's transient: 2 ms in a few hundred steps, and past 0.5 ms
+    none shorter than 1e-6 of the drive's period."""
+    system, algorithm, period = solid_lubricant(5e-5)
+    stop_ns = 2_000_000
+    points = [system.start_point()]
+    while points[-1].t_ns < stop_ns and len(points) < 2000:
+        points += algorithm.advance(system, points[-1], stop_ns)
+    assert points[-1].t_ns == stop_ns, f"{len(points)} steps reached only {points[-1].t_ns} ns"
+    assert all(p.mode.slipping for p in points[1:]) and max(abs(p.V - p.v) for p in points[-10:]) < 1e-10
+    assert algorithm.counters.forced <= 10  # (the start from rest: see the report)
+    later = [(b.t_ns - a.t_ns) * 1e-9 for a, b in zip(points, points[1:]) if a.t_ns >= 500_000]
+    assert later and min(later) >= 1e-6 * period
