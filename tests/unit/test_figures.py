@@ -232,3 +232,68 @@ def test_time_png_draws_the_coupled_inputs(tmp_path):
                 assert "T: 290 K → 1290 K" in labels[-1]
     finally:
         plots.save_png = original
+
+
+def _drawn_figures(monkeypatch):
+    """Every figure plots.save_png is given, by file name: its axes' labels, titles, legend
+    texts and the figure's title."""
+    import matplotlib.pyplot as plt
+    from tribofmu import plots
+    drawn = {}
+
+    def keep(fig, path, dpi=110):
+        drawn[Path(path).name] = {
+            "ylabels": [ax.get_ylabel() for ax in fig.axes], "xlabels": [ax.get_xlabel() for ax in fig.axes],
+            "titles": [ax.get_title() for ax in fig.axes],
+            "lines": [line.get_label() for ax in fig.axes for line in ax.get_lines()],
+            "suptitle": fig._suptitle.get_text() if fig._suptitle else ""}
+        plt.close(fig)
+        return Path(path)
+    monkeypatch.setattr(plots, "save_png", keep)
+    return drawn
+
+
+def _fake_signals(sc):
+    t = np.linspace(0, sc.stop_time, 400)
+    s = {k: np.sin(30 * t) * 1e-3 for k in ("X", "V", "x", "v")}
+    s.update(F=5 * np.sin(30 * t), f=1 + np.sin(30 * t), stuck=(np.sin(60 * t) > 0.5).astype(float), time=t,
+             T=290 + 200 * t / t[-1], n=np.array([sc.normal_stress(x) for x in t]), Q=t)
+    return s
+
+
+@pytest.mark.parametrize("name", sorted(p.stem for p in SCENES.glob("*.toml")))
+def test_every_shipped_scene_with_friction_draws_friction_png(name, tmp_path, monkeypatch):
+    from tribofmu import plots
+    drawn = _drawn_figures(monkeypatch)
+    sc = api.load(name, {"drive.omega": 31.5} if "Drive" in api.load(name).fmus else None)
+    paths = plots.plot_signals(_fake_signals(sc), sc, tmp_path)
+    if "Friction" not in sc.fmus:
+        assert "friction.png" not in drawn and len(paths) == 2
+        return
+    fig = drawn["friction.png"]
+    assert tmp_path / "friction.png" in paths
+    assert fig["ylabels"][0].startswith("F [") and "t [s]" in fig["xlabels"]
+    assert any(x.startswith("dv = V − v [") for x in fig["xlabels"]) and any(x.startswith("x (block) [") for x in fig["xlabels"])
+    assert "friction loop F(dv)" in fig["titles"] and "friction loop F(x)" in fig["titles"]
+    assert name in fig["suptitle"] and "ω = 31.5 rad/s" in fig["suptitle"].replace("\n", " ")
+    law = sc.friction.law()
+    assert ("f [1]" in fig["ylabels"]) == (law.melt_threshold() is not None)
+    assert ("T [K]" in fig["ylabels"]) == ("Thermal" in sc.fmus)
+    curve = [label for label in fig["lines"] if label.startswith("the law's F(dv)")]
+    assert bool(curve) == (not law.has_state and "Load" not in sc.fmus), fig["lines"]
+
+
+def test_the_mixed_laws_curve_is_the_laws_own_stribeck_curve():
+    from tribofmu.plots import law_curve
+    sc = api.load("mixed_stribeck")
+    law = sc.friction.law()
+    dv, F = law_curve(sc, -0.1, 0.05)
+    L = law.load(sc.conditions.n)
+    assert dv.min() == pytest.approx(-0.1) and dv.max() == pytest.approx(0.1)
+    # at rest the static limit mu_s L on both sides; far out mu_c L + m dv; in between the law's
+    at_rest = F[dv == 0.0]
+    assert sorted(at_rest) == pytest.approx([-law.mu_static * L, law.mu_static * L])
+    assert F[-1] == pytest.approx(law.mu_friction * L + law.m * 0.1, rel=1e-6)
+    i = int(np.argmin(np.abs(dv - law.v_stribeck)))
+    assert F[i] == pytest.approx(law.force(float(dv[i]), sc.conditions.n))
+    assert law_curve(api.load("fig6_boundary"), -1e-4, 1e-4) is None  # F depends on the film's f
