@@ -205,7 +205,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="out/figures", metavar="DIR", help="output directory (default: out/figures)")
     p.add_argument("--only", default=None, metavar="FIG,...",
                    help="a comma-separated subset of " + ",".join(_figure_names()) +
-                        " (default: the paper's fig2-fig6; tn_map, the boundary film's T x n map, only when named)")
+                        " (default: the paper's fig2-fig6 and friction, the friction force and loops of their scenes; tn_map, the boundary film's T x n map, only when named)")
     p.add_argument("--scenarios", default=None, metavar="DIR",
                    help="a folder of scene files to use instead of the shipped ones")
     p.add_argument("--fmu-dir", default=None, metavar="DIR", help=fmu_help)
@@ -472,7 +472,7 @@ def cmd_figures(args) -> int:
             raise UsageError(f"--only {args.only}: unknown figure {unknown[0] if unknown else '(none)'!r} "
                              f"(known: {', '.join(FIGURES)})")
     out = check_out_dir(Path(args.out))
-    preflight_folder(out, 5 * PLOT_BYTES)
+    preflight_folder(out, 12 * PLOT_BYTES)
     if args.data:
         check_out_dir(Path(args.data), "--data")
     paths = make_figures(out, only=only, scenarios_dir=args.scenarios, fmu_dir=args.fmu_dir,

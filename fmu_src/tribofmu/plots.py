@@ -1,7 +1,7 @@
 """Figures of one run: ``time.png`` (X, x; V, v; and whatever else the scene couples: f(t)
 for boundary friction, T(t) with a Thermal FMU, the load with a Load FMU), ``phase.png``
 (the phase portrait v(x)) and ``friction.png`` (:func:`draw_friction`: the friction force
-F(t) with the stick bands, the friction loops F(dv) and F(x) over the window's periods, the
+F(t) with the stick bands, the friction loops F(dv) and F(X − x) over the window's periods, the
 law's own force curve under the loop where it has one, and the lubricant's f(t) and T(t)).
 
 Titles are made from the values actually simulated (:func:`scene_label`), never from the
@@ -309,7 +309,7 @@ def draw_friction(s: dict, sc, path: Path) -> Path:
     """friction.png of a run's signals on the shown window ``s`` (``time, x, F, stuck`` and
     ``V, v`` or ``dv``; ``f`` and ``T`` where the scene has them): F(t) with the stick bands
     shaded, f(t) for a lubricant that melts, T(t) with a Thermal FMU; below, the friction
-    loops F(dv) (the law's force curve under it, :func:`law_curve`) and F(x)."""
+    loops F(dv) (the law's force curve under it, :func:`law_curve`) and F(X − x)."""
     plt = pyplot()
     t = np.asarray(s["time"])
     F = np.asarray(s["F"])
@@ -324,7 +324,7 @@ def draw_friction(s: dict, sc, path: Path) -> Path:
         extra.append("T")
     rows = 1 + len(extra)
     fig = plt.figure(figsize=(8.0, 2.1 * rows + 3.6))
-    outer = fig.add_gridspec(2, 1, height_ratios=[rows, 1.7], hspace=0.32)
+    outer = fig.add_gridspec(2, 1, height_ratios=[rows, 1.7], hspace=0.42 / rows + 0.1)
     grid, below = outer[0].subgridspec(rows, 1, hspace=0.12), outer[1].subgridspec(1, 2, wspace=0.3)
     top = fig.add_subplot(grid[0])
     top.plot(t, F * kF, color="C2", lw=1.2, label="F (friction on the block)")
@@ -355,10 +355,13 @@ def draw_friction(s: dict, sc, path: Path) -> Path:
     loop.set_xlabel(f"dv = V − v [{prefix}m/s]")
     loop.set_ylabel(f"F [{uF}]")
     loop.set_title("friction loop F(dv)", fontsize=9)
-    against_x.plot(np.asarray(s["x"]) * k, F * kF, color="C0", lw=1.0, label="run")
-    against_x.set_xlabel(f"x (block) [{prefix}m]")
+    # against the sliding displacement X - x: the loop's area is the work friction dissipates
+    # (against the block's own x a periodic motion draws a line, F = (2K - M w^2) x)
+    slid = np.asarray(s["X"]) - np.asarray(s["x"])
+    against_x.plot(slid * k, F * kF, color="C0", lw=1.0, label="run (area: energy dissipated)")
+    against_x.set_xlabel(f"X − x (sliding displacement) [{prefix}m]")
     against_x.set_ylabel(f"F [{uF}]")
-    against_x.set_title("friction loop F(x)", fontsize=9)
+    against_x.set_title("friction loop F(X − x)", fontsize=9)
     finish_axes(panels + [loop, against_x])
     start, end = sc.window
     periods = (end - start) * sc.drive.omega / (2 * math.pi) if has_drive(sc) else None

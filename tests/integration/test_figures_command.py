@@ -24,4 +24,4 @@ def test_figures_command_subset_reuses_its_runs(tmp_path, fmu_dir, capsys):
     bad = main("figures", "--only", "fig9", "--out", out, capsys=capsys)
     assert bad.returncode == 2
     assert bad.stderr.strip().splitlines() == [
-        "tribofmu: --only fig9: unknown figure 'fig9' (known: fig2, fig3, fig4, fig5, fig6, tn_map)"]
+        "tribofmu: --only fig9: unknown figure 'fig9' (known: fig2, fig3, fig4, fig5, fig6, friction, tn_map)"]

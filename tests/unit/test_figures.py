@@ -33,7 +33,9 @@ def drawn(monkeypatch):
         kept[Path(path).stem] = fig
         return path
     monkeypatch.setattr(figures, "_save", keep)
-    runs = {"fig2": [fake_run("fig2_dry.toml")], "fig3": [fake_run("fig2_dry.toml")],
+    from tribofmu import plots
+    monkeypatch.setattr(plots, "save_png", lambda fig, path, dpi=110: keep(fig, path))
+    runs = {"friction": [fake_run(r.scene, dict(r.overrides)) for r in figures.FIGURES["friction"]],"fig2": [fake_run("fig2_dry.toml")], "fig3": [fake_run("fig2_dry.toml")],
             "fig4": [fake_run("fig2_dry.toml", {"drive.omega": w}) for w in figures.FIG4_OMEGAS],
             "fig5": [fake_run(r.scene) for r in figures.FIG5_RUNS], "fig6": [fake_run("fig6_boundary.toml")]}
     for name in figures.PAPER_FIGURES:
@@ -50,6 +52,9 @@ def all_axes(fig):
 def test_layouts_are_the_papers(drawn):
     panels = {name: fig.axes for name, fig in drawn.items()}
     assert len(panels["fig2"]) == 2 and len(panels["fig3"]) == 2 and len(panels["fig6"]) == 3
+    assert [name for name in panels if name.startswith("friction_")] == [
+        f"friction_{r.label}" for r in figures.FIGURES["friction"]]
+    assert len(panels["friction_fig2_dry"]) == 3 and len(panels["friction_fig6_boundary"]) == 4  # + f(t)
     assert len(panels["fig4"]) == 6
     assert [ax.get_title() for ax in panels["fig4"]] == [
         f"({c}) ω = {w:g} rad/s" for c, w in zip("abcdef", figures.FIG4_OMEGAS)]
@@ -84,7 +89,7 @@ def test_one_unit_per_quantity_and_titles_wrapped_between_items(drawn):
         positions = {u for u in units if u.endswith("m")}
         velocities = {u for u in units if u.endswith("m/s")}
         assert len(positions) <= 1 and len(velocities) <= 1, (name, units)
-        expected = "µ" if name == "fig6" else "m"  # the 1.4 µm boundary scene: µm; else mm
+        expected = "µ" if name.endswith("fig6") or name.endswith("fig6_boundary") else "m"  # the 1.4 µm boundary scene: µm; else mm
         assert all(u.startswith(expected) for u in positions | velocities), (name, units)
         text = fig._suptitle.get_text()
         assert "e-0" not in text and "0.002 m" not in text, text
@@ -273,8 +278,8 @@ def test_every_shipped_scene_with_friction_draws_friction_png(name, tmp_path, mo
     fig = drawn["friction.png"]
     assert tmp_path / "friction.png" in paths
     assert fig["ylabels"][0].startswith("F [") and "t [s]" in fig["xlabels"]
-    assert any(x.startswith("dv = V − v [") for x in fig["xlabels"]) and any(x.startswith("x (block) [") for x in fig["xlabels"])
-    assert "friction loop F(dv)" in fig["titles"] and "friction loop F(x)" in fig["titles"]
+    assert any(x.startswith("dv = V − v [") for x in fig["xlabels"]) and any(x.startswith("X − x (sliding displacement) [") for x in fig["xlabels"])
+    assert "friction loop F(dv)" in fig["titles"] and "friction loop F(X − x)" in fig["titles"]
     assert name in fig["suptitle"] and "ω = 31.5 rad/s" in fig["suptitle"].replace("\n", " ")
     law = sc.friction.law()
     assert ("f [1]" in fig["ylabels"]) == (law.melt_threshold() is not None)
