@@ -162,6 +162,12 @@ def test_accuracy_chart_labels_neither_overprint_nor_clip(tmp_path, monkeypatch)
     assert sorted(t.get_text() for t in notes).count("h=0.0001 s") == 1  # one label for both lines
     boxes = [t.get_window_extent(renderer) for t in notes]
     frame = ax.get_window_extent(renderer)
+    (legend,) = fig.legends  # below the axes, whole inside the figure, overlapping no axes
+    box, page = legend.get_window_extent(renderer), fig.bbox
+    assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0 and box.y1 < frame.y0
+    assert {"jacobi", "gauss-seidel", "adaptive"} <= {t.get_text() for t in legend.get_texts()}
+    sizes = {line.get_label(): line.get_markersize() for line in ax.get_lines()}
+    assert sizes["jacobi"] != sizes["gauss-seidel"]  # the same points: one line's markers ring the other's
     for i, a in enumerate(boxes):
         assert frame.x0 <= a.x0 and a.x1 <= frame.x1, notes[i].get_text()  # not clipped
         for b, other in zip(boxes[i + 1:], notes[i + 1:]):
