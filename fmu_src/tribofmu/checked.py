@@ -29,6 +29,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .progress import run_started
+
 # The per-step tolerances of a check pair are this far apart. With errors e ~ tol^p, the
 # pair differs by e_tight (r^p - 1), so the reported (difference over r^MIN_ORDER - 1) is
 # (r^p - 1)/(r^MIN_ORDER - 1) times the true error: 1 at p = MIN_ORDER, 4.3 at p = 1 and 7.9
@@ -205,6 +207,7 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
             if remaining is not None and remaining < MIN_BUDGET:
                 break
             spool = Spool() if sink is not None else None
+            run_started(len(records) + 1, len(records) + (2 if base is None else 1))  # for the bar
             try:
                 result = run_once(step_tol=step_tol, max_wall=remaining, sink=spool)
             finally:
