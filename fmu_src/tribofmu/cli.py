@@ -378,7 +378,7 @@ def cmd_scenes(args) -> int:
 
 def cmd_export_ssp(args) -> int:
     from . import api
-    from .scene.ssp import check_replaceable_archive, export_ssp
+    from .scene.ssp import archive_step, check_replaceable_archive, export_ssp
     from .scene.wiring import instances
     scenario = api.load(args.scenario, args.overrides)  # a shipped scene's name or a path
     out = check_out_file(Path(args.out))
@@ -391,7 +391,29 @@ def cmd_export_ssp(args) -> int:
     fmu_dir = resolve_fmu_dir(args.fmu_dir, names)
     path = export_ssp(scenario, out, fmu_dir, pair=args.pair)
     print(path)
+    for line in run_lines(path, scenario.stop_time, archive_step(scenario, args.pair)):
+        print(line)
     return 0
+
+
+def run_lines(path: Path, stop: float, step: float) -> list[str]:
+    """What to run an archive with: its stop time [s] and step [s], and the OMSimulator and
+    fmpy command lines that run it to the stop time exactly. OMSimulator takes the stop time
+    from --stopTime only (the step from the archive) and ends its last step on it; fmpy's
+    simulate_ssp takes whole steps while time < stop_time, so it gets a step that divides
+    the stop time (n steps of stop / n) and a stop_time half a step short of the end."""
+    import shlex
+    n = math.ceil(stop / step * (1 - 1e-12))
+    h = stop / n
+    name = shlex.quote(str(path))
+    fmpy = (f"from fmpy.ssp.simulation import simulate_ssp; r = simulate_ssp({str(path)!r}, "
+            f"stop_time={(n - 0.5) * h!r}, step_size={h!r}); print(r['time'][-1] + {h!r})")
+    def quoted(code: str) -> str:  # in double quotes where the shell leaves it as it is
+        return f'"{code}"' if not any(c in code for c in '"$`\\!') else shlex.quote(code)
+    return [f"stop time {stop!r} s, step {step:g} s ({n} steps); to run it to the stop time:",
+            f"  OMSimulator {name} --resultFile={shlex.quote(path.stem + '.csv')} --stopTime={stop!r}",
+            f"  python -c {quoted(fmpy)}   # fmpy: {n} steps of stop/{n} = {h:.6g} s; rows stamped "
+            "with their step's start"]
 
 
 def cmd_sweep(args) -> int:
