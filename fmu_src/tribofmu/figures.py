@@ -111,7 +111,7 @@ def _key(scene_path: Path, run: Run, code: str) -> str:
 
 
 def _load_or_simulate(run: Run, scenarios_dir: Path, data_dir: Path, fmu_dir, rerun: bool, quiet: bool,
-                      code: str) -> Signals:
+                      code: str, written: list) -> Signals:
     from . import api
     from .atomic import atomic_write_bytes
     from .progress import RunBar
@@ -134,6 +134,7 @@ def _load_or_simulate(run: Run, scenarios_dir: Path, data_dir: Path, fmu_dir, re
     buffer = io.BytesIO()
     np.savez_compressed(buffer, key=np.array(key), **arrays)
     atomic_write_bytes(saved, buffer.getvalue())
+    written.append(saved)
     if not quiet:
         print(f"{run.label}: {result.stats['communication_steps']} steps, "
               f"{result.stats['wall_time']:.1f} s", file=sys.stderr)
@@ -142,11 +143,14 @@ def _load_or_simulate(run: Run, scenarios_dir: Path, data_dir: Path, fmu_dir, re
 
 def make_figures(out_dir: str | Path = "out/figures", only: list[str] | None = None,
                  scenarios_dir: str | Path | None = None, fmu_dir: str | Path | None = None,
-                 rerun: bool = False, quiet: bool = False, data_dir: str | Path | None = None) -> list[Path]:
+                 rerun: bool = False, quiet: bool = False, data_dir: str | Path | None = None,
+                 written: list | None = None) -> list[Path]:
     """Write ``OUT/fig2.png`` .. ``fig6.png`` and ``friction_<run>.png`` (or the ``only``
     ones); returns their paths.
 
-    data_dir: where the runs' signals are saved and reused (default ``OUT/data``)."""
+    data_dir: where the runs' signals are saved and reused (default ``OUT/data``). written:
+    a list that gets each file (figure or saved run) as soon as it is complete."""
+    written = written if written is not None else []
     from .fmu_cache import find_fmus
 
     from .scene.library import scenes_dir
@@ -166,12 +170,13 @@ def make_figures(out_dir: str | Path = "out/figures", only: list[str] | None = N
         for run in FIGURES[name]:
             if run.label not in results:
                 results[run.label] = _load_or_simulate(run, scenarios_dir, data_dir, fmu_dir, rerun,
-                                                       quiet, code)
+                                                       quiet, code, written)
         runs = [results[run.label] for run in FIGURES[name]]
         if name == "tn_map":
             runs = [api_load(scenarios_dir / "fig6_boundary.toml")]
         drawn = DRAW[name](runs, out_dir / f"{name}.png")
         paths += drawn if isinstance(drawn, list) else [drawn]
+        written += drawn if isinstance(drawn, list) else [drawn]
     return paths
 
 
