@@ -23,7 +23,7 @@ from pathlib import Path
 
 # What a run may find in its output folder and replace; anything else there is the user's,
 # and a result set never replaces a folder holding it.
-RESULT_NAMES = frozenset({"stats.json", "result.csv", "columns.json", "time.png", "phase.png",
+RESULT_NAMES = frozenset({"stats.json", "result.csv", "columns.json", "time.png", "phase.png", "friction.png",
                           "kinetics.png"})
 ACCURACY_NAMES = frozenset({"accuracy.png", "accuracy.csv", "summary.json"})
 PARTIAL, OLD = "partial", "old"
