@@ -17,7 +17,7 @@ import atexit
 import sys
 
 from . import __version__
-from .cli_checks import one_line
+from .cli_checks import label_overrides, one_line  # noqa: F401 (label_overrides: cli.label_overrides, as before)
 from .cli_commands import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_TOL_NOT_MET  # noqa: F401 (the exit codes)
 
 

@@ -109,5 +109,5 @@ def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
                               timeout=900)
         assert proc.returncode == 0, f"{block}\n{proc.stderr[-2000:]}"
     assert sorted(p.name for p in (work / "out" / "omega80").iterdir()) == [
-        "columns.json", "phase.png", "result.csv", "stats.json", "time.png"]
+        "columns.json", "friction.png", "phase.png", "result.csv", "stats.json", "time.png"]
     assert any((home / ".cache" / "tribofmu" / "fmus").glob("*/Friction.fmu"))  # the default cache, made
