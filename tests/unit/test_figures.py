@@ -308,3 +308,12 @@ def test_the_mixed_laws_curve_is_the_laws_own_stribeck_curve():
     i = int(np.argmin(np.abs(dv - law.v_stribeck)))
     assert F[i] == pytest.approx(law.force(float(dv[i]), sc.conditions.n))
     assert law_curve(api.load("fig6_boundary"), -1e-4, 1e-4) is None  # F depends on the film's f
+
+
+def test_no_shipped_scene_title_states_a_value_an_override_would_falsify():
+    """The title travels into stats.json and the scene list: "w = 30 rad/s" stayed there under
+    --set drive.omega=80. The values are the figures' (scene_label, from what was simulated)."""
+    import re
+    for path in sorted(SCENES.glob("*.toml")):
+        title = api.load(path).title
+        assert title and not re.search(r"=\s*[-+]?\d|\d\s*(rad/s|N|K|Pa)\b", title), (path.name, title)
