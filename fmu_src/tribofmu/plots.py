@@ -251,13 +251,8 @@ def plot_signals(signals: dict, sc, out_dir: Path) -> list[Path]:
     shade_stuck(axes[0], t, stuck, None)  # the same intervals above, labelled once
     shade_stuck(axes[1], t, stuck)
     for ax, name in zip(axes[2:], extra):
-        if name == "f":
-            ax.plot(t, s["f"], color="C2", label="f (excess volume)")
-            ax.axhline(law.melt_threshold(), color="0.5", lw=0.8, ls=":", label="melting: f = μ/μ̄")
-            ax.set_ylabel("f [1]")
-        elif name == "T":
-            ax.plot(t, s["T"], color="C1", label="T (Thermal FMU)")
-            ax.set_ylabel("T [K]")
+        if name in ("f", "T"):
+            draw_film(ax, name, t, s, law)
         elif law is not None and law.load_shown_as == "L":
             ax.plot(t, -s["n"] * sc.friction.S, color="C4", label="L = −n S (Load FMU)")
             ax.set_ylabel("load L [N]")
@@ -282,6 +277,18 @@ def plot_signals(signals: dict, sc, out_dir: Path) -> list[Path]:
     if has_friction(sc) and "F" in s:
         paths.append(draw_friction(s, sc, out_dir / "friction.png"))
     return paths
+
+
+def draw_film(ax, name: str, t, s: dict, law) -> None:
+    """A panel of the lubricant film: its excess volume f with the melting line (``"f"``) or its
+    temperature T from the Thermal FMU (``"T"``)."""
+    if name == "f":
+        ax.plot(t, s["f"], color="C2", label="f (excess volume)")
+        ax.axhline(law.melt_threshold(), color="0.5", lw=0.8, ls=":", label="melting: f = μ/μ̄")
+        ax.set_ylabel("f [1]")
+    else:
+        ax.plot(t, s["T"], color="C1", label="T (film, Thermal FMU)")
+        ax.set_ylabel("T [K]")
 
 
 def law_curve(sc, dv_low: float, dv_high: float, points: int = 401):
@@ -334,13 +341,7 @@ def draw_friction(s: dict, sc, path: Path) -> Path:
     panels = [top]
     for row, name in enumerate(extra, start=1):
         ax = fig.add_subplot(grid[row], sharex=top)
-        if name == "f":
-            ax.plot(t, s["f"], color="C2", label="f (excess volume)")
-            ax.axhline(law.melt_threshold(), color="0.5", lw=0.8, ls=":", label="melting: f = μ/μ̄")
-            ax.set_ylabel("f [1]")
-        else:
-            ax.plot(t, s["T"], color="C1", label="T (film, Thermal FMU)")
-            ax.set_ylabel("T [K]")
+        draw_film(ax, name, t, s, law)
         panels.append(ax)
     for ax in panels[:-1]:
         ax.tick_params(labelbottom=False)
