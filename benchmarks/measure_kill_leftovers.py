@@ -35,7 +35,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=39)
     args = parser.parse_args()
     from tribofmu.fmu_cache import find_fmus
-    from tribofmu.scene.wiring import fmu_names
+    from tribofmu.fmu.registry import fmu_names
     fmu_dir = find_fmus(fmu_names())
     rng = random.Random(args.seed)
     kinds = [signal.SIGKILL, signal.SIGHUP, signal.SIGTERM]

@@ -31,7 +31,7 @@ MARKER = ".tribofmu-output"
 MARKER_BYTES = 4096
 # What a run may find in its output folder and replace; anything else there is the user's,
 # and a result set never replaces a folder holding it.
-RESULT_NAMES = frozenset({"stats.json", "result.csv", "columns.json", "time.png", "phase.png",
+RESULT_NAMES = frozenset({"stats.json", "result.csv", "columns.json", "time.png", "phase.png", "friction.png",
                           "kinetics.png"})
 ACCURACY_NAMES = frozenset({"accuracy.png", "accuracy.csv", "summary.json"})
 RECORD_BYTES = 16_000_000  # the largest JSON record read to see whether a folder is ours

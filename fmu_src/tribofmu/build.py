@@ -331,8 +331,8 @@ TOKEN_FILE = "tribofmu-guid.txt"  # in resources/: the FMU's GUID (FMI 3.0: inst
 
 def install_native_loader(fmu: Path, fmi: int, work: Path) -> None:
     """Rewrite ``fmu`` (a pythonfmu-built archive) so its Linux binary is the native loader and
-    pythonfmu's binary sits beside it as libpythonfmu-export.so. Other platforms' binaries are
-    left as pythonfmu made them.
+    pythonfmu's binary sits beside it as libpythonfmu-export.so. Other platforms' binaries
+    (pythonfmu's win64 DLL) are left out: an FMU declares only the platforms it runs on.
 
     Without a C compiler the FMU keeps pythonfmu's binary, with a warning: it then runs in
     Python hosts only (fmpy, libcosimpy, ecospy, this package's master)."""
@@ -367,6 +367,8 @@ def install_native_loader(fmu: Path, fmi: int, work: Path) -> None:
             data = source.read(item)
             if item.filename == f"resources/{TOKEN_FILE}":
                 continue
+            if item.filename.startswith("binaries/") and not item.filename.startswith(platform_dir + "/"):
+                continue  # (a platform without the loader: not run, not tested, not declared)
             if item.filename == binaries[0].filename:
                 wrapper = zipfile.ZipInfo(f"{platform_dir}/{WRAPPER_FILE}", date_time=item.date_time)
                 wrapper.external_attr, wrapper.compress_type = item.external_attr, zipfile.ZIP_DEFLATED

@@ -29,6 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .progress import run_started
 from .run_folder import run_folder
 
 # The per-step tolerances of a check pair are this far apart. With errors e ~ tol^p, the
@@ -208,6 +209,7 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
             if remaining is not None and remaining < MIN_BUDGET:
                 break
             spool = Spool() if sink is not None else None
+            run_started(len(records) + 1, len(records) + (2 if base is None else 1))  # for the bar
             try:
                 result = run_once(step_tol=step_tol, max_wall=remaining, sink=spool)
             finally:

@@ -1,6 +1,7 @@
 """The ``tribofmu`` command: a thin layer over :mod:`tribofmu.api`.
 
-The synopsis of every command is its ``--help`` (the "Synopsis" of docs/cli.md is checked
+The commands themselves are in :mod:`tribofmu.cli_commands`. The synopsis of every command
+is its ``--help`` (the "Synopsis" of docs/cli.md is checked
 against this parser by tests/integration/test_user_sees.py).
 
 FMUs: ``--fmu-dir DIR`` uses the FMUs in DIR (they must exist); without it the FMUs built
@@ -13,20 +14,11 @@ from __future__ import annotations
 
 import argparse
 import atexit
-import json
-import math
 import sys
-from pathlib import Path
 
 from . import __version__
-from .cli_checks import (PLOT_BYTES, one_line, SSP_BYTES, SWEEP_POINT_BYTES, check_algorithm_options, claim_out,
-                         check_number, check_out_dir, check_out_file, label_overrides, output_folder,
-                         preflight, preflight_folder, require, resolve_fmu_dir)
-from .errors import UsageError
-
-EXIT_BAD_INPUT = 2
-EXIT_FAILED = 1
-EXIT_TOL_NOT_MET = 3  # the run completed and its result is kept, but its checked error is past --tol
+from .cli_checks import label_overrides, one_line  # noqa: F401 (label_overrides: cli.label_overrides, as before)
+from .cli_commands import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_TOL_NOT_MET  # noqa: F401 (the exit codes)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -38,7 +30,9 @@ def main(argv: list[str] | None = None) -> int:
     forget_published()  # what this command writes, for the Ctrl-C message
     try:
         parser = _parser()
-        args = parser.parse_args(argv)
+        args, unknown = parser.parse_known_args(argv)
+        if unknown:  # said with the command's own usage line, not the top level's (exit 2)
+            _subparsers(parser)[args.command].error(f"unrecognized arguments: {' '.join(unknown)}")
         from .master.instance import remove_orphan_extractions
         atexit.register(remove_orphan_extractions)  # unzipped FMUs of finished (Dask) workers
         status = args.run(args)
@@ -92,7 +86,8 @@ DESCRIPTION = """tribofmu: dry, fluid and boundary friction as FMI co-simulation
 
 SCENARIO is a shipped scene's name (list them with 'tribofmu scenes') or the path of a
 .toml scene file. Bad input is one line on stderr and exit code 2, checked before
-anything runs; a failed run exits 1."""
+anything runs; a failed run exits 1; a run that completed but whose checked error is past
+its --tol exits 3 (its result is kept and says so)."""
 
 EXAMPLES = {
     None: ["tribofmu scenes", "tribofmu simulate fig2_dry", "tribofmu figures",
@@ -120,6 +115,8 @@ def _examples(command: str | None) -> str:
 
 
 def _parser() -> argparse.ArgumentParser:
+    from .cli_commands import (cmd_accuracy, cmd_build, cmd_export_ssp, cmd_figures, cmd_plot, cmd_scenes,
+                               cmd_simulate, cmd_sweep)
     plain = argparse.RawDescriptionHelpFormatter
     parser = argparse.ArgumentParser(prog="tribofmu", description=DESCRIPTION, epilog=_examples(None),
                                      formatter_class=plain)
@@ -138,7 +135,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="FMI version of the co-simulation FMUs (default 2; 3 goes to its own cache folder)")
     p.set_defaults(run=cmd_build)
 
-    p = command("simulate", "co-simulate a scene; result.csv, columns.json, stats.json, time.png, phase.png")
+    p = command("simulate", "co-simulate a scene; result.csv, columns.json, stats.json, time.png, phase.png, friction.png")
     p.add_argument("scenario", metavar="SCENARIO", help=SCENARIO_HELP)
     p.add_argument("--out", default=None, metavar="DIR",
                    help="output directory (default: out/<scene name>[--<overrides>])")
@@ -154,7 +151,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=cmd_simulate)
 
-    p = command("plot", "redraw time.png and phase.png of a saved simulate result")
+    p = command("plot", "redraw time.png, phase.png and friction.png of a saved simulate result")
     p.add_argument("result_dir", metavar="DIR", help="a folder written by 'tribofmu simulate' (result.csv, stats.json)")
     p.add_argument("--out", default=None, metavar="DIR", help="where to write the PNGs (default: DIR)")
     p.set_defaults(run=cmd_plot)
@@ -176,7 +173,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("scenario", metavar="SCENARIO", help=SCENARIO_HELP)
     p.add_argument("--grid", action="append", default=[], required=True, metavar="KEY=V1,V2,...",
                    help="swept values of a scenario key (repeatable: the cartesian product)")
-    p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: out/<scene name>-sweep)")
+    p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: out/<scene name>--sweep)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="address of an existing Dask scheduler")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="local worker processes (default: one per core; 0: no Dask, a plain loop)")
@@ -186,7 +183,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="use these FMUs (default: the per-user cache, built from this source)")
     p.add_argument("--retry-failed", action="store_true", help="rerun the points sweep.csv has as failed")
     p.add_argument("--recompute", action="store_true",
-                   help="rerun every point (needed when OUT's sweep was computed with other FMUs)")
+                   help="rerun every point, whatever OUT holds (needed when OUT's sweep was computed with other FMUs)")
     p.add_argument("--timeout", type=float, default=None, metavar="S", help="per-point time limit [s]: then failed")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -194,7 +191,7 @@ def _parser() -> argparse.ArgumentParser:
 
     p = command("accuracy", "error vs cost of every algorithm against the reference solution")
     p.add_argument("scenario", metavar="SCENARIO", help=SCENARIO_HELP)
-    p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: out/<scene name>-accuracy)")
+    p.add_argument("--out", default=None, metavar="DIR", help="output directory (default: out/<scene name>[--<overrides>]--accuracy)")
     _add_set(p)
     p.add_argument("--quick", action="store_true", help="a shorter ladder of steps and tolerances")
     p.add_argument("--fmu-dir", default=None, metavar="DIR", help=fmu_help)
@@ -205,25 +202,29 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="out/figures", metavar="DIR", help="output directory (default: out/figures)")
     p.add_argument("--only", default=None, metavar="FIG,...",
                    help="a comma-separated subset of " + ",".join(_figure_names()) +
-                        " (default: the paper's fig2-fig6; tn_map, the boundary film's T x n map, only when named)")
+                        " (default: the paper's fig2-fig6 and friction, the friction force and loops of their scenes; tn_map, the boundary film's T x n map, only when named)")
     p.add_argument("--scenarios", default=None, metavar="DIR",
                    help="a folder of scene files to use instead of the shipped ones")
     p.add_argument("--fmu-dir", default=None, metavar="DIR", help=fmu_help)
     p.add_argument("--data", default=None, metavar="DIR",
                    help="where the runs' results are kept for reuse (default: OUT/data)")
-    p.add_argument("--rerun", action="store_true", help="simulate again even where saved results match")
+    p.add_argument("--recompute", "--rerun", dest="recompute", action="store_true",
+                   help="simulate every run again, whatever --data holds (--rerun: the same, its old name)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=cmd_figures)
     return parser
 
 
+def _subparsers(parser) -> dict[str, argparse.ArgumentParser]:
+    """Each command's own parser, by name."""
+    return next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+
+
 def synopsis() -> list[str]:
     """One line per command, every option it takes: docs/cli.md's "Synopsis" block is this."""
     import argparse as ap
-    parser = _parser()
-    sub = next(a for a in parser._actions if isinstance(a, ap._SubParsersAction))
     lines = []
-    for name, p in sub.choices.items():
+    for name, p in _subparsers(_parser()).items():
         words = [f"tribofmu {name}"]
         for action in p._actions:
             if isinstance(action, ap._HelpAction):
@@ -231,8 +232,7 @@ def synopsis() -> list[str]:
             if not action.option_strings:
                 words.append(action.metavar or action.dest.upper())
                 continue
-            flag = max(action.option_strings, key=len) if action.option_strings[0].startswith("--") \
-                else action.option_strings[0]
+            flag = max(action.option_strings, key=len)  # --quiet, not -q: the name says what it does
             if action.nargs == 0:
                 text = flag
             else:
@@ -248,6 +248,11 @@ def synopsis() -> list[str]:
     return lines
 
 
+def _default_tol() -> float:
+    from .api import DEFAULT_TOL
+    return DEFAULT_TOL
+
+
 def _figure_names() -> list[str]:
     from .figures import FIGURES
     return list(FIGURES)
@@ -260,226 +265,16 @@ def _add_set(p) -> None:
 
 
 def _add_algorithm(p) -> None:
+    from .coupling.algorithms import ALGORITHMS
+    names = list(ALGORITHMS)
     p.add_argument("--algorithm", default=None, metavar="NAME",
-                   help="jacobi, gauss-seidel, implicit or adaptive (default: the scene's)")
+                   help=f"{', '.join(names[:-1])} or {names[-1]} (default: the scene's simulation.algorithm)")
     p.add_argument("--step", type=float, default=None, metavar="S",
                    help="communication step [s] (fixed-step algorithms; adaptive: the first step)")
-    p.add_argument("--tol", type=float, default=None, metavar="TOL", help="tolerance of the adaptive algorithm")
-
-
-# -- commands -------------------------------------------------------------------------------
-def cmd_build(args) -> int:
-    from .build import build_fmus
-    from .fmu_cache import BUILD_BYTES, find_fmus
-    from .fmu.registry import fmu_names
-    if args.out is None:  # the cache: rebuilt, with the hashes it checks recorded
-        folder = find_fmus(fmu_names(), None, fmi=args.fmi, build=True)
-        paths = [folder / f"{name}.fmu" for name in fmu_names()]
-    else:
-        claim_out(Path(args.out), "build", BUILD_BYTES)
-        paths = build_fmus(args.out, fmi=args.fmi)
-    for path in paths:
-        print(path)
-    return 0
-
-
-def cmd_simulate(args) -> int:
-    from . import api
-    from .progress import RunBar, work_done
-    from .result_csv import expected_bytes
-    from .scene.library import resolve_scene
-
-    scene_file = resolve_scene(args.scenario)
-    scenario = api.load(scene_file, args.overrides)
-    check_algorithm_options(scenario, args.algorithm, args.step, args.tol, args.max_wall)
-    out = Path(args.out) if args.out else output_folder(scenario.name, label_overrides(
-        args.overrides, args.algorithm, args.step, args.tol, args.max_wall, args.fmi,
-        scenario=scenario, base=api.load(scene_file) if args.overrides else scenario))
-    samples = api.output_samples(scenario) + 1
-    preflight(out, expected_bytes(scenario, samples) + (0 if args.no_plots else PLOT_BYTES))
-    fmu_dir = resolve_fmu_dir(args.fmu_dir, scenario.fmus, args.quiet, args.fmi)
-    quiet = True if args.quiet else None
-    # the API's own call writes the set (swapped in whole when done; untouched on failure or
-    # Ctrl-C); it enters the bar (Ctrl-C deferred to the next communication point) around the run
-    bar = RunBar(scenario.name, scenario.stop_time, enabled=False if quiet else None)
-    try:
-        result = api.simulate_and_save(
-            scene_file, out, args.overrides, algorithm=args.algorithm, step=args.step, tol=args.tol,
-            fmu_dir=fmu_dir, build=False, plots=not args.no_plots, progress=bar, notice=bar.notice,
-            max_wall=api.SCENE_MAX_WALL if args.max_wall is None else args.max_wall, command=["tribofmu", *sys.argv[1:]])
-    finally:
-        bar.close()  # also when the call failed before the run began
-    work_done()  # the result set is complete (or the failure is known): what follows only says so
-    estimate = result.stats["estimated_error"]["nrms_v"]
-    checked = result.stats["estimated_error"].get("method", "").startswith("checked")
-    accuracy = (f", {'checked' if checked else 'estimated'} nRMS(v) {estimate:.2g}"
-                + (f" (tol {result.stats['tol']:g})" if checked else "")) if estimate is not None else ""
-    print(f"{scenario.name}: {result.message}; {result.stats['communication_steps']} steps, "
-          f"{result.stats['wall_time']:.2f} s{accuracy} -> {out}/")
-    if not result.stats.get("completed", result.ok):
-        print(f"tribofmu: {result.message}", file=sys.stderr)
-        return EXIT_FAILED
-    if not result.ok:  # completed, kept, but short of its tolerance: one line, exit 3
-        print(f"tribofmu: {result.message}", file=sys.stderr)
-        return EXIT_TOL_NOT_MET
-    return 0
-
-
-def cmd_plot(args) -> int:
-    """Redraw a saved result from its result.csv and the scenario recorded in stats.json."""
-    from .columns import read_result_csv
-    from .errors import TriboFMUError
-    from .plots import plot_signals
-    from .scene.scenario import from_dict
-    folder = Path(args.result_dir)
-    csv, stats_file = folder / "result.csv", folder / "stats.json"
-    for path in (csv, stats_file):
-        if not path.is_file():
-            raise UsageError(f"{folder}: no {path.name} here (a folder written by 'tribofmu simulate')")
-    try:
-        stats = json.loads(stats_file.read_text(encoding="utf-8"))
-        data = stats["scenario"]
-    except (ValueError, KeyError, TypeError):
-        raise UsageError(f"{stats_file}: no scenario recorded (written by an older tribofmu: "
-                         "simulate again)") from None
-    except OSError as exc:
-        raise UsageError(f"{stats_file}: cannot be read ({exc.strerror or exc})") from None
-    if not (isinstance(data, dict) and all(isinstance(v, dict) for v in data.values())):
-        raise UsageError(f"{stats_file}: its \"scenario\" is not a recorded scenario (a table of "
-                         f"tables), got {json.dumps(data)[:60]}")
-    try:
-        scenario = from_dict(data, stats_file.name)
-    except TriboFMUError:
-        raise
-    except (ValueError, KeyError, TypeError, AttributeError) as exc:
-        raise UsageError(f"{stats_file}: its \"scenario\" cannot be read ({one_line(exc)})") from None
-    try:
-        signals = read_result_csv(csv)
-    except ValueError as exc:
-        raise UsageError(f"{csv}: not a result table ({exc})") from None
-    missing = [k for k in ("time", "X", "V", "x", "v") if k not in signals]
-    if missing:
-        raise UsageError(f"{csv}: no column {missing[0]!r}")
-    out = claim_out(Path(args.out), "plot", PLOT_BYTES, also=("simulate",)) if args.out else folder
-    out.mkdir(parents=True, exist_ok=True)
-    for path in plot_signals(signals, scenario, out):
-        print(path)
-    return 0
-
-
-def cmd_scenes(args) -> int:
-    from .scene.library import scene_names, scene_path, scene_summary
-    names = scene_names()
-    width = max(map(len, names))
-    for name in names:
-        print(f"{name:<{width}}  {scene_summary(scene_path(name))}")
-    return 0
-
-
-def cmd_export_ssp(args) -> int:
-    from . import api
-    from .scene.ssp import check_replaceable_archive, export_ssp
-    from .scene.wiring import instances
-    scenario = api.load(args.scenario, args.overrides)  # a shipped scene's name or a path
-    out = check_out_file(Path(args.out))
-    try:  # never replaces a file it did not write (exit 2, before any build)
-        check_replaceable_archive(out)
-    except FileExistsError as exc:
-        raise UsageError(f"--out {exc}") from None
-    names = [inst.fmu.name for inst in instances(scenario, args.pair)]  # a scene the pair cannot take: exit 2
-    preflight_folder(out.parent, SSP_BYTES)
-    fmu_dir = resolve_fmu_dir(args.fmu_dir, names)
-    path = export_ssp(scenario, out, fmu_dir, pair=args.pair)
-    print(path)
-    return 0
-
-
-def cmd_sweep(args) -> int:
-    """Exit 0 when every point is ok, 1 when some failed (see their rows), 2 on bad input."""
-    from . import api
-    from .progress import work_done
-    from .studies.sweep import parse_grid, sweep
-    require("tqdm", "tqdm", "tribofmu sweep")
-    if args.workers != 0:
-        require("distributed", "dask[distributed]", "tribofmu sweep on Dask (--workers 0 runs without)")
-    from .scene.library import resolve_scene
-    scene_file = resolve_scene(args.scenario)
-    scenario = api.load(scene_file, args.overrides)
-    check_algorithm_options(scenario, args.algorithm, args.step, args.tol)
-    check_number("--timeout", args.timeout)
-    out = Path(args.out) if args.out else output_folder(scene_file.stem, {}, "-sweep", "the scenario file's name")
-    grid = parse_grid(args.grid)
-    points = math.prod(len(values) for values in grid.values())
-    claim_out(out, "sweep", points * SWEEP_POINT_BYTES + (0 if args.no_plots else PLOT_BYTES))
-    try:
-        rows = sweep(scene_file, grid, out, scheduler=args.scheduler,
-                     workers=args.workers, overrides=args.overrides, algorithm=args.algorithm,
-                     step=args.step, tol=args.tol, fmu_dir=args.fmu_dir,
-                     retry_failed=args.retry_failed, recompute=args.recompute, timeout=args.timeout,
-                     plots=not args.no_plots,
-                     progress=not args.quiet and sys.stderr.isatty())
-    except KeyboardInterrupt:
-        _quiet_from_now_on()
-        from .studies.sweep.store import STAGING_NAME
-        if args.recompute and (out / STAGING_NAME).is_dir():
-            print(f"tribofmu: sweep interrupted; the earlier sweep in {out}/ is as it was, the "
-                  f"recompute's finished points are kept aside: rerun the same command to resume it",
-                  file=sys.stderr)
-        else:
-            print(f"tribofmu: sweep interrupted; finished points are in {out}/sweep.csv, "
-                  "rerun the same command to resume", file=sys.stderr)
-        return 130
-    work_done()  # sweep.csv holds every point: what follows only says so
-    print(f"{len(rows)} points: {len(rows) - rows.failed} ok, {rows.failed} failed "
-          f"({rows.computed} run, {rows.skipped} already done), {rows.elapsed:.1f} s -> {out}/")
-    return EXIT_FAILED if rows.failed else 0
-
-
-def cmd_accuracy(args) -> int:
-    from . import api
-    from .studies.accuracy import accuracy_study, write_study
-    from .progress import check_interrupt, deferred_interrupts
-    from .atomic import ACCURACY_NAMES, check_replaceable
-    from .provenance import overrides_dict
-    scenario = api.load(args.scenario, args.overrides)
-    out = Path(args.out) if args.out else output_folder(scenario.name, overrides_dict(args.overrides),
-                                                        "-accuracy")
-    preflight_folder(out.absolute().parent, PLOT_BYTES)
-    try:
-        check_replaceable(out, ACCURACY_NAMES)
-    except FileExistsError as exc:
-        raise UsageError(f"--out {exc}") from None
-    fmu_dir = resolve_fmu_dir(args.fmu_dir, scenario.fmus, args.quiet)
-    def log(message: str) -> None:  # called between runs: where a Ctrl-C may stop the study
-        if not args.quiet:
-            print(message, file=sys.stderr)
-        check_interrupt()
-    with deferred_interrupts():  # never inside FMU code (pythonfmu would make it fmi2Fatal)
-        rows, summary = accuracy_study(scenario, fmu_dir=fmu_dir, quick=args.quick, log=log,
-                                       progress=lambda status: check_interrupt())
-    write_study(rows, summary, scenario, out)
-    print(f"{len(rows)} runs, {summary['total_wall_time_s']:.1f} s -> {out}/")
-    return 0
-
-
-def cmd_figures(args) -> int:
-    from .figures import FIGURES, make_figures
-    only = None
-    if args.only:
-        only = [name.strip() for name in args.only.split(",") if name.strip()]
-        unknown = [name for name in only if name not in FIGURES]
-        if unknown or not only:
-            raise UsageError(f"--only {args.only}: unknown figure {unknown[0] if unknown else '(none)'!r} "
-                             f"(known: {', '.join(FIGURES)})")
-    out = check_out_dir(Path(args.out))
-    claim_out(out, "figures", 5 * PLOT_BYTES)
-    if args.data:
-        claim_out(Path(args.data), "figures", PLOT_BYTES, "--data")
-    paths = make_figures(out, only=only, scenarios_dir=args.scenarios, fmu_dir=args.fmu_dir,
-                         rerun=args.rerun, quiet=args.quiet, data_dir=args.data)
-    for path in paths:
-        print(path)
-    return 0
+    p.add_argument("--tol", type=float, default=None, metavar="TOL",
+                   help="adaptive: the error the run must meet, the nRMS of v on the shown window relative "
+                        "to its largest |v|, checked by runs at tighter per-step tolerances (default: the "
+                        f"scene's simulation.tol, else {_default_tol():g}); past it the result is kept, exit 3")
 
 
 if __name__ == "__main__":

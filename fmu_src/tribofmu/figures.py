@@ -10,6 +10,11 @@
   ``fig5_newtonian``, ``fig5_dilatant``); the lower panel has an inset enlarging v(t).
 - Fig. 6 (``fig6_boundary``): X, x and V, v, plus the lubricant's excess volume f(t) with
   the melting point f = mu/mub.
+- ``friction``: ``friction_<run>.png`` for each of the paper's scenes (Fig. 2's, Fig. 4's
+  130 rad/s run, Fig. 5's three, Fig. 6's): the friction force F(t) with the stick bands, the
+  friction loops F(dv) (under it the law's own F(dv) where F is a curve of dv) and F(X − x),
+  and f(t) for the boundary lubricant (:func:`tribofmu.plots.draw_friction`, the figure
+  ``tribofmu simulate`` writes as friction.png).
 - ``tn_map`` (not of the paper, only with ``--only tn_map``; about 10 s, no FMU): the
   boundary film at rest under a slow temperature ramp up and back down at each load: where
   melting and solidification happen at different temperatures (the T x n hysteresis band).
@@ -65,9 +70,11 @@ FIGURES = {
     "fig4": _fig4_runs(),
     "fig5": FIG5_RUNS,
     "fig6": [Run("fig6_boundary", "fig6_boundary.toml")],
+    "friction": [Run("fig2_dry", "fig2_dry.toml"), Run("fig4_w130", "fig4_dry_w130.toml"), *FIG5_RUNS,
+                 Run("fig6_boundary", "fig6_boundary.toml")],
     "tn_map": [],  # the friction law alone, no simulation
 }
-PAPER_FIGURES = ("fig2", "fig3", "fig4", "fig5", "fig6")  # what a plain 'tribofmu figures' draws
+PAPER_FIGURES = ("fig2", "fig3", "fig4", "fig5", "fig6", "friction")  # what a plain 'tribofmu figures' draws
 
 
 class Signals:
@@ -104,7 +111,7 @@ def _key(scene_path: Path, run: Run, code: str) -> str:
 
 
 def _load_or_simulate(run: Run, scenarios_dir: Path, data_dir: Path, fmu_dir, rerun: bool, quiet: bool,
-                      code: str) -> Signals:
+                      code: str, written: list) -> Signals:
     from . import api
     from .atomic import atomic_write_bytes
     from .progress import RunBar
@@ -127,6 +134,7 @@ def _load_or_simulate(run: Run, scenarios_dir: Path, data_dir: Path, fmu_dir, re
     buffer = io.BytesIO()
     np.savez_compressed(buffer, key=np.array(key), **arrays)
     atomic_write_bytes(saved, buffer.getvalue())
+    written.append(saved)
     if not quiet:
         print(f"{run.label}: {result.stats['communication_steps']} steps, "
               f"{result.stats['wall_time']:.1f} s", file=sys.stderr)
@@ -135,10 +143,14 @@ def _load_or_simulate(run: Run, scenarios_dir: Path, data_dir: Path, fmu_dir, re
 
 def make_figures(out_dir: str | Path = "out/figures", only: list[str] | None = None,
                  scenarios_dir: str | Path | None = None, fmu_dir: str | Path | None = None,
-                 rerun: bool = False, quiet: bool = False, data_dir: str | Path | None = None) -> list[Path]:
-    """Write ``OUT/fig2.png`` .. ``fig6.png`` (or the ``only`` ones); returns their paths.
+                 rerun: bool = False, quiet: bool = False, data_dir: str | Path | None = None,
+                 written: list | None = None) -> list[Path]:
+    """Write ``OUT/fig2.png`` .. ``fig6.png`` and ``friction_<run>.png`` (or the ``only``
+    ones); returns their paths.
 
-    data_dir: where the runs' signals are saved and reused (default ``OUT/data``)."""
+    data_dir: where the runs' signals are saved and reused (default ``OUT/data``). written:
+    a list that gets each file (figure or saved run) as soon as it is complete."""
+    written = written if written is not None else []
     from .fmu_cache import find_fmus
 
     from .scene.library import scenes_dir
@@ -158,12 +170,22 @@ def make_figures(out_dir: str | Path = "out/figures", only: list[str] | None = N
         for run in FIGURES[name]:
             if run.label not in results:
                 results[run.label] = _load_or_simulate(run, scenarios_dir, data_dir, fmu_dir, rerun,
-                                                       quiet, code)
+                                                       quiet, code, written)
         runs = [results[run.label] for run in FIGURES[name]]
         if name == "tn_map":
             runs = [api_load(scenarios_dir / "fig6_boundary.toml")]
-        paths.append(DRAW[name](runs, out_dir / f"{name}.png"))
+        drawn = DRAW[name](runs, out_dir / f"{name}.png")
+        paths += drawn if isinstance(drawn, list) else [drawn]
+        written += drawn if isinstance(drawn, list) else [drawn]
     return paths
+
+
+def output_names(names=PAPER_FIGURES) -> list[str]:
+    """The file names :func:`make_figures` writes for these figures (what docs/ may cite)."""
+    out = []
+    for name in names:
+        out += ([f"friction_{run.label}.png" for run in FIGURES[name]] if name == "friction" else [f"{name}.png"])
+    return out
 
 
 def api_load(path: Path):
@@ -347,5 +369,12 @@ def draw_tn_map(runs, path: Path) -> Path:
     return _save(fig, path)
 
 
+def draw_friction(runs, path: Path) -> list[Path]:
+    """friction_<run>.png beside path, one per run (see :func:`tribofmu.plots.draw_friction`)."""
+    from .plots import draw_friction as draw
+    return [draw({name: getattr(r, name) for name in SIGNALS}, r.scenario,
+                 path.with_name(f"friction_{label}.png")) for r, label in zip(runs, [run.label for run in FIGURES["friction"]])]
+
+
 DRAW = {"fig2": draw_fig2, "fig3": draw_fig3, "fig4": draw_fig4, "fig5": draw_fig5, "fig6": draw_fig6,
-        "tn_map": draw_tn_map}
+        "friction": draw_friction, "tn_map": draw_tn_map}

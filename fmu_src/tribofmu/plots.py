@@ -1,6 +1,8 @@
 """Figures of one run: ``time.png`` (X, x; V, v; and whatever else the scene couples: f(t)
-for boundary friction, T(t) with a Thermal FMU, the load with a Load FMU) and ``phase.png``
-(the phase portrait v(x)).
+for boundary friction, T(t) with a Thermal FMU, the load with a Load FMU), ``phase.png``
+(the phase portrait v(x)) and ``friction.png`` (:func:`draw_friction`: the friction force
+F(t) with the stick bands, the friction loops F(dv) and F(X − x) over the window's periods, the
+law's own force curve under the loop where it has one, and the lubricant's f(t) and T(t)).
 
 Titles are made from the values actually simulated (:func:`scene_label`), never from the
 scene file's title text, so a run with ``--set drive.omega=80`` says 80 rad/s; an input
@@ -221,13 +223,13 @@ def window(signals: dict, sc) -> dict:
 
 
 def plot_result(result, out_dir: Path) -> list[Path]:
-    """time.png and phase.png of a :class:`tribofmu.api.SimulationResult`; returns their paths."""
+    """time.png, phase.png and friction.png of a :class:`tribofmu.api.SimulationResult`; returns their paths."""
     from .columns import result_signals
     return plot_signals(result_signals(result), result.scenario, out_dir)
 
 
 def plot_signals(signals: dict, sc, out_dir: Path) -> list[Path]:
-    """time.png and phase.png from a run's signals (``{name: array}`` with ``time``, as in
+    """time.png, phase.png and friction.png (with friction) from a run's signals (``{name: array}`` with ``time``, as in
     result.csv) and its scenario; returns their paths."""
     plt = pyplot()
     out_dir = Path(out_dir)
@@ -249,13 +251,8 @@ def plot_signals(signals: dict, sc, out_dir: Path) -> list[Path]:
     shade_stuck(axes[0], t, stuck, None)  # the same intervals above, labelled once
     shade_stuck(axes[1], t, stuck)
     for ax, name in zip(axes[2:], extra):
-        if name == "f":
-            ax.plot(t, s["f"], color="C2", label="f (excess volume)")
-            ax.axhline(law.melt_threshold(), color="0.5", lw=0.8, ls=":", label="melting: f = μ/μ̄")
-            ax.set_ylabel("f [1]")
-        elif name == "T":
-            ax.plot(t, s["T"], color="C1", label="T (Thermal FMU)")
-            ax.set_ylabel("T [K]")
+        if name in ("f", "T"):
+            draw_film(ax, name, t, s, law)
         elif law is not None and law.load_shown_as == "L":
             ax.plot(t, -s["n"] * sc.friction.S, color="C4", label="L = −n S (Load FMU)")
             ax.set_ylabel("load L [N]")
@@ -277,4 +274,99 @@ def plot_signals(signals: dict, sc, out_dir: Path) -> list[Path]:
     ax.grid(alpha=0.3)
     fixed_layout(fig, top=0.35)
     paths.append(save_png(fig, out_dir / "phase.png"))
+    if has_friction(sc) and "F" in s:
+        paths.append(draw_friction(s, sc, out_dir / "friction.png"))
     return paths
+
+
+def draw_film(ax, name: str, t, s: dict, law) -> None:
+    """A panel of the lubricant film: its excess volume f with the melting line (``"f"``) or its
+    temperature T from the Thermal FMU (``"T"``)."""
+    if name == "f":
+        ax.plot(t, s["f"], color="C2", label="f (excess volume)")
+        ax.axhline(law.melt_threshold(), color="0.5", lw=0.8, ls=":", label="melting: f = μ/μ̄")
+        ax.set_ylabel("f [1]")
+    else:
+        ax.plot(t, s["T"], color="C1", label="T (film, Thermal FMU)")
+        ax.set_ylabel("T [K]")
+
+
+def law_curve(sc, dv_low: float, dv_high: float, points: int = 401):
+    """``(dv, F)`` of the force the scene's friction law defines against dv [m/s] over
+    [dv_low, dv_high] (asked of the law object: its slip branches, with the static limit's
+    vertical segment at dv = 0 for a law that sticks), or None where the force is not one
+    curve of dv: a law with a state (boundary friction: F depends on f) or a load that moves."""
+    law = sc.friction.law()
+    if law.has_state or "Load" in sc.fmus:
+        return None
+    n = sc.conditions.n
+    span = max(abs(dv_low), abs(dv_high))
+    dv = np.linspace(-span, span, points)
+    dv = dv[dv != 0.0]
+    force = np.array([law.force(float(d), n) for d in dv])
+    if law.sticks:  # the set-valued force at rest: the static limit on both sides
+        limit = law.static_limit(n)
+        negative, positive = dv < 0, dv > 0
+        dv = np.concatenate([dv[negative], [0.0, 0.0], dv[positive]])
+        force = np.concatenate([force[negative], [-limit, limit], force[positive]])
+    return dv, force
+
+
+def draw_friction(s: dict, sc, path: Path) -> Path:
+    """friction.png of a run's signals on the shown window ``s`` (``time, x, F, stuck`` and
+    ``V, v`` or ``dv``; ``f`` and ``T`` where the scene has them): F(t) with the stick bands
+    shaded, f(t) for a lubricant that melts, T(t) with a Thermal FMU; below, the friction
+    loops F(dv) (the law's force curve under it, :func:`law_curve`) and F(X − x)."""
+    plt = pyplot()
+    t = np.asarray(s["time"])
+    F = np.asarray(s["F"])
+    dv = np.asarray(s["dv"]) if "dv" in s else np.asarray(s["V"]) - np.asarray(s["v"])
+    k, prefix = length_scale(sc)
+    law = sc.friction.law()
+    kF, uF = unit_scale(F, "N")
+    extra = []
+    if law.melt_threshold() is not None and "f" in s:
+        extra.append("f")
+    if "T" in s and "Thermal" in sc.fmus:
+        extra.append("T")
+    rows = 1 + len(extra)
+    fig = plt.figure(figsize=(8.0, 2.1 * rows + 3.6))
+    outer = fig.add_gridspec(2, 1, height_ratios=[rows, 1.7], hspace=0.42 / rows + 0.1)
+    grid, below = outer[0].subgridspec(rows, 1, hspace=0.12), outer[1].subgridspec(1, 2, wspace=0.3)
+    top = fig.add_subplot(grid[0])
+    top.plot(t, F * kF, color="C2", lw=1.2, label="F (friction on the block)")
+    top.axhline(0.0, color="0.5", lw=0.6)
+    shade_stuck(top, t, s.get("stuck", np.zeros(len(t))), "stuck")
+    top.set_ylabel(f"F [{uF}]")
+    panels = [top]
+    for row, name in enumerate(extra, start=1):
+        ax = fig.add_subplot(grid[row], sharex=top)
+        draw_film(ax, name, t, s, law)
+        panels.append(ax)
+    for ax in panels[:-1]:
+        ax.tick_params(labelbottom=False)
+    panels[-1].set_xlabel("t [s]")
+    loop, against_x = fig.add_subplot(below[0]), fig.add_subplot(below[1])
+    curve = law_curve(sc, float(np.min(dv)) if dv.size else 0.0, float(np.max(dv)) if dv.size else 0.0)
+    if curve is not None:
+        loop.plot(curve[0] * k, curve[1] * kF, "--", color="0.15", lw=1.0, zorder=3,
+                  label=f"the law's F(dv) at L = {quantity(law.load(sc.conditions.n), 'N')}"
+                  if law.load_shown_as == "L" else "the law's F(dv)")
+    loop.plot(dv * k, F * kF, color="C2", lw=2.0, alpha=0.8, label="run")
+    loop.set_xlabel(f"dv = V − v [{prefix}m/s]")
+    loop.set_ylabel(f"F [{uF}]")
+    loop.set_title("friction loop F(dv)", fontsize=9)
+    # against the sliding displacement X - x: the loop's area is the work friction dissipates
+    # (against the block's own x a periodic motion draws a line, F = (2K - M w^2) x)
+    slid = np.asarray(s["X"]) - np.asarray(s["x"])
+    against_x.plot(slid * k, F * kF, color="C0", lw=1.0, label="run (area: energy dissipated)")
+    against_x.set_xlabel(f"X − x (sliding displacement) [{prefix}m]")
+    against_x.set_ylabel(f"F [{uF}]")
+    against_x.set_title("friction loop F(X − x)", fontsize=9)
+    finish_axes(panels + [loop, against_x])
+    start, end = sc.window
+    periods = (end - start) * sc.drive.omega / (2 * math.pi) if has_drive(sc) else None
+    span = f"; window {_fmt(start)}–{_fmt(end)} s" + (f" ({_fmt(periods)} periods)" if periods else "")
+    lines = title(fig, "friction: " + scene_label(sc, s) + span)
+    fixed_layout(fig, lines, left=0.9, bottom=0.55)
+    return save_png(fig, path)

@@ -114,3 +114,21 @@ def test_the_accuracy_study_shows_the_error_asked_reported_and_true(fmu_dir):
     header = rows_csv(rows).splitlines()[0].split(",")
     assert header[3:7] == ["tol", "default", "reported_nrms_v", "nrms_v"]
     assert "reported" in COLUMN_MEANINGS["reported_nrms_v"] and any("reported" in line for line in lines)
+    # the default coupling's rows: every column it writes or prints is a number, none nan
+    assert "nan" not in rows_csv(rows).lower() and not any("nan" in line.lower() for line in lines)
+    for row in rows:
+        assert row["reported_over_true"] == pytest.approx(row["reported_nrms_v"] / row["nrms_v"])
+
+
+def test_the_event_driven_anchor_counts_segments_not_rhs_evaluations(fmu_dir):
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.studies.accuracy import accuracy_study, rows_csv
+
+    scenario = load_scenario(scene("fig2_dry"), {"time.periods": 2.0, "time.window": [1.0, 2.0]})
+    lines = []
+    rows, _ = accuracy_study(scenario, fmu_dir=fmu_dir, ladder=[], quick=True, log=lines.append)
+    event = [r for r in rows if r["algorithm"] == "event-driven"]
+    assert event and all(r["rhs_evals"] is None and r["steps"] > 0 for r in event)
+    printed = [line for line in lines if line.startswith("event-driven")]
+    assert printed and all("segments" in line and "rhs" not in line for line in printed), printed
+    assert "nan" not in rows_csv(rows).lower()

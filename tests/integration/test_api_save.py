@@ -14,7 +14,7 @@ from scenes import FIG2
 
 pytestmark = pytest.mark.integration
 
-SET = ["columns.json", "phase.png", "result.csv", "stats.json", "time.png"]
+SET = ["columns.json", "friction.png", "phase.png", "result.csv", "stats.json", "time.png"]
 
 
 def names(folder):

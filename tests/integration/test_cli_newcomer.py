@@ -158,7 +158,8 @@ def test_a_failed_run_does_not_leave_older_results_beside_its_stats(tmp_path, fm
     out = tmp_path / "run"
     argv = ["simulate", FIG2, "--out", out, "--fmu-dir", fmu_dir, "-q", *SHORT]
     assert main(*argv, capsys=capsys).returncode == 0
-    assert {p.name for p in out.iterdir()} == {"stats.json", "result.csv", "columns.json", "time.png", "phase.png"}
+    assert {p.name for p in out.iterdir()} == {"stats.json", "result.csv", "columns.json", "time.png", "phase.png",
+                                               "friction.png"}
     good = _short_result(fmu_dir)
     failed = dataclasses.replace(good, ok=False, message="stopped at t = 0.1 s: friction: fmi2DoStep")
     failed.stats = dict(good.stats, ok=False, completed=False, message=failed.message)

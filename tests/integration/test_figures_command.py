@@ -24,4 +24,18 @@ def test_figures_command_subset_reuses_its_runs(tmp_path, fmu_dir, capsys):
     bad = main("figures", "--only", "fig9", "--out", out, capsys=capsys)
     assert bad.returncode == 2
     assert bad.stderr.strip().splitlines() == [
-        "tribofmu: --only fig9: unknown figure 'fig9' (known: fig2, fig3, fig4, fig5, fig6, tn_map)"]
+        "tribofmu: --only fig9: unknown figure 'fig9' (known: fig2, fig3, fig4, fig5, fig6, friction, tn_map)"]
+
+
+def test_an_interrupted_figures_call_names_what_it_wrote(tmp_path, fmu_dir, capsys, monkeypatch):
+    from tribofmu import figures
+
+    def interrupted(runs, path):
+        raise KeyboardInterrupt
+    monkeypatch.setitem(figures.DRAW, "fig3", interrupted)
+    out = tmp_path / "figs"
+    run = main("figures", "--only", "fig2,fig3", "--out", out, "--fmu-dir", fmu_dir, "--quiet", capsys=capsys)
+    assert run.returncode == 130
+    assert (out / "fig2.png").is_file() and not (out / "fig3.png").exists()
+    assert "no result was written" not in run.stderr
+    assert "fig2_dry.npz" in run.stderr and "fig2.png" in run.stderr, run.stderr

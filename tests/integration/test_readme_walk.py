@@ -98,9 +98,10 @@ def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
         assert "Traceback" not in proc.stderr and "Warning" not in proc.stderr, f"{command}:\n{proc.stderr}"
     assert (work / "out" / "fig2_dry" / "result.csv").is_file()
     assert (work / "out" / "fig2_dry" / "time.png").is_file()
-    assert sorted(p.name for p in (work / "out" / "figures").glob("*.png")) == [
-        "fig2.png", "fig3.png", "fig4.png", "fig5.png", "fig6.png"]
-    assert (work / "docs" / "figures" / "boundary_heating" / "time.png").is_file()
+    from tribofmu.figures import PAPER_FIGURES, output_names
+    assert sorted(p.name for p in (work / "out" / "figures").glob("*.png")) == sorted(output_names(PAPER_FIGURES))
+    assert {"fig2.png", "fig6.png", "friction_fig2_dry.png"} <= set(output_names(PAPER_FIGURES))
+    assert (work / "out" / "boundary_heating" / "friction.png").is_file()
     assert (work / "fig2_dry.ssp").is_file()  # the archive the README's OMSimulator line runs
     # the README's Python blocks, in the same folder (the tour's save calls, fmpy on that archive)
     for block in re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(), re.S):
@@ -108,5 +109,5 @@ def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
                               timeout=900)
         assert proc.returncode == 0, f"{block}\n{proc.stderr[-2000:]}"
     assert sorted(p.name for p in (work / "out" / "omega80").iterdir()) == [
-        "columns.json", "phase.png", "result.csv", "stats.json", "time.png"]
+        "columns.json", "friction.png", "phase.png", "result.csv", "stats.json", "time.png"]
     assert any((home / ".cache" / "tribofmu" / "fmus").glob("*/Friction.fmu"))  # the default cache, made

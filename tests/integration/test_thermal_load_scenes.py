@@ -68,7 +68,7 @@ def test_boundary_heating_feeds_the_film_exactly_the_audited_dissipation(fmu_dir
     ref = reference_solution(sc, rtol=1e-8)
     T = input_signals(outcome.points, ref.time)["T"]
     rise = ref.T[-1] - ref.T[0]
-    assert rise > 100.0
+    assert rise > 40.0  # 56 K (C = 2e-11 J/K; a film heating by 0.2 % of it would say nothing)
     assert np.max(np.abs(T - ref.T)) <= 2e-2 * rise
     assert outcome.calls_by_instance["thermal"] > 0
 

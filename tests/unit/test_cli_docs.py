@@ -56,3 +56,31 @@ def test_help_is_plain_text_with_an_example(command, capsys):
     assert re.search(r"examples?:\n  tribofmu ", text), text
     if command in ("simulate", "sweep", "accuracy", "export-ssp"):
         assert re.search(r"SCENARIO\s+a shipped scene's name", text), text
+
+
+def test_the_help_says_the_algorithms_the_tol_and_exit_3(capsys):
+    from tribofmu.api import DEFAULT_TOL
+    from tribofmu.coupling.algorithms import ALGORITHMS
+    with pytest.raises(SystemExit):
+        cli._parser().parse_args(["simulate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for name in ALGORITHMS:
+        assert re.search(rf"--algorithm NAME .*\b{re.escape(name)}\b", text), name
+    assert "nRMS of v" in text and f"else {DEFAULT_TOL:g}" in text
+    with pytest.raises(SystemExit):
+        cli._parser().parse_args(["--help"])
+    assert "exits 3" in " ".join(capsys.readouterr().out.split())
+
+
+def test_an_unknown_option_shows_the_commands_usage(capsys):
+    with pytest.raises(SystemExit) as stop:
+        cli.main(["simulate", "fig2_dry", "--bogus"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: tribofmu simulate ") and "unrecognized arguments: --bogus" in err
+
+
+def test_figures_recompute_is_sweeps_name_and_rerun_its_old_one():
+    for flag in ("--recompute", "--rerun"):
+        assert cli._parser().parse_args(["figures", flag]).recompute is True
+    assert cli._parser().parse_args(["sweep", "x", "--grid", "a=1", "--recompute"]).recompute is True

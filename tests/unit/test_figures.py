@@ -33,7 +33,9 @@ def drawn(monkeypatch):
         kept[Path(path).stem] = fig
         return path
     monkeypatch.setattr(figures, "_save", keep)
-    runs = {"fig2": [fake_run("fig2_dry.toml")], "fig3": [fake_run("fig2_dry.toml")],
+    from tribofmu import plots
+    monkeypatch.setattr(plots, "save_png", lambda fig, path, dpi=110: keep(fig, path))
+    runs = {"friction": [fake_run(r.scene, dict(r.overrides)) for r in figures.FIGURES["friction"]],"fig2": [fake_run("fig2_dry.toml")], "fig3": [fake_run("fig2_dry.toml")],
             "fig4": [fake_run("fig2_dry.toml", {"drive.omega": w}) for w in figures.FIG4_OMEGAS],
             "fig5": [fake_run(r.scene) for r in figures.FIG5_RUNS], "fig6": [fake_run("fig6_boundary.toml")]}
     for name in figures.PAPER_FIGURES:
@@ -50,6 +52,9 @@ def all_axes(fig):
 def test_layouts_are_the_papers(drawn):
     panels = {name: fig.axes for name, fig in drawn.items()}
     assert len(panels["fig2"]) == 2 and len(panels["fig3"]) == 2 and len(panels["fig6"]) == 3
+    assert [name for name in panels if name.startswith("friction_")] == [
+        f"friction_{r.label}" for r in figures.FIGURES["friction"]]
+    assert len(panels["friction_fig2_dry"]) == 3 and len(panels["friction_fig6_boundary"]) == 4  # + f(t)
     assert len(panels["fig4"]) == 6
     assert [ax.get_title() for ax in panels["fig4"]] == [
         f"({c}) ω = {w:g} rad/s" for c, w in zip("abcdef", figures.FIG4_OMEGAS)]
@@ -84,7 +89,7 @@ def test_one_unit_per_quantity_and_titles_wrapped_between_items(drawn):
         positions = {u for u in units if u.endswith("m")}
         velocities = {u for u in units if u.endswith("m/s")}
         assert len(positions) <= 1 and len(velocities) <= 1, (name, units)
-        expected = "µ" if name == "fig6" else "m"  # the 1.4 µm boundary scene: µm; else mm
+        expected = "µ" if name.endswith("fig6") or name.endswith("fig6_boundary") else "m"  # the 1.4 µm boundary scene: µm; else mm
         assert all(u.startswith(expected) for u in positions | velocities), (name, units)
         text = fig._suptitle.get_text()
         assert "e-0" not in text and "0.002 m" not in text, text
@@ -157,6 +162,12 @@ def test_accuracy_chart_labels_neither_overprint_nor_clip(tmp_path, monkeypatch)
     assert sorted(t.get_text() for t in notes).count("h=0.0001 s") == 1  # one label for both lines
     boxes = [t.get_window_extent(renderer) for t in notes]
     frame = ax.get_window_extent(renderer)
+    (legend,) = fig.legends  # below the axes, whole inside the figure, overlapping no axes
+    box, page = legend.get_window_extent(renderer), fig.bbox
+    assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0 and box.y1 < frame.y0
+    assert {"jacobi", "gauss-seidel", "adaptive"} <= {t.get_text() for t in legend.get_texts()}
+    sizes = {line.get_label(): line.get_markersize() for line in ax.get_lines()}
+    assert sizes["jacobi"] != sizes["gauss-seidel"]  # the same points: one line's markers ring the other's
     for i, a in enumerate(boxes):
         assert frame.x0 <= a.x0 and a.x1 <= frame.x1, notes[i].get_text()  # not clipped
         for b, other in zip(boxes[i + 1:], notes[i + 1:]):
@@ -232,3 +243,77 @@ def test_time_png_draws_the_coupled_inputs(tmp_path):
                 assert "T: 290 K → 1290 K" in labels[-1]
     finally:
         plots.save_png = original
+
+
+def _drawn_figures(monkeypatch):
+    """Every figure plots.save_png is given, by file name: its axes' labels, titles, legend
+    texts and the figure's title."""
+    import matplotlib.pyplot as plt
+    from tribofmu import plots
+    drawn = {}
+
+    def keep(fig, path, dpi=110):
+        drawn[Path(path).name] = {
+            "ylabels": [ax.get_ylabel() for ax in fig.axes], "xlabels": [ax.get_xlabel() for ax in fig.axes],
+            "titles": [ax.get_title() for ax in fig.axes],
+            "lines": [line.get_label() for ax in fig.axes for line in ax.get_lines()],
+            "suptitle": fig._suptitle.get_text() if fig._suptitle else ""}
+        plt.close(fig)
+        return Path(path)
+    monkeypatch.setattr(plots, "save_png", keep)
+    return drawn
+
+
+def _fake_signals(sc):
+    t = np.linspace(0, sc.stop_time, 400)
+    s = {k: np.sin(30 * t) * 1e-3 for k in ("X", "V", "x", "v")}
+    s.update(F=5 * np.sin(30 * t), f=1 + np.sin(30 * t), stuck=(np.sin(60 * t) > 0.5).astype(float), time=t,
+             T=290 + 200 * t / t[-1], n=np.array([sc.normal_stress(x) for x in t]), Q=t)
+    return s
+
+
+@pytest.mark.parametrize("name", sorted(p.stem for p in SCENES.glob("*.toml")))
+def test_every_shipped_scene_with_friction_draws_friction_png(name, tmp_path, monkeypatch):
+    from tribofmu import plots
+    drawn = _drawn_figures(monkeypatch)
+    sc = api.load(name, {"drive.omega": 31.5} if "Drive" in api.load(name).fmus else None)
+    paths = plots.plot_signals(_fake_signals(sc), sc, tmp_path)
+    if "Friction" not in sc.fmus:
+        assert "friction.png" not in drawn and len(paths) == 2
+        return
+    fig = drawn["friction.png"]
+    assert tmp_path / "friction.png" in paths
+    assert fig["ylabels"][0].startswith("F [") and "t [s]" in fig["xlabels"]
+    assert any(x.startswith("dv = V − v [") for x in fig["xlabels"]) and any(x.startswith("X − x (sliding displacement) [") for x in fig["xlabels"])
+    assert "friction loop F(dv)" in fig["titles"] and "friction loop F(X − x)" in fig["titles"]
+    assert name in fig["suptitle"] and "ω = 31.5 rad/s" in fig["suptitle"].replace("\n", " ")
+    law = sc.friction.law()
+    assert ("f [1]" in fig["ylabels"]) == (law.melt_threshold() is not None)
+    assert ("T [K]" in fig["ylabels"]) == ("Thermal" in sc.fmus)
+    curve = [label for label in fig["lines"] if label.startswith("the law's F(dv)")]
+    assert bool(curve) == (not law.has_state and "Load" not in sc.fmus), fig["lines"]
+
+
+def test_the_mixed_laws_curve_is_the_laws_own_stribeck_curve():
+    from tribofmu.plots import law_curve
+    sc = api.load("mixed_stribeck")
+    law = sc.friction.law()
+    dv, F = law_curve(sc, -0.1, 0.05)
+    L = law.load(sc.conditions.n)
+    assert dv.min() == pytest.approx(-0.1) and dv.max() == pytest.approx(0.1)
+    # at rest the static limit mu_s L on both sides; far out mu_c L + m dv; in between the law's
+    at_rest = F[dv == 0.0]
+    assert sorted(at_rest) == pytest.approx([-law.mu_static * L, law.mu_static * L])
+    assert F[-1] == pytest.approx(law.mu_friction * L + law.m * 0.1, rel=1e-6)
+    i = int(np.argmin(np.abs(dv - law.v_stribeck)))
+    assert F[i] == pytest.approx(law.force(float(dv[i]), sc.conditions.n))
+    assert law_curve(api.load("fig6_boundary"), -1e-4, 1e-4) is None  # F depends on the film's f
+
+
+def test_no_shipped_scene_title_states_a_value_an_override_would_falsify():
+    """The title travels into stats.json and the scene list: "w = 30 rad/s" stayed there under
+    --set drive.omega=80. The values are the figures' (scene_label, from what was simulated)."""
+    import re
+    for path in sorted(SCENES.glob("*.toml")):
+        title = api.load(path).title
+        assert title and not re.search(r"=\s*[-+]?\d|\d\s*(rad/s|N|K|Pa)\b", title), (path.name, title)

@@ -40,3 +40,38 @@ def test_counts_are_points_and_portraits_name_their_units(tmp_path, monkeypatch)
     monkeypatch.undo()
     for fig in figures:
         plt.close(fig)
+
+
+def test_a_regime_map_over_the_normal_stress_of_dry_friction_reads_the_load_in_newtons(tmp_path, monkeypatch):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tribofmu import api
+    from tribofmu.metrics import METRICS
+    from tribofmu.studies.sweep import parse_grid, plots
+    from tribofmu.studies.sweep.worker import STATUS_OK
+
+    figures = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: figures.append(fig))
+    grid = parse_grid(["drive.omega=30,80", "conditions.n=-10,-20,-40"])
+    rows = []
+    for omega in grid["drive.omega"]:
+        for n in grid["conditions.n"]:
+            row = {"drive.omega": omega, "conditions.n": n, "status": STATUS_OK, "message": ""}
+            row.update({m: math.nan for m in METRICS})
+            row["stick_fraction"] = -n / 100.0
+            rows.append(row)
+    t = np.linspace(0, 2 * np.pi, 400)
+    portraits = {"x": np.array([np.cos(t) * 1e-3] * 6), "v": np.array([np.sin(t) * 1e-2] * 6)}
+    base = api.load("fig2_dry", {"friction.S": 2.0})  # L = -n S: 20, 40, 80 N
+    plots.plot_sweep(rows, ["drive.omega", "conditions.n"], portraits, tmp_path, base=base)
+    stick_map, portraits_fig = figures
+    ax = stick_map.axes[0]
+    assert ax.get_ylabel() == "load L = −n S [N]"
+    assert [t.get_text() for t in ax.get_yticklabels()] == ["20", "40", "80"]
+    titles = [a.get_title() for a in portraits_fig.axes if a.get_title()]
+    assert "omega = 30 rad/s, L = 40.0 N" in titles, titles
+    monkeypatch.undo()
+    for fig in figures:
+        plt.close(fig)

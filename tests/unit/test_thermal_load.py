@@ -104,7 +104,7 @@ def test_new_tables_parse_and_map_onto_the_fmus():
     sc = load_scenario(SCENARIOS / "boundary_heating.toml")
     assert sc.fmus == ("Drive", "BlockSpring", "Friction", "Thermal")
     params = fmu_parameters(sc)
-    assert params["Thermal"] == {"C": 8e-12, "q": 0.5, "G": 1e-11, "T_ambient": 290.0, "T0": 290.0}
+    assert params["Thermal"] == {"C": 2e-11, "q": 0.5, "G": 8e-11, "T_ambient": 290.0, "T0": 290.0}
     assert constant_inputs(sc) == {"n": -1e6}  # T is fed by the Thermal FMU
     dry = load_scenario(SCENARIOS / "dry_load_oscillation.toml")
     assert params_of(dry)["Load"]["program"] == PROGRAMS["sine"]
@@ -188,7 +188,9 @@ def test_heating_dry_contact_obeys_the_heat_balance_and_relaxes_exactly_while_st
 
 def test_boundary_heating_with_the_temperature_term_off_leaves_the_mechanics_alone():
     sc = load_scenario(SCENARIOS / "boundary_heating.toml",
-                       {"time.periods": 0.5, "time.window": [0.0, 0.5], "effects.temperature": False})
+                       {"time.periods": 0.5, "time.window": [0.0, 0.5], "effects.temperature": False,
+                        # phi0 without its alpha T term: the scene's value at 290 K (phi0_star + alpha 290)
+                        "friction.phi0_star": 135.5})
     heated = reference_solution(sc, rtol=1e-8)
     plain = reference_solution(dataclasses.replace(sc, fmus=("Drive", "BlockSpring", "Friction")), rtol=1e-8)
     assert heated.ok and plain.ok

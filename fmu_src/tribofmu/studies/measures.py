@@ -1,4 +1,11 @@
-"""Error measures shared by every study: how far a trajectory is from a reference one."""
+"""Error measures shared by every study: how far a trajectory is from a reference one.
+
+:func:`nrms` samples at the reference's times: the number depends on which grid the
+reference is given on, and the docs name it beside each table. The dense grid: the reference
+solver's own output (``tribofmu accuracy``, the checked ``--tol``, docs/coupling.md) or
+``tribofmu simulate``'s 1000 samples a period; a host's communication points: a third-party
+master's steps, where the reference is evaluated at the host's times (docs/hosts.md). At a
+host's points the samples are the step ends only, so the error between them is not seen."""
 from __future__ import annotations
 
 import numpy as np

@@ -23,6 +23,21 @@ METRIC_LABELS = {"stick_fraction": "stick fraction", "stick_episodes_per_period"
 INTEGER_METRICS = frozenset({"stick_episodes_per_period", "creep_episodes_per_period", "harmonics"})
 
 
+def shown_as(key: str, base: Scenario | None):
+    """How a swept key is shown on an axis: ``(label, value -> shown value, name, unit)``. The
+    normal stress ``conditions.n`` [Pa] of a law that states its load in newtons (dry, mixed)
+    is shown as the load ``L = -n S`` [N], what an engineer reads; every other key as it is."""
+    if key == "conditions.n" and base is not None and "Friction" in base.fmus:
+        law = base.friction.law()
+        if law.load_shown_as == "L":
+            return "load L = −n S [N]", law.load, "L", "N"
+    return key_label(key), (lambda value: value), key.split(".")[-1], UNITS.get(key)
+
+
+def _tick(value, convert) -> str:
+    return f"{convert(value):.4g}" if is_numeric([value]) else format_value(value)
+
+
 def plot_sweep(rows: list[dict[str, Any]], keys: list[str], portraits: dict[str, np.ndarray], out_dir: Path,
                base: Scenario | None = None) -> list[Path]:
     """sweep.png + portraits.png (1-D) or map_<metric>.png + portraits.png (2-D); returns paths."""
@@ -38,7 +53,8 @@ def plot_sweep(rows: list[dict[str, Any]], keys: list[str], portraits: dict[str,
         key = keys[0]
         values = [r[key] for r in rows]
         numeric = is_numeric(values)
-        pos = np.array(values, dtype=float) if numeric else np.arange(len(values), dtype=float)
+        label, convert, _, _ = shown_as(key, base)
+        pos = np.array([convert(v) for v in values], dtype=float) if numeric else np.arange(len(values), dtype=float)
         ncols = 3
         nrows = max(1, math.ceil(len(metrics) / ncols))
         fig, axes = plt.subplots(nrows, ncols, figsize=(4 * ncols, 2.8 * nrows), squeeze=False)
@@ -54,7 +70,7 @@ def plot_sweep(rows: list[dict[str, Any]], keys: list[str], portraits: dict[str,
             for p in pos[failed]:
                 ax.axvline(p, color="C3", ls=":", lw=1)
             ax.set_ylabel(METRIC_LABELS.get(m, m))
-            ax.set_xlabel(key_label(key))
+            ax.set_xlabel(label)
             if numeric and len(pos) > 2 and pos.min() > 0 and pos.max() / pos.min() >= 20:
                 ax.set_xscale("log")
             if not numeric:
@@ -62,7 +78,7 @@ def plot_sweep(rows: list[dict[str, Any]], keys: list[str], portraits: dict[str,
             ax.grid(alpha=0.3)
         for ax in list(axes.flat)[len(metrics):]:
             ax.axis("off")
-        fig.suptitle(f"{title}: sweep over {key}" + (" (dotted: failed)" if failed.any() else ""), fontsize=10)
+        fig.suptitle(f"{title}: sweep over {label}" + (" (dotted: failed)" if failed.any() else ""), fontsize=10)
         fig.tight_layout()
         paths.append(out_dir / "sweep.png")
         fig.savefig(paths[-1], dpi=110)
@@ -78,10 +94,11 @@ def plot_sweep(rows: list[dict[str, Any]], keys: list[str], portraits: dict[str,
             fig, ax = plt.subplots(figsize=(1.0 + 0.75 * max(n0, 4), 1.0 + 0.6 * max(n1, 4)))
             cmap = plt.get_cmap("viridis").with_extremes(bad="0.85")
             im = ax.imshow(np.ma.masked_invalid(z), origin="lower", aspect="auto", cmap=cmap)
-            ax.set_xticks(range(n0), [format_value(v) for v in v0], rotation=30)
-            ax.set_yticks(range(n1), [format_value(v) for v in v1])
-            ax.set_xlabel(key_label(keys[0]))
-            ax.set_ylabel(key_label(keys[1]))
+            (label0, convert0, _, _), (label1, convert1, _, _) = shown_as(keys[0], base), shown_as(keys[1], base)
+            ax.set_xticks(range(n0), [_tick(v, convert0) for v in v0], rotation=30)
+            ax.set_yticks(range(n1), [_tick(v, convert1) for v in v1])
+            ax.set_xlabel(label0)
+            ax.set_ylabel(label1)
             if n0 * n1 <= 225:
                 finite = z[np.isfinite(z)]
                 mid = (finite.min() + finite.max()) / 2 if finite.size else 0
@@ -122,7 +139,7 @@ def _plot_portraits(rows, keys, portraits, shape, path: Path, title: str, plt, b
     fig, axes = plt.subplots(nrows, ncols, figsize=(2.5 * ncols, 2.4 * nrows + 0.6), squeeze=False)
     for ax in axes.flat:
         ax.axis("off")
-    short = {k: k.split(".")[-1] for k in keys}
+    shown = {k: shown_as(k, base) for k in keys}
     # one unit for every panel, as in every other figure: mm and mm/s (µm for a base scene
     # whose amplitude is under 0.1 mm)
     from ...plots import length_scale
@@ -130,7 +147,8 @@ def _plot_portraits(rows, keys, portraits, shape, path: Path, title: str, plt, b
     for k, (row, (r, c)) in enumerate(zip(rows, cells)):
         ax = axes[r, c]
         ax.axis("on")
-        label = ", ".join(panel_label(short[key], row[key], UNITS.get(key)) for key in keys)
+        label = ", ".join(panel_label(shown[key][2], shown[key][1](row[key]) if is_numeric([row[key]]) else row[key],
+                                      shown[key][3]) for key in keys)
         x, v = portraits["x"][k], portraits["v"][k]
         if row["status"] == STATUS_OK and np.isfinite(x).all():
             ax.plot(x * scale, v * scale, lw=0.9, color="C0")

@@ -2,7 +2,10 @@
 
 - ``sweep.csv``: the swept keys (one column each, named as the keys), ``status`` (ok /
   failed), ``message``, the metrics (:data:`tribofmu.metrics.METRICS`; empty = not
-  defined), ``wall_time`` (s spent simulating the point) and ``finished_at`` (local ISO time).
+  defined), ``wall_time`` (s spent simulating the point) and ``finished_at`` (ISO time in UTC,
+  with its zone, as stats.json's).
+- ``columns.json``: each column of sweep.csv with its unit and meaning (as ``simulate``'s
+  columns.json beside result.csv).
   A row is appended (and fsynced) as each point finishes, so an interrupted sweep resumes:
   the rows already there are skipped. At the start and the end the file is rewritten whole,
   in grid order.
@@ -41,6 +44,23 @@ from .worker import PORTRAIT_POINTS, STATUS_FAILED, STATUS_OK
 
 EXTRA_COLUMNS = ("wall_time", "finished_at")
 CSV_NAME, META_NAME, PORTRAITS_NAME, POINTS_DIR = "sweep.csv", "sweep.json", "portraits.npz", "points"
+SIDECAR_NAME = "columns.json"
+# sweep.csv's columns after the swept keys: (unit, meaning); the metrics' definitions are
+# tribofmu.metrics' (docs/studies.md, Metrics)
+COLUMN_MEANINGS = {
+    "status": ("", "ok, or failed (its message says why)"),
+    "message": ("", "the run's message"),
+    "stick_fraction": ("1", "share of the window's time the blocks are stuck together"),
+    "stick_episodes_per_period": ("1/period", "stuck runs per drive period"),
+    "creep_fraction": ("1", "share of the window's time with |V - v| < 0.05 A w (fluid, boundary)"),
+    "creep_episodes_per_period": ("1/period", "creeping runs per drive period (fluid, boundary)"),
+    "harmonics": ("1", "harmonics of x above 1 % of the largest"),
+    "amplitude_ratio": ("1", "max|x| / A"),
+    "dissipated_per_cycle": ("J", "friction work over the window per drive period"),
+    "melt_fraction": ("1", "share of the window's time the lubricant is molten (boundary)"),
+    "wall_time": ("s", "wall time spent simulating the point"),
+    "finished_at": ("", "when the point finished: ISO 8601 time in UTC, with its zone"),
+}
 LOCK_NAME = ".sweep.lock"
 STAGING_NAME = ".recompute"
 WORKER_LOG_NAME = ".dask.log"  # a local cluster's workers' and Dask's messages, if any
@@ -120,6 +140,7 @@ class SweepStore:
     def start(self) -> None:
         """Write sweep.json and sweep.csv whole (dropping a torn last line); ready to record."""
         atomic_write_bytes(self.meta_path, (json.dumps(self.plan.meta, indent=2) + "\n").encode())
+        atomic_write_bytes(self.work_dir / SIDECAR_NAME, (json.dumps(sidecar(self.keys), indent=2) + "\n").encode())
         self.write_sorted()
         (self.work_dir / POINTS_DIR).mkdir(exist_ok=True)
 
@@ -137,6 +158,7 @@ class SweepStore:
             os.replace(final_points, old_points)
         os.replace(staging / POINTS_DIR, final_points)
         os.replace(staging / META_NAME, self.out_dir / META_NAME)
+        os.replace(staging / SIDECAR_NAME, self.out_dir / SIDECAR_NAME)
         os.replace(staging / CSV_NAME, self.out_dir / CSV_NAME)
         _fsync_dir(self.out_dir)
         _remove_tree(old_points)
@@ -160,7 +182,7 @@ class SweepStore:
         row = {**point, "status": out["status"], "message": out["message"],
                **{m: out["metrics"].get(m, math.nan) for m in METRICS},
                "wall_time": out.get("wall_time", math.nan),
-               "finished_at": _dt.datetime.now().isoformat(timespec="microseconds")}
+               "finished_at": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="microseconds")}
         if out.get("x") is not None:
             buf = io.BytesIO()
             np.savez(buf, x=out["x"], v=out["v"])
@@ -230,6 +252,15 @@ def _fsync_dir(path: Path) -> None:
 # -- sweep.csv ---------------------------------------------------------------------------
 def _columns(keys: Iterable[str]) -> list[str]:
     return [*keys, "status", "message", *METRICS, *EXTRA_COLUMNS]
+
+
+def sidecar(keys: Iterable[str]) -> dict:
+    """The content of columns.json: sweep.csv's columns, each with its unit and meaning."""
+    from ...scene.scenario import UNITS
+    swept = [{"name": k, "unit": UNITS.get(k, ""), "meaning": f"swept value of the scenario key {k}"} for k in keys]
+    return {"file": CSV_NAME, "columns": swept + [
+        {"name": name, "unit": COLUMN_MEANINGS[name][0], "meaning": COLUMN_MEANINGS[name][1]}
+        for name in ("status", "message", *METRICS, *EXTRA_COLUMNS)]}
 
 
 def _fmt_float(x: Any) -> str:
