@@ -99,7 +99,8 @@ class RunBar:
         self._last = 0.0
         self._bar = None
         if self.enabled:
-            from tqdm import tqdm
+            from tqdm import tqdm  # 29 ms at start-up (-X importtime, min of 5, 2026-11-26 23:59 UTC),
+            # only for a bar on a terminal: not for --help, 'scenes', tests, pipes or the API
             self._bar = tqdm(total=stop_time, desc=desc, unit="s", file=stream, leave=False,
                              bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g}/{total:.4g} s "
                                         "[{elapsed}<{remaining}] {postfix}")
