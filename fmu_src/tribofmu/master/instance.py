@@ -25,8 +25,8 @@ from ..run_folder import remove_gone_runs, run_folder
 from ..errors import STATUS_NAMES, FMUCallError, FMUError, FMUFileError, FMUSetupError  # noqa: F401 (re-exported)
 
 # fmpy is imported in the functions that call it: 137 ms at start-up (-X importtime, min of 5,
-# 2026-11-26 23:59 UTC, load 5.5), and every command loads this module ('scenes' too: the CLI
-# clears unzipped FMUs at exit), while only a run opens an FMU
+# 2026-11-26 23:59 UTC, load 5.5), and every command but --help loads this module (the CLI
+# clears unzipped FMUs at exit: 'scenes' too), while only a run opens an FMU
 
 
 # -- where FMUs are unzipped -------------------------------------------------------------
