@@ -1,15 +1,15 @@
 """``python -m tribofmu`` and the installed ``tribofmu`` command (its entry point: :func:`entry`)."""
 import sys
 
+from .progress import install_signal_handlers, work_done
+
 
 def entry() -> int:
     """Ctrl-C and SIGTERM handled before the command's own imports: one line and exit 130 even
     in the first instants (the handlers raise KeyboardInterrupt, caught here or in main())."""
-    from .progress import install_signal_handlers, work_done
-
     install_signal_handlers(own_process=True)
     try:
-        from .cli import main
+        from .cli import main  # after the handlers: a Ctrl-C during the CLI's imports is one line too
         status = main()
         work_done()  # a signal during the teardown does not replace the finished work's status
         return status

@@ -40,6 +40,7 @@ from .scene.checks import check_max_wall, check_run, shown
 from .scene.library import resolve_scene
 from .scene.scenario import Scenario, ScenarioError, load_scenario, scales, to_dict
 from .scene.wiring import constant_inputs, fmu_parameters
+from .trajectory import SampledTrajectory
 
 
 
@@ -48,17 +49,17 @@ MAX_OUTPUT_SAMPLES = 10_000_000
 
 
 @dataclass
-class SimulationResult:
-    """Signals on a uniform grid (every T/1000 or finer) over the whole span, SI units."""
-
+class _OfScenario:
     scenario: Scenario
-    time: np.ndarray
-    X: np.ndarray
-    V: np.ndarray
-    x: np.ndarray
-    v: np.ndarray
-    F: np.ndarray
-    f: np.ndarray
+
+
+@dataclass
+class SimulationResult(SampledTrajectory, _OfScenario):
+    """Signals on a uniform grid (every T/1000 or finer) over the whole span, SI units: the
+    :class:`~tribofmu.trajectory.SampledTrajectory` of ``scenario``, with what the coupling adds.
+    Fields in the order scenario, time, X, V, x, v, F, f, stuck, ok, message, ... (a dataclass
+    puts the fields of its last base first: _OfScenario's, then SampledTrajectory's)."""
+
     stuck: np.ndarray  # 1.0 where the coupling held the blocks together, else 0.0
     ok: bool
     message: str
@@ -383,7 +384,8 @@ def _write_result_set(folder: Path, result: SimulationResult, scene_file: Path |
         (folder / "result.csv").unlink(missing_ok=True)
         (folder / SIDECAR_NAME).unlink(missing_ok=True)
     elif plots:  # drawn once the rows and stats are on disk, swapped in with them
-        from .plots import plot_result  # matplotlib: ~0.5 s of imports a run without plots skips
+        from .plots import plot_result  # matplotlib.pyplot: 538 ms at start-up (-X importtime, min of 5,
+        # 2026-11-26 23:59 UTC, load 5.5) that a run without plots (every API call, the sweep's workers) skips
         plot_result(result, folder)
 
 

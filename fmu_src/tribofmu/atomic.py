@@ -22,6 +22,9 @@ import stat
 import tempfile
 from pathlib import Path
 
+from . import __version__
+from .build import fmu_source
+
 # A folder a command keeps writing into across runs (plot, sweep, figures) holds this
 # marker, naming the command: the proof that the folder is tribofmu's (a file's name is
 # none: a user's time.png is named as ours). Read within MARKER_BYTES, never through a link
@@ -168,7 +171,6 @@ def made_by(folder: Path) -> str | None:
 
 def mark(folder: Path, command: str) -> None:
     """Write ``command``'s marker into ``folder`` (one it made)."""
-    from . import __version__
     atomic_write_bytes(Path(folder) / MARKER, (json.dumps({"command": command, "tribofmu": __version__})
                                                + "\n").encode())
 
@@ -184,7 +186,6 @@ def _has_record(name: str, key: str):
 
 def _fmus_of_ours(folder: Path) -> bool:
     """A folder holding only FMUs built by tribofmu (and leftovers of a killed build)."""
-    from .fmu_cache import fmu_source  # fmu_cache imports this module
     with os.scandir(folder) as entries:
         for entry in entries:
             if entry.name.startswith(".") and ".fmu.partial-" in entry.name:

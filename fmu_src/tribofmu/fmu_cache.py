@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from .atomic import atomic_write_bytes, json_object, left_by_gone_process, pid_alive
+from .build import BUILD_PREFIX, build_fmus, cache_root, default_fmu_dir, fmu_source, private_package_name
 from .errors import FMUCacheError, FMUError, FMUFileError  # noqa: F401 (FMUCacheError re-exported)
 
 MANIFEST = "manifest.json"
@@ -51,21 +52,6 @@ def sha256_file(path: Path) -> str:
     return digest.hexdigest()
 
 
-def fmu_source(path: Path) -> str | None:
-    """The source an FMU built by tribofmu carries: the name of its private package
-    (``_tribofmu_fmu_<version>_<source hash>``), read from the archive; None if not ours."""
-    from .build import PRIVATE_PREFIX  # build loads the scene's wiring and physics: ~0.1 s on every import
-    try:
-        with zipfile.ZipFile(path) as archive:
-            for name in archive.namelist():
-                parts = name.split("/")
-                if len(parts) > 2 and parts[0] == "resources" and parts[1].startswith(PRIVATE_PREFIX):
-                    return parts[1]
-    except (OSError, zipfile.BadZipFile):
-        pass
-    return None
-
-
 def find_fmus(names: Iterable[str], fmu_dir: str | Path | None = None, *, fmi: int | None = None,
               build: bool | None = None, notice: Callable[[str], None] | None = None) -> Path:
     """The folder holding ``<name>.fmu`` for every name, verified or built.
@@ -81,7 +67,6 @@ def find_fmus(names: Iterable[str], fmu_dir: str | Path | None = None, *, fmi: i
     names = tuple(dict.fromkeys(names))
     if fmu_dir is not None:
         return _given_folder(Path(fmu_dir), names, fmi, build, notice)
-    from .build import default_fmu_dir
     fmi = fmi or 2
     folder = default_fmu_dir(fmi)
     _private_folder(folder)
@@ -120,7 +105,7 @@ def _given_folder(path: Path, names: tuple[str, ...], fmi: int | None, build: bo
         error.filename = str(path / (missing[0] + ".fmu"))  # as a FileNotFoundError names its file
         raise error
     if fmi is not None:
-        import fmpy
+        import fmpy  # 137 ms at start-up (see master.instance): only an --fmi check reads a description here
         for name in names:
             found = fmpy.read_model_description(str(path / f"{name}.fmu"), validate=False).fmiVersion
             if not found.startswith(str(fmi)):
@@ -131,7 +116,6 @@ def _given_folder(path: Path, names: tuple[str, ...], fmi: int | None, build: bo
 def _build_into(folder: Path, names: tuple[str, ...], fmi: int, notice, manifest: dict | None) -> None:
     """Build ``names`` into ``folder`` after checking it can take them; record their hashes
     in the manifest when there is one (the cache)."""
-    from .build import build_fmus
     folder.mkdir(parents=True, exist_ok=True)
     remove_build_leftovers(folder)
     check_writable(folder, BUILD_BYTES, "the FMU folder")
@@ -155,7 +139,6 @@ def _verified(folder: Path, name: str, manifest: dict[str, str], fmi: int) -> bo
     """The cached ``<name>.fmu`` is what this install built: a regular file whose sha256 is
     the one recorded when it was built and which carries this source's private package (an
     FMU of another build under a manifest rewritten to match is still not ours)."""
-    from .build import private_package_name
     path = folder / f"{name}.fmu"
     expected = manifest.get(name)
     if expected is None:
@@ -197,7 +180,6 @@ def _private_folder(folder: Path) -> None:
     The root's own missing parents (``~/.cache`` on a new account, a ``TRIBOFMU_CACHE`` under
     a folder not made yet) are made too, private as the XDG base-directory spec asks of
     ``~/.cache``; the ones that exist are not checked: they are the user's."""
-    from .build import cache_root
     root = cache_root()
     missing_above = [p for p in root.parents if not p.exists()][::-1]
     ours = [p for p in (folder, *folder.parents) if p == root or root in p.parents][::-1]
@@ -261,7 +243,6 @@ def check_writable(folder: Path, needed_bytes: int, what: str) -> None:
 def remove_build_leftovers(folder: Path | None = None) -> None:
     """Remove what killed builds left: ``.<Name>.fmu.partial-<pid>`` in ``folder`` and this
     user's ``tribofmu_build_<pid>_*`` staging folders in the temp dir, of processes that are gone."""
-    from .build import BUILD_PREFIX
     if folder is not None and folder.is_dir():
         for path in folder.glob(".*.fmu.partial-*"):
             pid = path.name.rsplit("-", 1)[-1]

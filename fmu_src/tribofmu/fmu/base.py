@@ -49,7 +49,7 @@ from .fmi import (_KINDS, _PREFIX, _TYPE_NAMES, AUTHOR, CALL_STATUS_CATEGORY, FM
 from .fmu_state import FMUStateMixin
 from .values import ValueAccessMixin
 
-if FMI_VERSION == 3:
+if FMI_VERSION == 3:  # fmi.py has it from pythonfmu3 only
     from .fmi import Fmi3StepResult
 
 _UNKNOWN = object()  # an output not computed for the present state

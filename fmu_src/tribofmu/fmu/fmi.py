@@ -6,6 +6,7 @@ from __future__ import annotations
 from .. import __version__
 from .fmi_version import FMI_VERSION
 
+# one library or the other, as the build wrote fmi_version.py: a host of FMI 2.0 FMUs needs no pythonfmu3
 if FMI_VERSION == 3:
     from pythonfmu3 import Boolean, Fmi3Causality as Causality, Fmi3Slave as _PythonFMUSlave
     from pythonfmu3 import Fmi3Variability as Variability, Float64 as Real, Int32 as Integer

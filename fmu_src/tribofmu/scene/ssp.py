@@ -40,6 +40,7 @@ from typing import Any
 from xml.etree import ElementTree as ET
 
 from .. import __version__
+from ..errors import FMUFileError  # a FileNotFoundError, and a TriboFMUError
 from ..fmu_cache import find_fmus
 from .scenario import Scenario
 from .wiring import connections, instances
@@ -108,9 +109,6 @@ def export_ssp(scenario: Scenario, out: Path, fmu_dir: Path | None = None, pair:
     for inst in instances(scenario, pair):
         path = fmu_dir / inst.fmu.file
         if not path.is_file():
-            # a FileNotFoundError, and a TriboFMUError; imported here: its module loads fmpy, 0.46 s
-            # of start-up (python -X importtime, 2026-11-26 23:25 UTC, load 12) an export never needs else
-            from ..master.instance import FMUFileError
             error = FMUFileError(f"FMU {path} not found (build it with tribofmu.build.build_fmus)")
             error.filename = str(path)
             raise error

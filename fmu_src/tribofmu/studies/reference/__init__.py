@@ -40,6 +40,7 @@ import numpy as np
 
 from ...coupling.interpolation import SAMPLES_PER_PERIOD  # default t_eval: the output grid
 from ...scene.scenario import Scenario
+from ...trajectory import SampledTrajectory
 from ..measures import nrms
 from .dry import solve_dry, solve_free, solve_stick_slip
 from .problem import Problem, state_scale
@@ -49,26 +50,16 @@ __all__ = ["ReferenceResult", "reference_solution", "nrms", "SAMPLES_PER_PERIOD"
 
 
 
-@dataclass(frozen=True)
-class ReferenceResult:
-    """Reference trajectory on ``time``.
-
-    time [s]; X [m], V [m/s] the upper block (zeros when the scenario has no Drive);
-    x [m], v [m/s] the lower block; F [N] the friction force on the lower block; f [1] the
-    lubricant's excess volume (0 for dry and fluid friction). wall_time [s] of the solve.
+@dataclass
+class ReferenceResult(SampledTrajectory):
+    """Reference trajectory on ``time``: the :class:`~tribofmu.trajectory.SampledTrajectory`
+    (time, X, V, x, v, F, f) and wall_time [s] of the solve.
     stats: solver used, right-hand-side evaluations, events (``event_times`` as
     ``(t [s], kind)``), stick intervals (dry) and counts of melting/solidification (boundary).
     ok is False when the solver failed; message says why (the arrays then hold what was
     computed up to the failure, NaN after it).
     """
 
-    time: np.ndarray
-    X: np.ndarray
-    V: np.ndarray
-    x: np.ndarray
-    v: np.ndarray
-    F: np.ndarray
-    f: np.ndarray
     wall_time: float
     stats: dict = field(default_factory=dict)
     ok: bool = True

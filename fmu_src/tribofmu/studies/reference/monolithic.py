@@ -29,6 +29,7 @@ from scipy.integrate import solve_ivp
 from ...errors import SolveOutOfTime as _OutOfTime
 from ...physics.block import BlockState, acceleration
 from ...scene.scenario import Scenario
+from . import ReferenceResult
 from .dry import solve_dry, solve_stick_slip
 from .problem import Problem, state_scale
 
@@ -52,7 +53,6 @@ def _checked_grid(scenario: Scenario, t_eval, name: str, tol: float) -> np.ndarr
 
 
 def _result(problem: Problem, t_eval, x, v, F, f, wall, stats, ok, message, T=None):
-    from . import ReferenceResult
     X, V = problem.output_drive(t_eval)
     n = np.array([problem.n_at(float(ti)) for ti in t_eval]) if problem.program is not None \
         else np.full_like(t_eval, problem.n)
