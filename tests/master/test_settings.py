@@ -51,3 +51,17 @@ def test_an_instance_given_other_error_weights_judges_by_them():
                                            error_weight=settings.ERROR_SETTINGS.error_weight / 2.0)
     assert algorithm.error_ratio(point, new, local, 1e-3) == pytest.approx(2.0 * plain, rel=1e-12)
     assert EmbeddedCoupling.errors is settings.ERROR_SETTINGS  # (the class keeps the shipped ones)
+
+
+def test_the_settings_table_of_the_docs_counts_what_is_there():
+    import re
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "coupling.md").read_text(encoding="utf-8")
+    rows = dict(re.findall(r"^\| `(\w+)` \| (\d+) \|", page, re.M))
+    assert rows == {"CouplingSettings": str(len(dataclasses.fields(settings.CouplingSettings))),
+                    "ErrorSettings": str(len(dataclasses.fields(settings.ErrorSettings))),
+                    "STEP_CONTROL": str(len(dataclasses.fields(settings.STEP_CONTROL))),
+                    "CheckSettings": str(len(dataclasses.fields(settings.CheckSettings)))}
+    for name in settings.CALIBRATED:  # every calibrated value is named in the table
+        assert f"`{name.split('.')[1]}`" in page
