@@ -132,7 +132,7 @@ def main() -> int:
     parser.add_argument("--only", default=None, help="with --rejections: the cases whose name holds this")
     args = parser.parse_args()
     if args.rejections:
-        from tribofmu.physics.stepsize import COUPLING_STEPS
+        from tribofmu.coupling.settings import STEP_CONTROL as COUPLING_STEPS
 
         return rejections([float(b) for b in args.betas.split(",")] if args.betas else [COUPLING_STEPS.beta], args.only)
     from tribofmu import api

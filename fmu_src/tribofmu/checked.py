@@ -29,51 +29,24 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .coupling.settings import CHECK_SETTINGS
 from .progress import run_started
 from .run_folder import run_folder
 
-# The per-step tolerances of a check pair are this far apart. With errors e ~ tol^p, the
-# pair differs by e_tight (r^p - 1), so the reported (difference over r^MIN_ORDER - 1) is
-# (r^p - 1)/(r^MIN_ORDER - 1) times the true error: 1 at p = MIN_ORDER, 4.3 at p = 1 and 7.9
-# at p = 1.5 (a light dry block converges that fast: at r = 4 it was reported 12.6x). The
-# tighter run costs r^(1/3) = 1.26x the looser (steps grow like tol^-1/3, second order).
-CHECK_RATIO = 2.0
-# The slowest convergence the reported error allows for. Boundary friction near gamma = -0.3
-# converged that slowly between per-step tolerances 5e-4 and 1.25e-4 (the plain difference
-# was 0.54x the tighter run's true error).
-MIN_ORDER = 0.3
-# Three runs of one chain (each CHECK_RATIO tighter than the last) show the order itself: the
-# two differences shrink by r^p. The third run's error is then its difference over r^p - 1
-# at the observed order, credited at most OBSERVED_ORDER_MAX (runs converge at 0.3-1.5 in
-# the per-step tolerance), times ORDER_SAFETY, and never above the two-run estimate. With
-# Roache's 1.25 for three grids, boundary friction at gamma = -0.3 (whose order drifts
-# between tolerances) was reported at 0.47x its true error; at 2 it is 0.75x. Fig. 6 (order
-# 0.8) failed its first pair at 2.0x tol and took a new pair, 4 runs; its third run's
-# three-run estimate is 1.8x its true error and meets tol: 3 runs.
-OBSERVED_ORDER_MAX = 1.0
-ORDER_SAFETY = 2.0
-# A failed pair is continued by one more run (its chain) rather than replaced by a planned
-# pair when its checked error asks for at most this factor: the third run brings the order.
-CHAIN_TIGHTENING_MAX = CHECK_RATIO ** 2
-# The first run's per-step tolerance, as a multiple of the global tol asked for: the reported
-# run's true nRMS(v) then lands at 0.05-0.25 tol on fig2, fig6 and an off-scene dry point
-# (0.026 at 0.5: more accuracy than asked, paid in steps).
-FIRST_STEP_TOL = 1.0
-# How the next pair is planned: the error assumed to fall in proportion to the per-step
-# tolerance, aiming at SAFETY x tol. The checked error it starts from is already an upper
-# estimate (2-4x the true one for orders 0.7-1), so the plan aims at tol itself: with the
-# plan aiming at 0.3 tol from an order of 0.7, Fig. 6 jumped 16x and ran 4 runs down to
-# 3.1e-5 (true error 4.5e-5, 86x LSODA) where per-step 1.25e-4 met tol.
-ASSUMED_ORDER = 1.0
-SAFETY = 1.0
-# A planned pair starts at most this much tighter than the last run (a plan is a guess).
-MAX_JUMP = 8.0
-# No per-step tolerance below this: past it the steps reach the coupling's round-off.
-MIN_STEP_TOL = 1e-9
-# At most this many runs in one sequence: a sequence always ends.
-MAX_RUNS = 8
-# A run whose budget is this small is not started (it could not reach the window).
-MIN_BUDGET = 1e-3  # s
+# The check's tuning, each value with its reason, is coupling/settings.py's CheckSettings; the
+# names below are what this module (and a test that sets one) reads.
+CHECK_RATIO = CHECK_SETTINGS.check_ratio
+MIN_ORDER = CHECK_SETTINGS.min_order
+OBSERVED_ORDER_MAX = CHECK_SETTINGS.observed_order_max
+ORDER_SAFETY = CHECK_SETTINGS.order_safety
+CHAIN_TIGHTENING_MAX = CHECK_SETTINGS.chain_tightening_max
+FIRST_STEP_TOL = CHECK_SETTINGS.first_step_tol
+ASSUMED_ORDER = CHECK_SETTINGS.assumed_order
+SAFETY = CHECK_SETTINGS.safety
+MAX_JUMP = CHECK_SETTINGS.max_jump
+MIN_STEP_TOL = CHECK_SETTINGS.min_step_tol
+MAX_RUNS = CHECK_SETTINGS.max_runs
+MIN_BUDGET = CHECK_SETTINGS.min_budget  # s
 
 
 def checked_error(difference: float, previous: float | None = None) -> float:

@@ -10,7 +10,7 @@ import pytest
 from tribofmu.coupling.algorithms import Scales
 from tribofmu.coupling.system import Contact
 from tribofmu.physics import FluidLaw
-from tribofmu.physics.stepsize import COUPLING_STEPS
+from tribofmu.coupling.settings import STEP_CONTROL as COUPLING_STEPS
 
 from fakes import DRY_LAW, MU_L, drive_scales, fig2_system, point_at, rig
 

@@ -3,7 +3,8 @@ import math
 
 import pytest
 
-from tribofmu.physics.stepsize import COUPLING_STEPS, KINETICS_SUBSTEPS, StepSizeController
+from tribofmu.coupling.settings import STEP_CONTROL as COUPLING_STEPS
+from tribofmu.physics.stepsize import KINETICS_SUBSTEPS, StepSizeController
 
 PLAIN = StepSizeController()  # the coupling's rule without its PI term
 

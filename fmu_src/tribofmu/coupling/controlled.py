@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
 
-from ..physics.stepsize import COUPLING_STEPS
+from .settings import STEP_CONTROL
 from .base import Magnitudes
 from .estimate import GlobalErrorEstimate
 from .implicit import ImplicitCoupling, LoopState
@@ -38,7 +38,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
 
     default_tol = 2e-4  # per-step error against the block's own motion, when nothing chooses it (tribofmu.checked does for simulate)
     default_step = 1e-4  # first try [s]
-    controller = COUPLING_STEPS
+    controller = STEP_CONTROL
     # h_ns is kept a multiple of this [ns] (step doubling: two equal halves)
     step_granularity = 1
     carried = ControlledState

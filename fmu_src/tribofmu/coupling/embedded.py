@@ -42,52 +42,14 @@ from dataclasses import asdict, dataclass
 
 from .controlled import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
 from .interpolation import NS
+from .settings import ERROR_SETTINGS
 from .system import Contact, CoupledSystem, Point
 
-# A cubic Hermite interpolant misses by up to h^4 / 384 of the function's fourth derivative.
+# A cubic Hermite interpolant misses by up to h^4 / 384 of the function's fourth derivative
+# (the interpolation's error bound: a number of the method, not a tuning).
 HERMITE_ERROR_DIVISOR = 384.0
-# A predicted breakaway closer than this fraction of the planned step to its start or end is
-# not worth a step of its own (the landing handles the rare miss).
-BREAKAWAY_MARGIN = 0.01
-# A step is accepted when its estimated local errors in v and x are within ERROR_WEIGHT x tol
-# x the motion's scale. Step doubling accepted two halves on the difference of one step and
-# the halves, which is 2^p - 1 = 3 (ramped) times a half's error and more: this keeps the
-# default tol's accuracy where the error is the block's (fluids: gamma = 2 at omega = 30
-# 2.7e-3 nRMS(v) at 1.0, 8.9e-4 at 0.2; dilatant gamma = 1 at omega = 40 2.8e-3 -> 9.4e-4;
-# fig2 and fig6, whose errors are the events' and the lubricant's, barely move).
-# (The run's global check, issue 27, calibrates the tol it passes.)
-ERROR_WEIGHT = 0.2
-# A slipping step is at most this fraction of the block's own period 2 pi / sqrt(w2): the
-# interpolation bound compares the step's ends, which alias beyond it.
-BLOCK_PERIOD_FRACTION = 0.125
-# The planned step keeps its interpolation error to this fraction of tol (as the controller's
-# SAFETY: the jerk it is planned from is the last step's, not this one's).
-INTERPOLATION_SAFETY = 0.5
-# The breakaway's timing counts in full for a stuck step whose force could reach the friction's
-# bound within this many steps, less and less farther off (see EmbeddedCoupling.breakaway_reach).
-BREAKAWAY_REACH = 4.0
-# How the friction's state f off its predicted path weighs against tol x |f|: 0.3 keeps the
-# lubricant's melts and re-solidifications timed (fig6 gamma=-0.3: 4.4e-3 nRMS(v) without
-# this term, 1.2e-3 at 1.0, 9.5e-4 at 0.3 in 25 % fewer steps than at 1.0).
-STATE_WEIGHT = 0.3
-# The carried estimate takes the state's miss as an impulse: its share of the largest |f|
-# moves the force by that share of the largest |F|, times this factor. The coupling does not
-# know dF/df, and a miss in f shifts a melt's timing, which the force then carries for the
-# rest of the phase: calibrated on fig6's rig at the defaults and gamma = 0, 0.3, 1
-# (estimate/true 0.61, 1.09, 1.67, 1.80; at 1.0 they were 0.14-0.23), checked at points not
-# used for it: gamma = -0.3 0.37, omega = 20 0.67. (The run's checked error is issue 27's.)
-STATE_CARRY = 8.0
-
-
-# A stuck step's end force (see the module's docstring) past the friction's bound by more than
-# this fraction of the bound is a breakaway inside the step: below it, the end force's own
-# round-off (the stick solve keeps dv within delta) would land steps for nothing.
-MISSED_BREAKAWAY_RTOL = 1e-6
-# A stuck step's successor keeps its length when the controller would grow it by less than
-# this factor (as RADAU5 keeps h within [1, 1.2] to reuse its Jacobian): the next stick ramp
-# then reuses this one's Jacobian, exact for a step of the same length (contact.StickJacobian),
-# and steps the block twice instead of four times.
-STUCK_HOLD_GROWTH = 1.2
+# (the block-period cap under its former name, for the tests that read it)
+BLOCK_PERIOD_FRACTION = ERROR_SETTINGS.block_period_fraction
 
 
 def hermite_miss(w2: float, a_start: float, a_end: float, h: float, v_allowed: float,
@@ -137,6 +99,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
 
     name = "adaptive"
     state_names = ErrorControlledCoupling.state_names + ("stick_bounds",)
+    errors = ERROR_SETTINGS  # the estimate's weights (coupling/settings.py); an instance may be given others
 
     # -- state -----------------------------------------------------------------------------
     def export_state(self) -> dict:
@@ -170,7 +133,8 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         breakaway = self.predicted_breakaway(point)
         if breakaway is not None:
             landing = int(breakaway * NS)
-            if BREAKAWAY_MARGIN * h_ns < landing < (1.0 - BREAKAWAY_MARGIN) * h_ns and landing >= self.min_ns:
+            margin = self.errors.breakaway_margin
+            if margin * h_ns < landing < (1.0 - margin) * h_ns and landing >= self.min_ns:
                 h_ns = landing
         return h_ns
 
@@ -189,14 +153,14 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         on the drive there, new.F + M (aX - a), is past the friction's bound: the fraction of
         the step at which that force, linear from its value at the step's start (or from the
         stick onset inside the step), reached the bound; None when it stays within (or
-        leaves only in the step's last BREAKAWAY_MARGIN, where the next step breaks away)."""
+        leaves only in the step's last errors.breakaway_margin, where the next step breaks away)."""
         bounds = self.stick_bounds
         if not new.mode.stuck or bounds is None or self.velocity_per_impulse <= 0.0:
             return None
         mass = 1.0 / self.velocity_per_impulse  # kg, as the block answers an impulse
         low, high = bounds
         end = new.F + (new.aX - new.a) * mass
-        slack = MISSED_BREAKAWAY_RTOL * max(abs(low), abs(high))
+        slack = self.errors.missed_breakaway_rtol * max(abs(low), abs(high))
         if low - slack <= end <= high + slack:
             return None
         bound = high if end > high else low
@@ -207,7 +171,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         else:  # no start inside the bounds to interpolate from: halve the stuck part
             fraction = 0.5 * (onset + 1.0)
         fraction = min(max(fraction, onset), 1.0)
-        return fraction if fraction < 1.0 - BREAKAWAY_MARGIN else None
+        return fraction if fraction < 1.0 - self.errors.breakaway_margin else None
 
     def advance(self, system: CoupledSystem, point: Point, stop_ns: int) -> list[Point]:
         h_ns = self.planned_step(point, stop_ns)
@@ -226,7 +190,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         order = 3 if local.stuck else (2 if new.ramped else 1)
         if not self._accepted(system, start, h_ns, err, order, self.min_ns, 1):
             return []
-        if local.stuck and h_ns <= self.h_ns <= STUCK_HOLD_GROWTH * h_ns:
+        if local.stuck and h_ns <= self.h_ns <= self.errors.stuck_hold_growth * h_ns:
             self.h_ns = h_ns
         self._carry_error(point, new, local, h)
         self.history = self.next_history(point, new, h)
@@ -248,18 +212,18 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         w2 = self.estimate.w2
         if w2 <= 0.0:
             return math.inf
-        room_v = INTERPOLATION_SAFETY * HERMITE_ERROR_DIVISOR * self.tol * self.velocity_scale(point) / w2
-        room_x = INTERPOLATION_SAFETY * HERMITE_ERROR_DIVISOR * self.tol * self.position_scale(point) / w2
+        room_v = self.errors.interpolation_safety * HERMITE_ERROR_DIVISOR * self.tol * self.velocity_scale(point) / w2
+        room_x = self.errors.interpolation_safety * HERMITE_ERROR_DIVISOR * self.tol * self.position_scale(point) / w2
         if not point.mode.slipping:
             breakaway = self.predicted_breakaway(point)
             if breakaway is None or breakaway > self.h_ns / NS:
                 return self.stuck_interpolation_limit(point)
             # stuck at (or near) the bound: the step will slip from its start, at most a
             # fraction of the block's period (see error_ratio)
-            return BLOCK_PERIOD_FRACTION * 2.0 * math.pi / math.sqrt(w2)
+            return self.errors.block_period_fraction * 2.0 * math.pi / math.sqrt(w2)
         # the ends of a step as long as the block's own period can look alike (a slow dry
         # drive's slip phases: fig2's rig at omega = 10, 6.4e-2 nRMS(v) without this cap)
-        limits = [BLOCK_PERIOD_FRACTION * 2.0 * math.pi / math.sqrt(w2)]
+        limits = [self.errors.block_period_fraction * 2.0 * math.pi / math.sqrt(w2)]
         if self.history.h > 0.0 and self.history.jerk != 0.0:  # a slip step of this mode
             limits.append((room_v / abs(self.history.jerk)) ** 0.25)
         if point.a != 0.0:
@@ -277,7 +241,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         if not point.mode.stuck:
             return math.inf
         w2 = self.drive_w2()
-        room = INTERPOLATION_SAFETY * HERMITE_ERROR_DIVISOR * self.tol / (w2 * w2)
+        room = self.errors.interpolation_safety * HERMITE_ERROR_DIVISOR * self.tol / (w2 * w2)
         limits = [math.inf]
         if point.V != 0.0:
             limits.append((room * self.velocity_scale(point) / abs(point.V)) ** 0.25)
@@ -346,26 +310,16 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         """The step's error relative to what tol allows (<= 1: accept): its local errors in v
         and x against the block's own motion, the impulse miss, and, for a friction with an
         internal state, the force's against the largest |F| so far."""
-        allowance = ERROR_WEIGHT * self.tol
+        allowance = self.errors.error_weight * self.tol
         v_scale, x_scale = self.velocity_scale(point, new), self.position_scale(point, new)
         error = max(abs(local.v) / (allowance * v_scale), abs(local.x) / (allowance * x_scale),
                     abs(local.impulse) / (allowance * v_scale))
         if point.mode.stuck and new.mode.stuck:
             error = max(error, self.stuck_interpolation_error(point, new, h, v_scale, x_scale))
         if local.stuck and new.F_rate != 0.0:  # (the block's stick force: not the terms below)
-            # A breakaway late by dt = dF / F_rate starts the slip late: the relative velocity
-            # grows as (F_rate / M) s^2 / 2 after it, so v misses F_rate/M dt^2 / 2 = dF^2 / (2 M F_rate).
-            late = 0.5 * self.velocity_per_impulse * local.F * local.F / abs(new.F_rate)
-            reach = self.breakaway_reach(point, new, local.F, h)
-            error = max(error, reach * late / (allowance * v_scale))
+            error = max(error, self.breakaway_timing_error(point, new, local, h, allowance * v_scale))
         elif new.f != 0.0 or point.f != 0.0:
-            F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
-            allowed = self.tol * F_scale + self.force_term_floor(point, new, h)
-            # the force's own deviation (a friction with internal state): its curvature
-            # (ramped) or slope (held) against tol x the largest |F| so far
-            error = max(error, abs(local.F) / allowed)
-            f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
-            error = max(error, STATE_WEIGHT * abs(local.f) / (self.tol * f_scale))
+            error = self.state_force_error(error, point, new, local, h)
         if new.mode.slipping and (point.mode == new.mode or point.mode.stuck):
             # (across a transition a jumps and the interpolants take one-sided slopes; stuck,
             # v is the drive's V, interpolated with the drive's acceleration. A stuck step that
@@ -381,6 +335,27 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             if self.stick_bounds is not None and grazes(point, new, h, self.tol * v_scale):
                 error = max(error, GRAZING_ERROR)
         return error
+
+    def breakaway_timing_error(self, point: Point, new: Point, local: LocalError, h: float,
+                               v_allowed: float) -> float:
+        """A stuck step's error through its breakaway's timing, relative to v_allowed [m/s]:
+        a breakaway late by dt = dF / F_rate starts the slip late, the relative velocity grows
+        as (F_rate / M) s^2 / 2 after it, so v misses F_rate/M dt^2 / 2 = dF^2 / (2 M F_rate),
+        weighed by how near the bound the force is (:meth:`breakaway_reach`)."""
+        late = 0.5 * self.velocity_per_impulse * local.F * local.F / abs(new.F_rate)
+        reach = self.breakaway_reach(point, new, local.F, h)
+        return reach * late / v_allowed
+
+    def state_force_error(self, error: float, point: Point, new: Point, local: LocalError, h: float) -> float:
+        """error raised to a friction with internal state's terms: the force's own deviation,
+        its curvature (ramped) or slope (held) against tol x the largest |F| so far (widened by
+        what the solve cannot resolve, :meth:`force_term_floor`), and the state's miss
+        against tol x the largest |f| (weighed by errors.state_weight)."""
+        F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
+        allowed = self.tol * F_scale + self.force_term_floor(point, new, h)
+        error = max(error, abs(local.F) / allowed)
+        f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
+        return max(error, self.errors.state_weight * abs(local.f) / (self.tol * f_scale))
 
     def force_resolution(self, new: Point, h: float) -> float:
         """The force [N] the slip solve of a step of h [s] ending at new cannot tell from its
@@ -421,7 +396,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
     def breakaway_reach(self, point: Point, new: Point, F_miss: float, h: float) -> float:
         """How much the breakaway's timing counts for the stuck step from point to new, its
         stick force ramping at new.F_rate [N/s] and off its curve by about F_miss [N]: 1 where
-        the force can reach the friction's bound within BREAKAWAY_REACH steps of h [s] (along
+        the force can reach the friction's bound within errors.breakaway_reach steps of h [s] (along
         its ramp or by its curvature), falling as the square of that reach over the distance
         to the bound farther off. The stick ramp is exact in x and v whatever its force: its
         miss matters only through the breakaway's timing, which divides by the force's rate.
@@ -435,7 +410,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         if bounds is None:
             return 1.0
         margin = min(min(bounds[1] - F, F - bounds[0]) for F in (point.F, new.F))
-        reach = BREAKAWAY_REACH * (abs(new.F_rate) * h + abs(F_miss))
+        reach = self.errors.breakaway_reach * (abs(new.F_rate) * h + abs(F_miss))
         return 1.0 if margin <= reach else (reach / margin) ** 2
 
     def interpolation_error(self, point: Point, new: Point, h: float, v_scale: float, x_scale: float) -> float:
@@ -460,7 +435,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         if self.magnitudes.f > 0.0 and not stuck:
             # the friction's state off its path moves the force by about its share of the
             # largest force per share of the largest state: an impulse over the step
-            state = STATE_CARRY * local.f / self.magnitudes.f * self.magnitudes.F * h * self.velocity_per_impulse
+            state = self.errors.state_carry * local.f / self.magnitudes.f * self.magnitudes.F * h * self.velocity_per_impulse
         new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, local.x,
                                                  local.v + local.impulse + state, stuck, x_scale, v_scale)
         new.est_error = abs(local.v)

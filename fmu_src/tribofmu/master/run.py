@@ -3,9 +3,10 @@
 The loop hands every accepted communication point to a recorder. :class:`PointList` keeps
 them all (for studies of the points themselves); :class:`GridRecorder` samples them on the
 output grid and audits energy chunk by chunk, so a long run holds only its output, not its
-communication points. The loop also watches its own pace: a run whose projected wall time
-goes past ``limits.max_wall`` stops with a message saying where it was and what to change,
-and one past ``limits.notice_after`` says up front what it will cost.
+communication points. The loop also watches its own pace (:class:`Pace`): a run that has gone
+past ``limits.max_wall``, or whose projected wall time goes past it at its recent pace as well
+as at its average one, stops with a message saying where it was and what to change, and one
+projected past ``limits.notice_after`` says up front what it will cost.
 """
 from __future__ import annotations
 
@@ -42,12 +43,76 @@ class RunProgress:
 class RunLimits:
     """When a run speaks up about its cost, and when it gives up (wall-clock seconds).
 
-    The pace is judged once the run has gone for ``judge_after`` seconds: the projected
-    total is the wall time so far scaled by the share of the span still to go."""
+    The pace is judged every ``judge_after`` seconds of the run (see :class:`Pace`); a
+    projection stops a run only once it has spent ``projection_share`` of max_wall: a slow
+    stretch shorter than that (a collapse from rest) is waited out, and the recent pace judged
+    after it."""
 
-    max_wall: float | None = 1800.0  # stop when the projected total exceeds this (None: never)
+    max_wall: float | None = 1800.0  # stop past this, or when the projected total exceeds it (None: never)
     notice_after: float = 120.0  # say what the run will cost when its projection exceeds this
-    judge_after: float = 3.0
+    judge_after: float = 3.0  # s, the length of one judged interval
+    projection_share: float = 0.1  # of max_wall: before it, only max_wall itself stops a run
+
+
+class Pace:
+    """A run's pace, judged over intervals of ``limits.judge_after`` wall seconds: the recent
+    pace is the last whole interval's (wall seconds per simulated second), the average pace
+    the whole run's so far. The projected total is the wall time so far plus the span still to
+    go at the better (faster) of the two: a run slow at its start (a collapse from rest, then
+    normal steps) is judged by what it does now, and one slowed down only lately by what it
+    did on average, until it actually goes past max_wall. A projection past max_wall stops
+    the run only once it has spent ``limits.projection_share`` of max_wall (at its start the
+    recent pace is the slow start's own). (Projected from the average pace alone after 3 s,
+    a run whose first seconds crawled was stopped although it would have finished in time:
+    fig6_boundary at gamma = -0.85, K = 2000, tol 1e-4, issue 36.) The notice is told once two
+    judged intervals in a row project past ``limits.notice_after``."""
+
+    def __init__(self, stop_ns: int, limits: RunLimits, notice: Callable[[str], None] | None = None):
+        self.stop_ns, self.limits, self.notice = stop_ns, limits, notice
+        self.mark_wall, self.mark_ns = 0.0, 0  # where the interval being timed began
+        self.recent: float | None = None  # wall s per simulated s over the last whole interval
+        self.judged: list[float] = []  # the projections [s] at the ends of the last two intervals
+        self.noticed = False
+
+    def projected(self, wall: float, t_ns: int) -> float | None:
+        """The projected total wall time [s] at wall [s] and simulated t_ns, or None before a
+        whole interval has been timed (or at the stop)."""
+        timed = wall - self.mark_wall >= self.limits.judge_after and t_ns > self.mark_ns
+        if timed:
+            self.recent = (wall - self.mark_wall) / (t_ns - self.mark_ns)
+            self.mark_wall, self.mark_ns = wall, t_ns
+        if self.recent is None or t_ns <= 0 or t_ns >= self.stop_ns:
+            return None
+        projected = wall + (self.stop_ns - t_ns) * min(self.recent, wall / t_ns)
+        if timed:
+            self.judged = self.judged[-1:] + [projected]
+        return projected
+
+    def judge(self, wall: float, t_ns: int, where: Callable[[], str]) -> None:
+        """Raise RunawayError when the run at wall [s] and t_ns is past max_wall or projected
+        past it; tell notice once when it is projected past notice_after. where(): the
+        run's state for the message (the step, the steps and rejections so far)."""
+        max_wall = self.limits.max_wall
+        projected = self.projected(wall, t_ns)
+        over = max_wall is not None and t_ns < self.stop_ns and wall > max_wall
+        if projected is None and not over:
+            return
+        if projected is None:  # past max_wall before a whole interval was timed: the average
+            projected = wall * self.stop_ns / t_ns
+        projected = max(projected, wall)
+        judged = max_wall is not None and wall >= self.limits.projection_share * max_wall
+        if over or (judged and projected > max_wall):
+            raise RunawayError(
+                f"stopped at t = {t_ns / NS:.6g} s of {self.stop_ns / NS:.6g} s after "
+                f"{wall:.0f} s{' (past --max-wall)' if over else ''}: at this pace the run would take "
+                f"{_duration(projected)} ({where()}); loosen --tol, shorten time.periods, or allow "
+                f"more with --max-wall")
+        # told when two intervals in a row project past notice_after: not on one slow stretch
+        if (self.notice is not None and not self.noticed and len(self.judged) == 2
+                and min(self.judged) > self.limits.notice_after):
+            self.noticed = True
+            self.notice(f"this run will take about {_duration(projected)} at its present pace "
+                        f"({where()}); to shorten it, loosen --tol or reduce time.periods")
 
 
 @dataclass
@@ -60,7 +125,7 @@ class RunOutcome:
     wall_time: float  # s
     counters: dict = field(default_factory=dict)
     calls: dict = field(default_factory=dict)
-    out_of_time: bool = False  # stopped because its pace projected past limits.max_wall
+    out_of_time: bool = False  # stopped past limits.max_wall, or because its pace projected past it
     calls_by_kind: dict = field(default_factory=dict)  # stepping calls summed over the FMUs by kind
 
 
@@ -174,7 +239,7 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
     (an FMU discarding a step that no smaller step fixes, a NaN) or a pace that would take
     past ``limits.max_wall`` ends the run with ok=False and a message naming the instance
     or the cost; what was recorded so far is kept. notice(text) is told once, up front,
-    when the projected wall time exceeds ``limits.notice_after``.
+    when the projected wall time exceeds ``limits.notice_after`` (see :class:`Pace`).
     """
     recorder = PointList() if recorder is None else recorder
     stop_ns = int(round(stop_time * NS))
@@ -183,7 +248,8 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
     current = system.start_point()
     recorder.add(current)
     ok, message = True, "completed"
-    noticed = out_of_time = False
+    out_of_time = False
+    pace = Pace(stop_ns, limits, notice)
     try:
         while current.t_ns < stop_ns:
             new = algorithm.advance(system, current, stop_ns)
@@ -200,20 +266,8 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
             c = algorithm.counters
             if progress is not None:
                 progress(RunProgress(current.t_ns / NS, stop_ns / NS, c.steps, c.rejected, wall))
-            if wall >= limits.judge_after and current.t_ns < stop_ns:
-                projected = wall * stop_ns / current.t_ns
-                pace = (f"step now {h_ns / NS:.3g} s, {c.steps} steps and {c.rejected} rejections "
-                        f"so far")
-                if limits.max_wall is not None and projected > limits.max_wall:
-                    raise RunawayError(
-                        f"stopped at t = {current.t_ns / NS:.6g} s of {stop_time:.6g} s after "
-                        f"{wall:.0f} s: at this pace the run would take {_duration(projected)} "
-                        f"({pace}); loosen --tol, shorten time.periods, or allow more with "
-                        f"--max-wall")
-                if notice is not None and not noticed and projected > limits.notice_after:
-                    noticed = True
-                    notice(f"this run will take about {_duration(projected)} at its present pace "
-                           f"({pace}); to shorten it, loosen --tol or reduce time.periods")
+            pace.judge(wall, current.t_ns, lambda: f"step now {h_ns / NS:.3g} s, {c.steps} steps and "
+                                                   f"{c.rejected} rejections so far")
     except FMUCallError as exc:
         ok, message = False, f"stopped at t = {current.t_ns / NS:.9g} s: {exc}"
     except (FloatingPointError, RunawayError) as exc:

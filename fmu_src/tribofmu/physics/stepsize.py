@@ -1,12 +1,17 @@
 """The one step-size rule of the project, with its constants named (as scipy's ``rk.py``
 names SAFETY, MIN_FACTOR, MAX_FACTOR and libcosim's ECCO keeps its parameters together).
 
-Used by the adaptive coupling (communication steps) and by the lubricant kinetics
-(sub-steps inside the Friction FMU). Pure Python: it ships in the FMUs.
+Used by the adaptive coupling (communication steps: its values are coupling/settings.py's
+``STEP_CONTROL``, with the coupling's other tuning) and by the lubricant kinetics (sub-steps
+inside the Friction FMU: ``KINETICS_SUBSTEPS`` below). Pure Python: it ships in the FMUs.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+# A step far within its tolerance does not grow the next by more through the PI term (the
+# default of StepSizeController.min_previous_error).
+MIN_PREVIOUS_ERROR = 1e-4
 
 
 @dataclass(frozen=True)
@@ -21,7 +26,7 @@ class StepSizeController:
     With beta > 0 the rule is PI (Gustafsson's controller, in the form of the "Lund
     stabilisation" of Hairer's DOPRI5, whose beta defaults to 0.04): factor = safety
     error^-(1/(order + 1) - 0.75 beta) previous^beta, previous the last accepted step's
-    error (floored at MIN_PREVIOUS_ERROR). An error that grew since the last step is answered
+    error (floored at min_previous_error). An error that grew since the last step is answered
     harder, one that fell more gently, so the steps stop rocking between growth and
     rejection."""
 
@@ -30,6 +35,7 @@ class StepSizeController:
     max_factor: float = 4.0
     max_factor_after_reject: float = 1.0
     beta: float = 0.0
+    min_previous_error: float = MIN_PREVIOUS_ERROR
 
     def factor(self, error: float, order: int, after_reject: bool = False,
                previous_error: float = 1.0) -> float:
@@ -37,23 +43,12 @@ class StepSizeController:
         exponent = 1.0 / (order + 1) - 0.75 * self.beta
         raw = self.safety * max(error, 1e-300) ** -exponent
         if self.beta:
-            raw *= max(previous_error, MIN_PREVIOUS_ERROR) ** self.beta
+            raw *= max(previous_error, self.min_previous_error) ** self.beta
         return min(max(raw, self.min_factor), grow)
 
 
-# A step far within its tolerance does not grow the next by more through the PI term.
-MIN_PREVIOUS_ERROR = 1e-4
-
-
-# The coupling's: growth of 4 per accepted step (a slip phase after a transition), shrink to
-# a tenth at most (a rejected step at an event is landed by the event logic, not by this).
-# Its PI term, beta = 0.06 (DOPRI5's default is 0.04): rejected steps went from up to 28 % of
-# accepted (mixed friction; 22-23 % on boundary_heating and fig2's rig at omega = 3) to at most
-# 18 % on the shipped scenes and bench_floor's off-scene points, with 12 % fewer FMU calls in
-# all (0.04 left mixed friction at 20 %): `python benchmarks/bench_floor.py --rejections
-# --betas 0,0.06`, 2026-11-26.
-COUPLING_STEPS = StepSizeController(beta=0.06)
 # The kinetics': sub-steps grow tenfold where f settles on its equilibrium (rates fall from
 # 1e7 to nothing within a step), and a rejection does not hold growth back (sub-steps are
 # cheap: the next one may grow at once).
 KINETICS_SUBSTEPS = StepSizeController(max_factor=10.0, max_factor_after_reject=10.0)
+
