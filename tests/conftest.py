@@ -73,19 +73,14 @@ def _flock(path: Path, operation: int):
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
-@pytest.fixture(autouse=True)
-def _alone(request, tmp_path_factory):
-    """Under pytest-xdist: an ``alone`` test waits until no other worker is in a test, and no
-    other worker starts one until it is done; other tests run side by side. A readers-writer
-    lock on two files in the run's temporary folder (the workers' folders are in it): the
-    turnstile, taken by both kinds, lets a waiting ``alone`` test in before the other worker's
-    next test, which would otherwise keep the room busy."""
-    if not hasattr(request.config, "workerinput"):  # one process: every test is alone already
-        yield
-        return
-    run = tmp_path_factory.getbasetemp().parent
-    turnstile, room = run / "alone.turnstile", run / "alone.room"
-    if request.node.get_closest_marker("alone"):
+@contextlib.contextmanager
+def turn(run_dir: Path, alone: bool):
+    """A test's turn among the workers whose locks are in ``run_dir``: alone (no other test
+    runs meanwhile) or shared (beside any test that is not alone). A readers-writer lock on
+    two files: the turnstile, taken by both kinds, lets a waiting alone test in before the
+    other worker's next test, which would otherwise keep the room busy."""
+    turnstile, room = run_dir / "alone.turnstile", run_dir / "alone.room"
+    if alone:
         with _flock(turnstile, fcntl.LOCK_EX), _flock(room, fcntl.LOCK_EX):
             yield
     else:
@@ -93,6 +88,18 @@ def _alone(request, tmp_path_factory):
             pass
         with _flock(room, fcntl.LOCK_SH):
             yield
+
+
+@pytest.fixture(autouse=True)
+def _alone(request, tmp_path_factory):
+    """Under pytest-xdist: an ``alone`` test waits until no other worker is in a test, and no
+    other worker starts one until it is done; other tests run side by side. The locks are in
+    the run's temporary folder, which holds every worker's own."""
+    if not hasattr(request.config, "workerinput"):  # one process: every test is alone already
+        yield
+        return
+    with turn(tmp_path_factory.getbasetemp().parent, bool(request.node.get_closest_marker("alone"))):
+        yield
 
 
 # -- each tier's time ------------------------------------------------------------------------
