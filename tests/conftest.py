@@ -11,19 +11,18 @@ each worker process builds its own, into its own temporary folder.
 
 A test marked ``alone`` (one that measures wall time, loads every core, signals a process
 or runs under valgrind) runs with no other test beside it: every test holds a lock shared
-with the other workers' tests, an ``alone`` test holds it exclusively (:func:`_alone`).
-The summary ends with each tier's time (:func:`pytest_terminal_summary`).
+with the other workers' tests, an ``alone`` test holds it exclusively (:func:`_alone`, :func:`suite_support.turn`).
+The README walk, the longest test, is collected first; the summary ends with each tier's time
+(:func:`pytest_terminal_summary`).
 """
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import os
 from pathlib import Path
 
 import pytest
 
-TIERS = ("unit", "master", "integration", "external", "native")
+from suite_support import TierClock, turn
 
 
 @pytest.fixture(scope="session")
@@ -63,33 +62,6 @@ def env(tmp_path):
 
 
 # -- tests that run alone --------------------------------------------------------------------
-@contextlib.contextmanager
-def _flock(path: Path, operation: int):
-    with open(path, "a") as fh:
-        fcntl.flock(fh, operation)
-        try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
-
-
-@contextlib.contextmanager
-def turn(run_dir: Path, alone: bool):
-    """A test's turn among the workers whose locks are in ``run_dir``: alone (no other test
-    runs meanwhile) or shared (beside any test that is not alone). A readers-writer lock on
-    two files: the turnstile, taken by both kinds, lets a waiting alone test in before the
-    other worker's next test, which would otherwise keep the room busy."""
-    turnstile, room = run_dir / "alone.turnstile", run_dir / "alone.room"
-    if alone:
-        with _flock(turnstile, fcntl.LOCK_EX), _flock(room, fcntl.LOCK_EX):
-            yield
-    else:
-        with _flock(turnstile, fcntl.LOCK_EX):
-            pass
-        with _flock(room, fcntl.LOCK_SH):
-            yield
-
-
 @pytest.fixture(autouse=True)
 def _alone(request, tmp_path_factory):
     """Under pytest-xdist: an ``alone`` test waits until no other worker is in a test, and no
@@ -103,40 +75,10 @@ def _alone(request, tmp_path_factory):
 
 
 # -- each tier's time ------------------------------------------------------------------------
-def tier_of(nodeid: str) -> str:
-    parts = nodeid.split("/")
-    return parts[1] if len(parts) > 2 and parts[0] == "tests" and parts[1] in TIERS else "other"
-
-
-class TierClock:
-    """Per tier: the tests' summed time (set-up, call and tear-down, as --durations counts
-    them) and its span, from the first test's start to the last one's end (tiers overlap
-    under xdist: the spans add up to more than the run)."""
-
-    def __init__(self):
-        self.tests: dict[str, set[str]] = {}
-        self.seconds: dict[str, float] = {}
-        self.first: dict[str, float] = {}
-        self.last: dict[str, float] = {}
-
-    def pytest_runtest_logreport(self, report):
-        tier = tier_of(report.nodeid)
-        self.tests.setdefault(tier, set()).add(report.nodeid)
-        self.seconds[tier] = self.seconds.get(tier, 0.0) + report.duration
-        start, stop = getattr(report, "start", None), getattr(report, "stop", None)
-        if start is not None and stop is not None:
-            self.first[tier] = min(self.first.get(tier, start), start)
-            self.last[tier] = max(self.last.get(tier, stop), stop)
-
-    def lines(self) -> list[str]:
-        out = []
-        for tier in (*TIERS, "other"):
-            if tier not in self.tests:
-                continue
-            span = self.last.get(tier, 0.0) - self.first.get(tier, 0.0)
-            out.append(f"{tier:<12} {len(self.tests[tier]):5d} tests  {self.seconds[tier]:7.1f} s in tests"
-                       f"  {span:7.1f} s from first start to last end")
-        return out
+def pytest_collection_modifyitems(config, items):
+    """The README walk (``newcomer``, minutes long) first: under xdist the run ends no earlier
+    than its longest test's start plus its length, so the longest starts at once."""
+    items.sort(key=lambda item: item.get_closest_marker("newcomer") is None)
 
 
 def pytest_configure(config):

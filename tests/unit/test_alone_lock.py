@@ -1,4 +1,4 @@
-"""The test suite's own machinery (tests/conftest.py): a test marked ``alone`` runs with no
+"""The test suite's own machinery (tests/suite_support.py): a test marked ``alone`` runs with no
 other test beside it, and the summary's time per tier adds up what each tier took."""
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import threading
 import time
 import types
 
-from conftest import TierClock, tier_of, turn
+from suite_support import TierClock, tier_of, turn
 
 WAIT = 0.3  # s: long enough for a thread that is free to go to have gone
 
