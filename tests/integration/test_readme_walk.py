@@ -96,7 +96,7 @@ def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
            if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME", "TRIBOFMU_CACHE") and not k.startswith("XDG_")}
     env.update(PATH=f"{env_dir / 'bin'}{os.pathsep}{env['PATH']}", HOME=str(home),
                PYTHONDONTWRITEBYTECODE="1", PIP_DISABLE_PIP_VERSION_CHECK="1")
-    # the system's pip run by the venv's python installs into the venv (no deps);
+    # the tests' interpreter's pip, run by the venv's python, installs into the venv (no deps);
     # --ignore-installed: leave the system's own tribofmu (a developer's editable one) alone
     install = subprocess.run([str(python), "-m", "pip", "install", "-q", "--no-deps", "--ignore-installed",
                               str(source)],
