@@ -6,7 +6,14 @@
 - ``external/``: the SSP export in third-party masters (fmpy's SSP master, libcosim, Ecos).
 
 The FMUs are built once per session from the working tree (:func:`fmu_dir`); a test that
-changes FMU files copies them first.
+changes FMU files copies them first. Under pytest-xdist (``bash .ci/run`` runs ``-n auto``)
+each worker process builds its own, into its own temporary folder.
+
+A test marked ``alone`` (one that measures wall time, loads every core, signals a process
+or runs under valgrind) runs with no other test beside it: every test holds a lock shared
+with the other workers' tests, an ``alone`` test holds it exclusively (:func:`_alone`, :func:`suite_support.turn`).
+The README walk, the longest test, is collected first; the summary ends with each tier's time
+(:func:`pytest_terminal_summary`).
 """
 from __future__ import annotations
 
@@ -14,6 +21,8 @@ import os
 from pathlib import Path
 
 import pytest
+
+from suite_support import TierClock, turn
 
 
 @pytest.fixture(scope="session")
@@ -50,3 +59,36 @@ def env(tmp_path):
     cache, tmp = tmp_path / "cache", tmp_path / "tmpdir"
     tmp.mkdir()
     return dict(os.environ, TRIBOFMU_CACHE=str(cache), TMPDIR=str(tmp), PYTHONDONTWRITEBYTECODE="1")
+
+
+# -- tests that run alone --------------------------------------------------------------------
+@pytest.fixture(autouse=True)
+def _alone(request, tmp_path_factory):
+    """Under pytest-xdist: an ``alone`` test waits until no other worker is in a test, and no
+    other worker starts one until it is done; other tests run side by side. The locks are in
+    the run's temporary folder, which holds every worker's own."""
+    if not hasattr(request.config, "workerinput"):  # one process: every test is alone already
+        yield
+        return
+    with turn(tmp_path_factory.getbasetemp().parent, bool(request.node.get_closest_marker("alone"))):
+        yield
+
+
+# -- each tier's time ------------------------------------------------------------------------
+def pytest_collection_modifyitems(config, items):
+    """The README walk (``newcomer``, minutes long) first: under xdist the run ends no earlier
+    than its longest test's start plus its length, so the longest starts at once."""
+    items.sort(key=lambda item: item.get_closest_marker("newcomer") is None)
+
+
+def pytest_configure(config):
+    if not hasattr(config, "workerinput"):  # the controller (or the only process) reports
+        config.pluginmanager.register(TierClock(), "tribofmu_tier_clock")
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    clock = config.pluginmanager.get_plugin("tribofmu_tier_clock")
+    if clock is not None and clock.tests:
+        terminalreporter.write_sep("-", "time per tier")
+        for line in clock.lines():
+            terminalreporter.write_line(line)

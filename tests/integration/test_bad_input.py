@@ -66,6 +66,7 @@ def run(argv, capsys) -> tuple[int, str, float]:
     return done.returncode, done.stderr.strip(), time.perf_counter() - began
 
 
+@pytest.mark.alone
 @pytest.mark.parametrize("content, words", [c[1:] for c in CORPUS], ids=[c[0] for c in CORPUS])
 def test_fuzz_corpus_is_one_line_exit_2_within_a_second(tmp_path, capsys, monkeypatch, content, words):
     monkeypatch.chdir(tmp_path)
@@ -78,6 +79,7 @@ def test_fuzz_corpus_is_one_line_exit_2_within_a_second(tmp_path, capsys, monkey
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml"]  # nothing written
 
 
+@pytest.mark.alone
 @pytest.mark.parametrize("kind", ["fifo", "dev-zero", "folder"])
 def test_only_regular_files_are_read(tmp_path, capsys, kind):
     if kind == "fifo":
@@ -169,6 +171,7 @@ def small_disk(tmp_path):
         subprocess.run(["umount", str(point)], capture_output=True)
 
 
+@pytest.mark.alone
 def test_a_read_only_disk_is_one_line_exit_1_before_any_work(capsys, fmu_dir, small_disk):
     disk = small_disk("size=1m,ro")
     code, err, elapsed = run(["simulate", str(FIG2), "--out", str(disk / "run"), "--fmu-dir", str(fmu_dir),
@@ -177,6 +180,7 @@ def test_a_read_only_disk_is_one_line_exit_1_before_any_work(capsys, fmu_dir, sm
     assert elapsed < 1.0
 
 
+@pytest.mark.alone
 def test_a_full_disk_is_one_line_exit_1_before_any_work(capsys, fmu_dir, small_disk):
     disk = small_disk("size=1m")  # fig2's 6.5 periods need about 1.1 MB of CSV and 1 MB of plots
     for command in (["simulate", str(FIG2)], ["sweep", str(FIG2), "--grid", "drive.omega=" + ",".join(
@@ -199,6 +203,7 @@ def test_a_cold_cache_on_a_read_only_disk_is_one_line_exit_1(capsys, monkeypatch
         assert c == 1 and len(e.splitlines()) == 1 and "Read-only" in e, e
 
 
+@pytest.mark.alone
 def test_too_little_free_space_is_one_line_exit_1_before_any_work(tmp_path, capsys, monkeypatch, fmu_dir):
     import shutil
     from collections import namedtuple
@@ -228,6 +233,7 @@ def test_a_write_failing_after_the_run_keeps_the_previous_results(tmp_path, caps
     assert [p.name for p in tmp_path.iterdir()] == ["run"]
 
 
+@pytest.mark.alone
 def test_an_unreachable_scheduler_is_one_line_exit_2_within_15_s(tmp_path, capsys):
     import socket
     with socket.socket() as s:  # a port nobody listens on

@@ -233,6 +233,7 @@ def test_implicit_is_second_order_on_smooth_fluid(fmu_dir):
 
 
 # -- no run without an end, memory bounded by the output ------------------------------------
+@pytest.mark.alone
 def test_a_run_that_would_take_too_long_stops_with_a_message(fmu_dir):
     """A projected wall time past simulation.max_wall ends the run early: ok is False and
     the message says where it was, what it would cost and what to change."""

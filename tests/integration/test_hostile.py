@@ -78,6 +78,7 @@ def test_plot_of_a_stats_json_without_a_scenario_is_one_line(tmp_path, env, stat
 
 
 # -- --out that cannot be swapped; two runs into one --out -------------------------------------
+@pytest.mark.alone
 @pytest.mark.parametrize("out", [".", "..", "./"], ids=["dot", "dotdot", "dot-slash"])
 def test_out_that_cannot_be_swapped_is_refused_before_the_run(tmp_path, env, fmu_dir, out):
     work = tmp_path / "empty" / "here"
@@ -114,6 +115,7 @@ def test_second_run_into_the_same_out_is_refused_while_the_first_writes(tmp_path
 
 
 # -- interruptions --------------------------------------------------------------------------
+@pytest.mark.alone
 @pytest.mark.parametrize("delay", [0.15, 0.3, 0.45, 0.6])
 def test_interrupt_during_start_up_is_one_line_and_130(tmp_path, env, fmu_dir, delay):
     proc = subprocess.Popen(command("simulate", "fig2_dry", "--fmu-dir", fmu_dir, "--out", tmp_path / "out",
@@ -138,6 +140,7 @@ def sweep_args(out: Path, fmu_dir, *extra, masses: str = "0.5,0.6") -> list:
 # by SIGINT without the line in 2 of 6 tries on 2026-11-25; after the teardown fix below,
 # 0 of 21 tries between 0.3 and 2.0 s did, by /tmp-scripted runs. The delays here are past
 # the cluster's start-up to keep the suite short.)
+@pytest.mark.alone
 @pytest.mark.parametrize("delay", [3.0, 5.0])
 @pytest.mark.parametrize("group", [False, True], ids=["process", "terminal-ctrl-c"])
 def test_interrupted_dask_sweep_is_one_line_and_130(tmp_path, env, fmu_dir, delay, group):
@@ -164,6 +167,7 @@ def test_interrupted_dask_sweep_is_one_line_and_130(tmp_path, env, fmu_dir, dela
     assert len(lines) == 1 and lines[0].startswith("tribofmu: "), err
 
 
+@pytest.mark.alone
 @pytest.mark.parametrize("workers", ["0", "2"])
 def test_a_signal_after_the_sweep_is_done_changes_nothing(tmp_path, env, fmu_dir, workers):
     """A Ctrl-C as the summary appears lands in the teardown (Dask's atexit handlers, the
@@ -183,6 +187,7 @@ def test_a_signal_after_the_sweep_is_done_changes_nothing(tmp_path, env, fmu_dir
     assert len((out / "sweep.csv").read_text().strip().splitlines()) == 9
 
 
+@pytest.mark.alone
 def test_interrupted_recompute_leaves_the_earlier_sweep_whole_and_resumes(tmp_path, env, fmu_dir):
     out = tmp_path / "sweep"
     done = tribofmu(*sweep_args(out, fmu_dir, "--workers", "0"), cwd=tmp_path, env=env)

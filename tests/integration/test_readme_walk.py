@@ -3,9 +3,11 @@
 blocks and then of the docs pages it links (``docs/*.md``, in the README's order), in order,
 from a folder outside the checkout, with an empty ``HOME``.
 
-The venv sees the system's site-packages (numpy, fmpy, matplotlib... are not downloaded
-again) and the package is installed with ``--no-deps`` from a copy of the checkout (no build
-files left in the checkout); pip's isolated build takes setuptools from its cache or the
+The venv sees the site-packages of the interpreter running the tests (numpy, fmpy,
+matplotlib... are not downloaded again): the system's, and when that interpreter is itself a
+virtual environment's (a contributor's ``pip install -e '.[test]'`` into a venv), that venv's
+too. The package is installed with ``--no-deps`` from a copy of the checkout (no build files
+left in the checkout); pip's isolated build takes setuptools from its cache or the
 package index, the only network the walk may use. Select
 it with ``pytest -m newcomer``; it takes one to three minutes.
 """
@@ -13,7 +15,10 @@ import os
 import re
 import shutil
 import subprocess
+import sys
+import sysconfig
 import venv
+from pathlib import Path
 
 import pytest
 
@@ -54,6 +59,19 @@ def readme_commands() -> list[str]:
     return out
 
 
+def see_the_running_venv(python) -> None:
+    """When the tests run in a virtual environment, its site-packages (pythonfmu, fmpy, pip...)
+    are not the system's that a new venv sees: add them to the new venv's path, after its own
+    site-packages (so the package installed there wins), with their own .pth files processed."""
+    if sys.prefix == sys.base_prefix:
+        return
+    ours = dict.fromkeys(sysconfig.get_path(key) for key in ("purelib", "platlib"))
+    target = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                            capture_output=True, text=True, check=True).stdout.strip()
+    lines = "".join(f"import site; site.addsitedir({path!r})\n" for path in ours)
+    (Path(target) / "_the_tests_venv.pth").write_text(lines)
+
+
 def test_the_readme_names_the_plain_install_and_the_scenes_by_name():
     text = (ROOT / "README.md").read_text()
     assert "python -m pip install . && tribofmu simulate fig2_dry" in text and "bash .ci/run" in text
@@ -70,6 +88,7 @@ def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
     env_dir = tmp_path / "venv"
     venv.EnvBuilder(system_site_packages=True, with_pip=False, symlinks=True).create(env_dir)
     python = env_dir / "bin" / "python"
+    see_the_running_venv(python)
     # a fresh account: an empty HOME (no ~/.cache), no XDG variables, no TRIBOFMU_CACHE
     home = tmp_path / "home"
     home.mkdir()
@@ -77,7 +96,7 @@ def test_a_newcomer_walks_the_readme_in_a_fresh_venv(tmp_path):
            if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME", "TRIBOFMU_CACHE") and not k.startswith("XDG_")}
     env.update(PATH=f"{env_dir / 'bin'}{os.pathsep}{env['PATH']}", HOME=str(home),
                PYTHONDONTWRITEBYTECODE="1", PIP_DISABLE_PIP_VERSION_CHECK="1")
-    # the system's pip run by the venv's python installs into the venv (no deps);
+    # the tests' interpreter's pip, run by the venv's python, installs into the venv (no deps);
     # --ignore-installed: leave the system's own tribofmu (a developer's editable one) alone
     install = subprocess.run([str(python), "-m", "pip", "install", "-q", "--no-deps", "--ignore-installed",
                               str(source)],
