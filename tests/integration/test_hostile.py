@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import time
@@ -214,7 +215,9 @@ def test_interrupted_recompute_leaves_the_earlier_sweep_whole_and_resumes(tmp_pa
     assert sorted(p.name for p in (out / "points").iterdir()) == points_before
     again = tribofmu(*sweep_args(out, fmu_dir, "--workers", "0", "--recompute"), cwd=tmp_path, env=env)
     assert again.returncode == 0, again.stderr
-    assert "already done" in again.stderr  # resumed: the points recomputed before the interrupt kept
+    # resumed: the points recomputed before the interrupt kept (-q: the summary line says so)
+    resumed = re.search(r"\((\d+) run, (\d+) already done\)", again.stdout)
+    assert resumed and int(resumed.group(2)) >= 1, again.stdout
     after = (out / "sweep.csv").read_text().strip().splitlines()
     assert len(after) == 9 and after[0] == before.decode().splitlines()[0]
     assert after != before.decode().strip().splitlines()  # new rows (new finish times)
