@@ -18,7 +18,7 @@ import sys
 
 from . import __version__
 from .cli_checks import label_overrides, one_line  # noqa: F401 (label_overrides: cli.label_overrides, as before)
-from .cli_commands import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_TOL_NOT_MET  # noqa: F401 (the exit codes)
+from .cli_commands import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_TOL_NOT_MET, quiet_from_now_on  # noqa: F401 (the exit codes)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -39,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
         work_done()
         return status
     except KeyboardInterrupt:
-        _quiet_from_now_on()
+        quiet_from_now_on()
         from .atomic import published
         done = published()
         if done:
@@ -61,25 +61,6 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         from .cli_checks import release_out_locks
         release_out_locks()
-
-
-def _quiet_from_now_on() -> None:
-    """After the one line of an interruption: a second Ctrl-C or SIGTERM while the process
-    shuts down (Dask's cluster, atexit handlers) ends it silently, and what libraries still
-    log or fail to clean up at exit (Dask: CommClosedError, 'Nanny failed to start') is not
-    printed: the line said what happened."""
-    import logging
-    import signal
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        try:
-            signal.signal(sig, signal.SIG_IGN)
-        except (ValueError, OSError):  # not the main thread
-            pass
-    logging.disable(logging.CRITICAL)
-    sys.unraisablehook = lambda unraisable: None  # "Exception ignored in atexit callback"
-    sys.excepthook = lambda *exc: None  # a late exception at shutdown
-    import threading
-    threading.excepthook = lambda args: None  # one in a thread (Dask's event loop)
 
 
 DESCRIPTION = """tribofmu: dry, fluid and boundary friction as FMI co-simulation FMUs.

@@ -3,8 +3,11 @@ by :func:`tribofmu.cli.main` with the parsed arguments of :func:`tribofmu.cli._p
 from __future__ import annotations
 
 import json
+import logging
 import math
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from .cli_checks import (PLOT_BYTES, one_line, SSP_BYTES, SWEEP_POINT_BYTES, check_algorithm_options, claim_out,
@@ -14,8 +17,20 @@ from .errors import UsageError
 
 
 def quiet_from_now_on() -> None:
-    from .cli import _quiet_from_now_on
-    _quiet_from_now_on()
+    """After the one line of an interruption: a second Ctrl-C or SIGTERM while the process
+    shuts down (Dask's cluster, atexit handlers) ends it silently, and what libraries still
+    log or fail to clean up at exit (Dask: CommClosedError, 'Nanny failed to start') is not
+    printed: the line said what happened."""
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            signal.signal(sig, signal.SIG_IGN)
+        except (ValueError, OSError):  # not the main thread
+            pass
+    logging.disable(logging.CRITICAL)
+    sys.unraisablehook = lambda unraisable: None  # "Exception ignored in atexit callback"
+    sys.excepthook = lambda *exc: None  # a late exception at shutdown
+    threading.excepthook = lambda args: None  # one in a thread (Dask's event loop)
+
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
