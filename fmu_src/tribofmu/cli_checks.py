@@ -247,11 +247,6 @@ def check_algorithm_options(scenario, algorithm: str | None, step: float | None,
 OPTION_NAMES = {"algorithm": "--algorithm", "step": "--step", "tol": "--tol"}
 
 
-def min_max_wall() -> float:
-    """The smallest --max-wall but 0 (no limit) [s] (:data:`tribofmu.scene.checks.MIN_MAX_WALL`)."""
-    return MIN_MAX_WALL
-
-
 def require(module: str, install: str, purpose: str) -> None:
     """A missing optional piece is one line naming what to install."""
     try:

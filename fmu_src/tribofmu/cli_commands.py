@@ -11,7 +11,7 @@ import threading
 from pathlib import Path
 
 from .cli_checks import (PLOT_BYTES, one_line, SSP_BYTES, SWEEP_POINT_BYTES, check_algorithm_options, claim_out,
-                         check_number, check_out_dir, check_out_file, label_overrides, output_folder,
+                         check_number, check_out_file, label_overrides, output_folder,
                          preflight, preflight_folder, require, resolve_fmu_dir)
 from .errors import UsageError
 
@@ -263,8 +263,7 @@ def cmd_figures(args) -> int:
         if unknown or not only:
             raise UsageError(f"--only {args.only}: unknown figure {unknown[0] if unknown else '(none)'!r} "
                              f"(known: {', '.join(FIGURES)})")
-    out = check_out_dir(Path(args.out))
-    claim_out(out, "figures", 12 * PLOT_BYTES)
+    out = claim_out(Path(args.out), "figures", 12 * PLOT_BYTES)
     if args.data:
         claim_out(Path(args.data), "figures", PLOT_BYTES, "--data")
     written: list[Path] = []  # each figure and saved run as it is complete (for a Ctrl-C's message)
