@@ -24,6 +24,13 @@ import pytest
 
 from suite_support import TierClock, turn
 
+# One run of a checked call at a time, in the test's own process (and in the commands it starts,
+# which inherit this): the suite keeps both cores busy with tests already (-n auto), and many
+# tests watch a run from inside its process (spies on the recorder, the coupling, the FMUs),
+# which a forked run is not. The forked runs, the default of a user's call, are tested on their
+# own: tests/master/test_forked_runs.py and tests/integration/test_forked_checks.py.
+os.environ.setdefault("TRIBOFMU_CHECK_WORKERS", "1")
+
 
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory) -> Path:

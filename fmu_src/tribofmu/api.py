@@ -26,6 +26,7 @@ from .atomic import result_set
 from .checked import checked_simulation
 from .columns import SIDECAR_NAME
 from .fmu_cache import find_fmus
+from .forked_runs import check_workers as count_check_workers
 from .provenance import overrides_dict, record
 from .result_csv import ResultCsvWriter, write_result_csv
 from .errors import ArgumentError, FMUError, FMUSetupError, UsageError  # noqa: F401 (FMUSetupError re-exported)
@@ -91,7 +92,8 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
              algorithm: str | None = None, step: float | None = None, tol: float | None = None,
              fmu_dir: str | Path | None = None, build: bool | None = None,
              progress=None, keep_points: bool = False, max_wall: float | None | str = SCENE_MAX_WALL,
-             notice=None, sink=None, keep_window: bool = False) -> SimulationResult:
+             notice=None, sink=None, keep_window: bool = False,
+             check_workers: int | None = None) -> SimulationResult:
     """Co-simulate a scenario with the FMUs in fmu_dir.
 
     algorithm/step/tol default to the scenario's [simulation] table, then to the
@@ -106,13 +108,16 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     run will take long. sink(start, signals): told each stretch of output samples as it is
     done (see :class:`~tribofmu.master.run.GridRecorder`), to stream them to disk;
     keep_window: keep only the shown window in the result (with a sink, memory then does not
-    grow with the run).
+    grow with the run). check_workers: how many runs of the adaptive's check go at once, each
+    in a forked process (None: ``TRIBOFMU_CHECK_WORKERS``, else the usable cores, at most 2;
+    see :mod:`tribofmu.forked_runs`); the result is the same whatever it is.
 
     Every argument is checked before any FMU is found or built: a wrong type or a value out
     of range raises :class:`~tribofmu.errors.ArgumentError` (one line naming it).
     """
     _check_run_arguments("simulate", scenario, overrides, fmu_dir, build, progress, notice, max_wall,
                          keep_points=keep_points, keep_window=keep_window, sink=sink)
+    workers = _arguments("simulate", lambda: count_check_workers(check_workers))
     scenario = _scenario(scenario, overrides)
     sim = scenario.simulation
     # step and tol in range, the algorithm known and taking them, a drive and a
@@ -130,13 +135,24 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     fmu_dir = Path(fmu_dir)
     budget = (sim.max_wall if max_wall == SCENE_MAX_WALL else max_wall) or None
 
-    def run_once(step_tol=None, max_wall=budget, sink=sink):
+    def run_once(step_tol=None, max_wall=budget, sink=sink, progress=progress, notice=notice):
         return _run_once(scenario, name, step, step_tol, fmu_dir, n, progress, keep_points, max_wall,
                          notice, sink, keep_window)
 
+    def load_fmus():
+        """Once, before the check's runs are forked: what a process does the first time it opens
+        an FMU (unzip it, load its library, import its Python), which each forked run would
+        otherwise do again."""
+        for fmu, params in fmu_parameters(scenario).items():
+            try:
+                FMUInstance(fmu_dir / f"{fmu}.fmu", instance=fmu.lower(), parameters=params).close()
+            except Exception:  # a missing or damaged FMU: the run that opens it says so, in one line
+                pass
+
     if name != "adaptive":
         return run_once(step_tol=None)
-    return checked_simulation(run_once, tol if tol is not None else DEFAULT_TOL, budget, sink)
+    return checked_simulation(run_once, tol if tol is not None else DEFAULT_TOL, budget, sink, workers=workers,
+                              progress=progress, notice=notice, prepare=load_fmus)
 
 
 # -- the arguments of a call, checked at the door ----------------------------------------------

@@ -30,6 +30,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .coupling.settings import CHECK_SETTINGS
+from .forked_runs import ForkedRuns, InlineRuns, check_workers, cpu_seconds
 from .progress import run_started
 from .run_folder import run_folder
 
@@ -113,8 +114,14 @@ class Spool:
         pickle.dump((start, {k: np.array(v) for k, v in signals.items()}), self._file,
                     protocol=pickle.HIGHEST_PROTOCOL)
 
+    def finish(self) -> None:
+        """Everything written reaches the file (a forked run's last act: its parent replays it)."""
+        if not self._file.closed:
+            self._file.close()
+
     def replay(self, sink: Callable[[int, dict], None]) -> None:
-        self._file.flush()
+        if not self._file.closed:
+            self._file.flush()
         with open(self.path, "rb") as fh:
             while True:
                 try:
@@ -150,7 +157,9 @@ class RunRecord:
 
 def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float | None,
                        sink: Callable[[int, dict], None] | None = None,
-                       step_tol: float | None = None):
+                       step_tol: float | None = None, *, workers: int | None = None,
+                       progress: Callable[[Any], None] | None = None, notice: Callable[[str], None] | None = None,
+                       prepare: Callable[[], None] | None = None):
     """Run ``run_once(step_tol=..., max_wall=..., sink=...)`` in check pairs from per-step
     tolerance ``step_tol`` (default FIRST_STEP_TOL x tol) down, until the tighter run of a
     pair is checked to meet ``tol`` on the window, or the budget ``max_wall`` [s] (None:
@@ -160,8 +169,17 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     whole sequence's, ``check`` every run.
 
     A run that fails (an FMU error, a non-finite state) ends the sequence with that run's
-    result, as unchecked runs did before."""
-    begin = time.perf_counter()
+    result, as unchecked runs did before.
+
+    The runs go ``workers`` at once (:mod:`tribofmu.forked_runs`: None, the usable cores up to
+    two); ``run_once`` then also takes ``progress`` and ``notice``, which a forked run tells
+    through its parent to the ones given here. prepare(): what every run does first and can
+    share (unzipping the FMUs), done once before the first run is forked."""
+    begin, cpu_begin = time.perf_counter(), cpu_seconds()
+    count = check_workers(workers)
+    make_spool = (lambda: Spool()) if sink is not None else (lambda: None)
+    runs = (InlineRuns(run_once, make_spool) if count == 1 else
+            ForkedRuns(run_once, make_spool, count, progress=progress, notice=notice, prepare=prepare))
     step_tol = max(step_tol if step_tol is not None else FIRST_STEP_TOL * tol, MIN_STEP_TOL)
     records: list[RunRecord] = []
     base = None  # the looser run of the pair being formed (None: a new pair starts)
@@ -181,20 +199,19 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
             remaining = None if max_wall is None else max_wall - (time.perf_counter() - begin)
             if remaining is not None and remaining < MIN_BUDGET:
                 break
-            spool = Spool() if sink is not None else None
             run_started(len(records) + 1, len(records) + (2 if base is None else 1))  # for the bar
-            try:
-                result = run_once(step_tol=step_tol, max_wall=remaining, sink=spool)
-            finally:
-                if spool is not None:
-                    held[id(spool)] = spool  # closed with the rest unless the run is kept
+            # the run this one's chain asks for next, which a second worker starts meanwhile
+            then = (max(step_tol / CHECK_RATIO, MIN_STEP_TOL)
+                    if len(records) + 1 < MAX_RUNS and step_tol > MIN_STEP_TOL else None)
+            result, spool = runs.take(step_tol, remaining, then)
             if spool is not None:
-                held[id(result)] = held.pop(id(spool))
+                held[id(result)] = spool  # closed with the rest unless the run is kept
             records.append(RunRecord(step_tol, result.stats["wall_time"], result.stats["communication_steps"],
                                      result.ok, result.stats.get("fmu_calls_total", 0)))
             if not result.ok:
                 if best is None or not result.stats.get("out_of_time"):
-                    return _finish(result, None, records, tol, begin, sink, None, failed=True)
+                    runs.close()
+                    return _finish(result, None, records, tol, (begin, cpu_begin, runs), sink, None, failed=True)
                 break  # out of budget: report what was checked (or the first run, unchecked)
             error = math.nan
             if base is not None:
@@ -220,15 +237,19 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
         if best is None:  # not even one run fitted the budget
             from .errors import ScenarioError
             raise ScenarioError(f"max_wall {max_wall:g} s leaves no time for a run (at least {MIN_BUDGET:g} s)")
+        runs.close()  # a run started ahead that the sequence did not ask for
         checked = best_error if math.isfinite(best_error) else None
-        return _finish(best, checked, records, tol, begin, sink, held.get(id(best)), limit, order=order)
+        return _finish(best, checked, records, tol, (begin, cpu_begin, runs), sink, held.get(id(best)), limit,
+                       order=order)
     finally:
+        runs.close()
         for spool in held.values():
             spool.close()
 
 
-def _finish(result, difference: float | None, records: list[RunRecord], tol: float, begin: float,
+def _finish(result, difference: float | None, records: list[RunRecord], tol: float, began: tuple,
             sink, spool: Spool | None, limit: str = "", failed: bool = False, order: float | None = None):
+    begin, cpu_begin, runs = began
     stats = result.stats
     own = stats.get("estimated_error", {})
     checked = difference is not None and math.isfinite(difference)
@@ -236,8 +257,11 @@ def _finish(result, difference: float | None, records: list[RunRecord], tol: flo
     stats["tol"] = tol
     # (the run's own per-step tolerance, as _run_once recorded it, stays in stats["step_tol"])
     stats["wall_time"] = time.perf_counter() - begin
+    # every run's CPU, the ones started ahead and stopped unused included
+    stats["cpu_time"] = cpu_seconds() - cpu_begin
     stats["check"] = {"runs": [r.as_dict() for r in records], "check_ratio": CHECK_RATIO,
-                      "min_order": MIN_ORDER, "observed_order": order}
+                      "min_order": MIN_ORDER, "observed_order": order,
+                      "workers": runs.workers, "runs_stopped_unused": runs.stopped}
     if failed:
         stats["tolerance_met"] = False
         stats["completed"] = False

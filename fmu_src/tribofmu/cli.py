@@ -33,6 +33,8 @@ def main(argv: list[str] | None = None) -> int:
         args, unknown = parser.parse_known_args(argv)
         if unknown:  # said with the command's own usage line, not the top level's (exit 2)
             _subparsers(parser)[args.command].error(f"unrecognized arguments: {' '.join(unknown)}")
+        from .forked_runs import check_workers
+        check_workers()  # TRIBOFMU_CHECK_WORKERS, read by any run: wrong, it is said before any work
         from .master.instance import remove_orphan_extractions
         atexit.register(remove_orphan_extractions)  # unzipped FMUs of finished (Dask) workers
         status = args.run(args)

@@ -116,6 +116,9 @@ class FMUCallError(FMUError, RuntimeError):
         detail = f": {'; '.join(self.messages)}" if self.messages else ""
         super().__init__(f"{instance}: {call} returned {label}{detail}")
 
+    def __reduce__(self):  # pickled as its parts (a forked run hands it to its parent)
+        return type(self), (self.instance, self.call, self.status, self.messages)
+
     @property
     def discarded(self) -> bool:
         """True if the FMU refused the step but stays usable (a smaller step may work)."""

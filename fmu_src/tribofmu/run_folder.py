@@ -39,6 +39,16 @@ def run_folder() -> Path:
         return _folder[1]
 
 
+def share_with_forked_child() -> None:
+    """In a child forked to work for this process (:mod:`tribofmu.forked_runs`): use the
+    parent's folder as its own (made before the fork), so that what the child leaves goes
+    with the parent's, and the child makes none to leave behind when it is stopped."""
+    global _folder
+    with _lock:
+        if _folder is not None:
+            _folder = (os.getpid(), _folder[1])
+
+
 def remove_gone_runs(tmp: Path | None = None) -> int:
     """Remove the run folders of processes that are gone; returns how many were removed."""
     tmp = Path(tmp) if tmp is not None else Path(tempfile.gettempdir())

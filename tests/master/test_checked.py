@@ -36,7 +36,7 @@ class FakeRuns:
     def __init__(self, error, fail_at=None, sleep=None):
         self.error, self.fail_at, self.calls = error, fail_at, []
 
-    def __call__(self, step_tol=None, max_wall=None, sink=None):
+    def __call__(self, step_tol=None, max_wall=None, sink=None, progress=None, notice=None):
         self.calls.append((step_tol, max_wall))
         t = np.linspace(0.0, 2.0, 201)
         v = np.sin(3 * t) + self.error(step_tol) * np.cos(7 * t)
@@ -49,6 +49,13 @@ class FakeRuns:
                           stats={"wall_time": 0.01, "communication_steps": 10, "fmu_calls_total": 100,
                                  "step_tol": step_tol,
                                  "estimated_error": {"nrms_v": 0.0}, "out_of_time": failed})
+
+
+@pytest.fixture(autouse=True)
+def one_run_at_a_time(monkeypatch):
+    """The sequence's decisions, watched through FakeRuns.calls in this process; that two
+    workers take the same runs and report the same result is tests/master/test_forked_runs.py's."""
+    monkeypatch.setenv("TRIBOFMU_CHECK_WORKERS", "1")
 
 
 def power_law(constant, order=1.0):

@@ -70,6 +70,15 @@ def extraction_root() -> Path:
         return _extract_root[1]
 
 
+def share_extractions_with_forked_child() -> None:
+    """In a child forked to work for this process (:mod:`tribofmu.forked_runs`): use the FMUs
+    the parent unzipped (and its folder for more), instead of unzipping them all again."""
+    global _extract_root
+    with _extract_lock:
+        if _extract_root is not None:
+            _extract_root = (os.getpid(), _extract_root[1])
+
+
 _guards_released_at_exit: set[int] = set()  # library handles (under _extract_lock)
 
 

@@ -50,8 +50,9 @@ def run_point(scenario: Scenario, fmu_dir: str, algorithm: str | None = None, st
     try:
         # a Ctrl-C inside FMU code would become fmi2Fatal and read as a failed point
         with deferred_interrupts():
+            # one run at a time: the sweep's points already keep the cores busy
             result = api.simulate(scenario, algorithm=algorithm, step=step, tol=tol, fmu_dir=fmu_dir,
-                                  build=False, progress=progress)
+                                  build=False, progress=progress, check_workers=1)
         if not result.ok:  # failed, or completed short of its tolerance: the point is not met
             out["message"] = result.message
             if result.stats.get("completed"):  # its metrics are still worth a look

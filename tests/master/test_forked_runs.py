@@ -1,0 +1,208 @@
+"""The check's runs two at a time (tribofmu.forked_runs), against fake runs: the same runs are
+taken and the same result reported as one at a time; a run started ahead and not asked for is
+stopped and leaves nothing; a child's exception, progress and notices reach the parent; a child
+killed, or a parent killed, ends cleanly."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+from tribofmu import checked, forked_runs
+from tribofmu.errors import ArgumentError, FMUCallError, TriboFMUError
+from tribofmu.master.run import RunProgress
+from tribofmu.run_folder import run_folder
+
+from test_checked import FakeRuns, power_law
+
+pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="forked runs need fork()")
+
+
+def sequence(workers, error, sink=None, **kw):
+    return checked.checked_simulation(FakeRuns(error), tol=1e-3, max_wall=None, sink=sink, workers=workers, **kw)
+
+
+def leftovers() -> list[str]:
+    """What runs left in this process's run folder (spools, result pickles)."""
+    return sorted(p.name for p in run_folder().iterdir() if p.name.startswith(("run-", "tribofmu-spool-")))
+
+
+@pytest.mark.parametrize("error", [power_law(0.3), power_law(2.0), power_law(300.0), power_law(50.0, 0.5)],
+                         ids=["one pair", "a chain of three", "a new pair planned", "slow order"])
+def test_two_workers_take_the_same_runs_and_report_the_same_result(error):
+    before = leftovers()
+    one, two = sequence(1, error), sequence(2, error)
+    assert [r["step_tol"] for r in two.stats["check"]["runs"]] == [r["step_tol"] for r in one.stats["check"]["runs"]]
+    assert np.array_equal(one.v, two.v)
+    assert two.ok == one.ok and two.stats["estimated_error"] == one.stats["estimated_error"]
+    assert two.stats["check"]["workers"] == 2 and one.stats["check"]["workers"] == 1
+    assert leftovers() == before
+
+
+def test_the_sink_gets_the_reported_runs_samples_once_from_a_forked_run():
+    received = []
+    result = sequence(2, power_law(300.0), sink=lambda start, signals: received.append((start, signals)))
+    assert [start for start, _ in received] == [0, 100]
+    assert np.array_equal(np.concatenate([s["v"] for _, s in received]), result.v)
+
+
+def test_a_run_started_ahead_and_not_asked_for_is_stopped():
+    # the first pair meets tol: the chain's third run, started when the first run ended, goes
+    result = sequence(2, power_law(0.3))
+    assert len(result.stats["check"]["runs"]) == 2
+    assert result.stats["check"]["runs_stopped_unused"] == 1
+
+
+def test_a_childs_exception_is_raised_in_the_parent_as_it_was():
+    def failing(**kw):
+        raise FMUCallError("friction", "fmi2DoStep", 3, ["at t = 0.1 s"])
+
+    runs = forked_runs.ForkedRuns(failing, lambda: None, 2)
+    try:
+        with pytest.raises(FMUCallError, match="friction: fmi2DoStep returned fmi2Error: at t = 0.1 s") as caught:
+            runs.take(1e-3, None, then=5e-4)
+        assert (caught.value.instance, caught.value.status) == ("friction", 3)
+    finally:
+        runs.close()
+    assert not runs.children
+
+
+def test_an_exception_that_does_not_come_back_from_a_pickle_is_one_line_with_its_words():
+    class Odd(Exception):
+        def __init__(self, a, b):
+            super().__init__(f"odd {a} {b}")
+
+    def failing(**kw):
+        raise Odd(1, 2)
+
+    runs = forked_runs.ForkedRuns(failing, lambda: None, 2)
+    with pytest.raises(TriboFMUError, match="Odd: odd 1 2"):
+        runs.take(1e-3, None)
+    runs.close()
+
+
+def test_every_error_of_ours_comes_back_from_a_pickle_as_it_was():
+    import pickle
+
+    from tribofmu import errors
+
+    for cls in [c for c in vars(errors).values() if isinstance(c, type) and issubclass(c, errors.TriboFMUError)]:
+        error = (cls("friction", "fmi3DoStep", 4, ["lost"]) if cls is errors.FMUCallError else cls("one line"))
+        back = pickle.loads(pickle.dumps(error))
+        assert type(back) is cls and str(back) == str(error)
+
+
+def test_a_child_killed_from_outside_is_one_line_naming_its_run():
+    def killed(**kw):
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    runs = forked_runs.ForkedRuns(killed, lambda: None, 2)
+    with pytest.raises(TriboFMUError, match=r"per-step tolerance 0.001 ended without a result \(killed by signal 9\)"):
+        runs.take(1e-3, None)
+    runs.close()
+
+
+def test_progress_and_notices_of_the_awaited_run_reach_the_callbacks():
+    def talking(step_tol=None, progress=None, notice=None, **kw):
+        notice(f"this run will take about 2 h (at {step_tol:g})")
+        for k in range(1, 4):
+            progress(RunProgress(t=k / 3, stop_time=1.0, steps=10 * k, rejected=k, wall_time=0.01 * k))
+            time.sleep(0.15)  # past the child's PROGRESS_EVERY_S: each one is told
+        return step_tol
+
+    told, notices = [], []
+    runs = forked_runs.ForkedRuns(talking, lambda: None, 2, progress=told.append, notice=notices.append)
+    try:
+        assert runs.take(1e-3, None) == (1e-3, None)  # (the result, no spool)
+    finally:
+        runs.close()
+    assert [p.steps for p in told] == [10, 20, 30] and told[-1].t == pytest.approx(1.0)
+    assert notices == ["this run will take about 2 h (at 0.001)"]
+
+
+def test_a_stop_raised_by_the_progress_callback_stops_every_child_and_leaves_nothing():
+    def slow(progress=None, **kw):
+        for _ in range(600):
+            progress(RunProgress(t=0.1, stop_time=1.0, steps=1, rejected=0, wall_time=0.1))
+            time.sleep(0.05)
+
+    def stop(_status):
+        raise KeyboardInterrupt
+
+    before = leftovers()
+    runs = forked_runs.ForkedRuns(slow, checked.Spool, 2, progress=stop)
+    started = time.monotonic()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            runs.take(1e-3, None, then=5e-4)
+        pids = [c.pid for c in runs.children]
+        assert len(pids) == 2
+    finally:
+        runs.close()
+    assert time.monotonic() - started < 10.0
+    for pid in pids:  # reaped: no zombie, no process
+        with pytest.raises(ChildProcessError):
+            os.waitpid(pid, os.WNOHANG)
+    assert leftovers() == before
+
+
+def test_children_die_with_a_parent_killed_by_sigkill(tmp_path):
+    if not sys.platform.startswith("linux"):
+        pytest.skip("PR_SET_PDEATHSIG is Linux's")
+    script = textwrap.dedent("""
+        import sys, time
+        from tribofmu import forked_runs
+        def slow(**kw):
+            time.sleep(60)
+        runs = forked_runs.ForkedRuns(slow, lambda: None, 2)
+        runs._start(1e-3, None)
+        runs._start(5e-4, None)
+        print(" ".join(str(c.pid) for c in runs.children), flush=True)
+        time.sleep(60)
+    """)
+    parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    try:
+        pids = [int(p) for p in parent.stdout.readline().split()]
+        assert len(pids) == 2
+        parent.kill()
+        parent.wait(timeout=10)
+        deadline = time.monotonic() + 10.0
+        while time.monotonic() < deadline and any(_alive(p) for p in pids):
+            time.sleep(0.05)
+        assert not any(_alive(p) for p in pids)
+    finally:
+        parent.kill()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().split(")")[-1].split()[0] != "Z"  # a zombie waits for init: gone
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.parametrize("value, expected", [("1", 1), ("2", 2), ("8", 2)])
+def test_the_environment_sets_the_workers_up_to_two_and_the_cores(monkeypatch, value, expected):
+    monkeypatch.setenv(forked_runs.WORKERS_VARIABLE, value)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert forked_runs.check_workers() == min(expected, cores)
+
+
+@pytest.mark.parametrize("value", ["0", "two", "-1", "1.5"])
+def test_a_wrong_workers_variable_is_one_line_naming_it(monkeypatch, value):
+    monkeypatch.setenv(forked_runs.WORKERS_VARIABLE, value)
+    with pytest.raises(ArgumentError, match=forked_runs.WORKERS_VARIABLE):
+        forked_runs.check_workers()
+
+
+@pytest.mark.parametrize("value", [0, True, 1.0, "2"])
+def test_a_wrong_workers_argument_is_refused(value):
+    with pytest.raises(ArgumentError, match="check_workers must be a whole number >= 1"):
+        forked_runs.check_workers(value)
