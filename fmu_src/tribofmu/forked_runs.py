@@ -16,9 +16,10 @@ pipe its parent forwards to the caller's callbacks, and its result (or the excep
 it) into a pickle in the parent's run folder, where everything it leaves is removed with it.
 
 How many runs go at once: api.simulate's ``check_workers``, else ``TRIBOFMU_CHECK_WORKERS``,
-else the usable cores, and never more than MAX_WORKERS (a sequence has at most two runs it can
-use: the one it waits for and the next). 1, or a platform without ``fork``: every run in this
-process, one after another (:class:`InlineRuns`).
+else the usable cores on Linux (elsewhere 1: macOS's system libraries are not safe to use in a
+forked child, Windows has no fork), and never more than MAX_WORKERS (a sequence has at most two
+runs it can use: the one it waits for and the next). 1, or a platform without ``fork``: every
+run in this process, one after another (:class:`InlineRuns`).
 """
 from __future__ import annotations
 
@@ -59,7 +60,7 @@ def check_workers(asked: int | None = None) -> int:
     if asked is None:
         text = os.environ.get(WORKERS_VARIABLE, "").strip()
         if not text:
-            asked = MAX_WORKERS
+            asked = MAX_WORKERS if sys.platform.startswith("linux") else 1
         else:
             where = WORKERS_VARIABLE
             try:

@@ -206,3 +206,10 @@ def test_a_wrong_workers_variable_is_one_line_naming_it(monkeypatch, value):
 def test_a_wrong_workers_argument_is_refused(value):
     with pytest.raises(ArgumentError, match="check_workers must be a whole number >= 1"):
         forked_runs.check_workers(value)
+
+
+def test_by_default_a_linux_call_uses_two_cores_when_it_has_them(monkeypatch):
+    monkeypatch.delenv(forked_runs.WORKERS_VARIABLE, raising=False)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    expected = min(2, cores) if sys.platform.startswith("linux") else 1
+    assert forked_runs.check_workers() == expected
