@@ -155,6 +155,60 @@ class RunRecord:
                 "fmu_calls_total": self.fmu_calls_total}
 
 
+class CheckSequence:
+    """The decisions of the check over its runs as they come (it makes no run itself): which
+    per-step tolerance comes next, which run is reported and with what error, when to stop."""
+
+    def __init__(self, tol: float, step_tol: float):
+        self.tol, self.step_tol = tol, step_tol  # the global tol; the next run's per-step tolerance
+        self.records: list[RunRecord] = []
+        self.base = None  # the looser run of the pair being formed (None: a new pair starts)
+        self.best = None  # the last run checked (before any check: the first run)
+        self.best_error = math.nan
+        self.chain_difference = None  # the last pair's difference, while the next run continues its chain
+        self.order = None  # the order the reported pair's chain showed (None: two runs only)
+        self.limit = "the time budget ran out"  # why a sequence short of tol ended
+
+    def planned(self) -> int:
+        """Runs planned so far, the next one's pair included (for the progress bar)."""
+        return len(self.records) + (2 if self.base is None else 1)
+
+    def then(self) -> float | None:
+        """The per-step tolerance the sequence asks for after the next run if it goes on as a
+        chain (a second worker starts it meanwhile); None when it cannot go on."""
+        if len(self.records) + 1 >= MAX_RUNS or self.step_tol <= MIN_STEP_TOL:
+            return None
+        return max(self.step_tol / CHECK_RATIO, MIN_STEP_TOL)
+
+    def add(self, result) -> bool:
+        """Take the next run's (completed) result; True when the sequence ends with it."""
+        error = math.nan
+        if self.base is not None:
+            difference = window_difference(self.base, result)
+            self.order = observed_order(difference, self.chain_difference)
+            self.best, self.best_error = result, checked_error(difference, self.chain_difference)
+            error = self.best_error
+            self.chain_difference = difference
+        elif self.best is None:
+            self.best = result
+        if error <= self.tol:
+            return True
+        if self.step_tol <= MIN_STEP_TOL or len(self.records) >= MAX_RUNS:
+            self.limit = (f"the per-step tolerance reached its floor {MIN_STEP_TOL:g}" if self.step_tol <= MIN_STEP_TOL
+                          else f"{MAX_RUNS} runs, the most one sequence makes")
+            return True
+        factor = CHECK_RATIO if math.isnan(error) else next_tightening(error, self.tol)
+        self.base = result if factor == CHECK_RATIO else None  # else a new pair, planned tighter
+        if self.base is None:
+            self.chain_difference = None
+        self.step_tol = max(self.step_tol / factor, MIN_STEP_TOL)
+        return False
+
+    def kept(self) -> tuple:
+        """The runs whose samples may still be reported."""
+        return id(self.base), id(self.best)
+
+
 def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float | None,
                        sink: Callable[[int, dict], None] | None = None,
                        step_tol: float | None = None, *, workers: int | None = None,
@@ -163,10 +217,10 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     """Run ``run_once(step_tol=..., max_wall=..., sink=...)`` in check pairs from per-step
     tolerance ``step_tol`` (default FIRST_STEP_TOL x tol) down, until the tighter run of a
     pair is checked to meet ``tol`` on the window, or the budget ``max_wall`` [s] (None:
-    none), MAX_RUNS or MIN_STEP_TOL ends the sequence; returns the last checked run's result
-    with its stats rewritten: ``tol`` the global tol, ``step_tol`` the run's own,
-    ``estimated_error`` the checked error, ``ok`` only when it met tol, ``wall_time`` the
-    whole sequence's, ``check`` every run.
+    none), MAX_RUNS or MIN_STEP_TOL ends the sequence (:class:`CheckSequence`); returns the
+    last checked run's result with its stats rewritten: ``tol`` the global tol, ``step_tol``
+    the run's own, ``estimated_error`` the checked error, ``ok`` only when it met tol,
+    ``wall_time`` the whole sequence's, ``check`` every run.
 
     A run that fails (an FMU error, a non-finite state) ends the sequence with that run's
     result, as unchecked runs did before.
@@ -180,76 +234,46 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     make_spool = (lambda: Spool()) if sink is not None else (lambda: None)
     runs = (InlineRuns(run_once, make_spool) if count == 1 else
             ForkedRuns(run_once, make_spool, count, progress=progress, notice=notice, prepare=prepare))
-    step_tol = max(step_tol if step_tol is not None else FIRST_STEP_TOL * tol, MIN_STEP_TOL)
-    records: list[RunRecord] = []
-    base = None  # the looser run of the pair being formed (None: a new pair starts)
-    best = None  # the last run checked (before any check: the first run)
-    best_error = math.nan
-    chain_difference = None  # the difference of the last pair, while the next run continues its chain
-    order = None  # the order the reported pair's chain showed (None: two runs only)
-    held: dict[int, Spool] = {}  # the spooled samples of base and best
-    limit = "the time budget ran out"  # why a sequence short of tol ended
-
-    def release_unheld() -> None:
-        for key in [k for k in held if k not in (id(base), id(best))]:
-            held.pop(key).close()
-
+    sequence = CheckSequence(tol, max(step_tol if step_tol is not None else FIRST_STEP_TOL * tol, MIN_STEP_TOL))
+    held: dict[int, Spool] = {}  # the spooled samples of the runs that may be reported
     try:
         while True:
             remaining = None if max_wall is None else max_wall - (time.perf_counter() - begin)
             if remaining is not None and remaining < MIN_BUDGET:
                 break
-            run_started(len(records) + 1, len(records) + (2 if base is None else 1))  # for the bar
-            # the run this one's chain asks for next, which a second worker starts meanwhile
-            then = (max(step_tol / CHECK_RATIO, MIN_STEP_TOL)
-                    if len(records) + 1 < MAX_RUNS and step_tol > MIN_STEP_TOL else None)
-            result, spool = runs.take(step_tol, remaining, then)
+            run_started(len(sequence.records) + 1, sequence.planned())  # for the bar
+            result, spool = runs.take(sequence.step_tol, remaining, sequence.then())
             if spool is not None:
                 held[id(result)] = spool  # closed with the rest unless the run is kept
-            records.append(RunRecord(step_tol, result.stats["wall_time"], result.stats["communication_steps"],
-                                     result.ok, result.stats.get("fmu_calls_total", 0)))
+            sequence.records.append(RunRecord(sequence.step_tol, result.stats["wall_time"],
+                                              result.stats["communication_steps"], result.ok,
+                                              result.stats.get("fmu_calls_total", 0)))
             if not result.ok:
-                if best is None or not result.stats.get("out_of_time"):
+                if sequence.best is None or not result.stats.get("out_of_time"):
                     runs.close()
-                    return _finish(result, None, records, tol, (begin, cpu_begin, runs), sink, None, failed=True)
+                    return _finish(result, None, sequence, (begin, cpu_begin, runs), sink, None, failed=True)
                 break  # out of budget: report what was checked (or the first run, unchecked)
-            error = math.nan
-            if base is not None:
-                difference = window_difference(base, result)
-                order = observed_order(difference, chain_difference)
-                best, best_error = result, checked_error(difference, chain_difference)
-                error = best_error
-                chain_difference = difference
-            elif best is None:
-                best = result
-            if error <= tol:
+            if sequence.add(result):
                 break
-            if step_tol <= MIN_STEP_TOL or len(records) >= MAX_RUNS:
-                limit = (f"the per-step tolerance reached its floor {MIN_STEP_TOL:g}" if step_tol <= MIN_STEP_TOL
-                         else f"{MAX_RUNS} runs, the most one sequence makes")
-                break
-            factor = CHECK_RATIO if math.isnan(error) else next_tightening(error, tol)
-            base = result if factor == CHECK_RATIO else None  # else a new pair, planned tighter
-            if base is None:
-                chain_difference = None
-            step_tol = max(step_tol / factor, MIN_STEP_TOL)
-            release_unheld()
-        if best is None:  # not even one run fitted the budget
+            for key in [k for k in held if k not in sequence.kept()]:
+                held.pop(key).close()
+        runs.close()  # a run started ahead that the sequence did not ask for
+        if sequence.best is None:  # not even one run fitted the budget
             from .errors import ScenarioError
             raise ScenarioError(f"max_wall {max_wall:g} s leaves no time for a run (at least {MIN_BUDGET:g} s)")
-        runs.close()  # a run started ahead that the sequence did not ask for
-        checked = best_error if math.isfinite(best_error) else None
-        return _finish(best, checked, records, tol, (begin, cpu_begin, runs), sink, held.get(id(best)), limit,
-                       order=order)
+        best = sequence.best
+        checked = sequence.best_error if math.isfinite(sequence.best_error) else None
+        return _finish(best, checked, sequence, (begin, cpu_begin, runs), sink, held.get(id(best)))
     finally:
         runs.close()
         for spool in held.values():
             spool.close()
 
 
-def _finish(result, difference: float | None, records: list[RunRecord], tol: float, began: tuple,
-            sink, spool: Spool | None, limit: str = "", failed: bool = False, order: float | None = None):
+def _finish(result, difference: float | None, sequence: CheckSequence, began: tuple, sink, spool: Spool | None,
+            failed: bool = False):
     begin, cpu_begin, runs = began
+    records, tol, limit, order = sequence.records, sequence.tol, sequence.limit, sequence.order
     stats = result.stats
     own = stats.get("estimated_error", {})
     checked = difference is not None and math.isfinite(difference)

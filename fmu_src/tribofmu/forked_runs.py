@@ -249,13 +249,14 @@ class ForkedRuns:
         return value
 
     def _stop(self, child: _Child) -> None:
+        """Kill (if it still runs) and reap a run not asked for; remove what it wrote."""
         if child.status is None:
             try:
                 os.kill(child.pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
             child.status = os.waitpid(child.pid, 0)[1]
-            self.stopped += 1
+        self.stopped += 1  # (also one that had ended: its work was not asked for)
         if child.spool is not None:
             child.spool.close()
         self._forget(child)
