@@ -17,7 +17,8 @@ it) into a pickle in the parent's run folder, where everything it leaves is remo
 
 How many runs go at once: api.simulate's ``check_workers``, else ``TRIBOFMU_CHECK_WORKERS``,
 else the usable cores on Linux (elsewhere 1: macOS's system libraries are not safe to use in a
-forked child, Windows has no fork), and never more than MAX_WORKERS (a sequence has at most two
+forked child, Windows has no fork), in the main thread only (1 in any other), and never more
+than MAX_WORKERS (a sequence has at most two
 runs it can use: the one it waits for and the next). 1, or a platform without ``fork``: every
 run in this process, one after another (:class:`InlineRuns`).
 """
@@ -31,6 +32,7 @@ import select
 import signal
 import struct
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -69,8 +71,8 @@ def check_workers(asked: int | None = None) -> int:
                 raise ArgumentError(f"{WORKERS_VARIABLE}={text[:40]!r} must be a whole number >= 1") from None
     if isinstance(asked, bool) or not isinstance(asked, int) or asked < 1:
         raise ArgumentError(f"{where} must be a whole number >= 1, got {asked!r}")
-    if not hasattr(os, "fork"):
-        return 1
+    if not hasattr(os, "fork") or threading.current_thread() is not threading.main_thread():
+        return 1  # (a fork copies only the calling thread: from another, a lock it held stays held)
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # not Linux

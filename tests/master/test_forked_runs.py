@@ -213,3 +213,13 @@ def test_by_default_a_linux_call_uses_two_cores_when_it_has_them(monkeypatch):
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     expected = min(2, cores) if sys.platform.startswith("linux") else 1
     assert forked_runs.check_workers() == expected
+
+
+def test_a_call_from_another_thread_runs_one_run_at_a_time():
+    import threading
+
+    seen = []
+    worker = threading.Thread(target=lambda: seen.append(forked_runs.check_workers(2)))
+    worker.start()
+    worker.join()
+    assert seen == [1]
