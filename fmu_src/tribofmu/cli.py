@@ -40,7 +40,9 @@ def main(argv: list[str] | None = None) -> int:
         status = args.run(args)
         work_done()
         return status
-    except KeyboardInterrupt:
+    except BaseException as exc:
+        if not _interrupted(exc):
+            return _failure(exc)
         quiet_from_now_on()
         from .atomic import published
         done = published()
@@ -51,18 +53,33 @@ def main(argv: list[str] | None = None) -> int:
             print("tribofmu: interrupted; no result was written (earlier results are as they were)",
                   file=sys.stderr)
         return 130
-    except Exception as exc:  # every expected failure becomes one line, never a traceback
-        from .errors import NumericalError, TriboFMUError
-        if isinstance(exc, (TriboFMUError, FileNotFoundError, FileExistsError)):
-            print(f"tribofmu: {one_line(exc)}", file=sys.stderr)
-            return EXIT_FAILED if isinstance(exc, NumericalError) else EXIT_BAD_INPUT
-        if isinstance(exc, OSError):  # a write that failed after the preflight: disk full, gone, ...
-            print(f"tribofmu: {one_line(exc)}; earlier results are as they were", file=sys.stderr)
-            return EXIT_FAILED
-        raise
     finally:
         from .cli_checks import release_out_locks
         release_out_locks()
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """A Ctrl-C or SIGTERM: a KeyboardInterrupt, or an error it caused (one arriving while a
+    class is made during an import comes back as RuntimeError "Error calling __set_name__")."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+def _failure(exc: BaseException) -> int:
+    """Every expected failure as one line and its exit code, never a traceback; the rest raised."""
+    from .errors import NumericalError, TriboFMUError
+    if isinstance(exc, (TriboFMUError, FileNotFoundError, FileExistsError)):
+        print(f"tribofmu: {one_line(exc)}", file=sys.stderr)
+        return EXIT_FAILED if isinstance(exc, NumericalError) else EXIT_BAD_INPUT
+    if isinstance(exc, OSError):  # a write that failed after the preflight: disk full, gone, ...
+        print(f"tribofmu: {one_line(exc)}; earlier results are as they were", file=sys.stderr)
+        return EXIT_FAILED
+    raise exc
 
 
 DESCRIPTION = """tribofmu: dry, fluid and boundary friction as FMI co-simulation FMUs.

@@ -25,7 +25,13 @@ def leftovers(tmp: Path) -> list[str]:
 
 
 def spools(tmp: Path) -> list[Path]:
-    return list(tmp.rglob("tribofmu-spool-*"))
+    """The spools under tmp now (a run removes a gone process's folder while this walks it:
+    the walk is then made again)."""
+    while True:
+        try:
+            return list(tmp.rglob("tribofmu-spool-*"))
+        except FileNotFoundError:
+            continue
 
 
 def start(tmp_path, env, fmu_dir, out: str) -> subprocess.Popen:
