@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tribofmu.coupling.algorithms import AdaptiveCoupling
-from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError, chord_damping
+from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError, chord_damping, stick_onset_x_error
 from tribofmu.coupling.interpolation import NS, sample
 from tribofmu.coupling.system import Contact, Point
 from tribofmu.physics import MixedLaw
@@ -71,6 +71,29 @@ def test_a_step_stuck_all_through_holds_the_error_in_x():
     assert estimate.ex == pytest.approx(3e-7 + 1e-9, rel=1e-12)
     estimate.advance(5e-3, 0.0, 0.0, 0.0, stuck=True)  # (into the stick: the spring moved it)
     assert estimate.ex != pytest.approx(3e-7 + 1e-9, rel=1e-3)
+
+
+@pytest.mark.parametrize("e", [0.0, 0.01, 0.3, 0.7])
+@pytest.mark.parametrize("jerk", [0.0, 5e4, -2e5])
+def test_the_stick_onset_x_error_is_the_held_force_miss(e, jerk):
+    """A free block (M, no spring) slips under F0 until it meets the drive at the fraction e of
+    the step, then rides on it (a = aX0 + jerk t); the step solved with one force held, the
+    one that brings v to V at the end, misses x by what stick_onset_x_error says."""
+    from scipy.integrate import quad
+
+    M, h, F0, aX0 = 0.6, 1e-3, -10.0, 5.0
+    onset = e * h
+    v_onset = F0 / M * onset  # (from v = 0: it meets the drive there)
+
+    def V(t):
+        return v_onset + aX0 * (t - onset) + jerk * (t * t - onset * onset) / 2
+
+    held = M * V(h) / h
+    x_true = F0 / M * onset ** 2 / 2 + quad(V, onset, h, epsabs=0.0, epsrel=1e-13)[0]
+    x_held = held * h * h / (2 * M)
+    start = Point(0, aX=aX0, F=F0, mode=Contact.FORWARD)
+    end = Point(round(h * NS), aX=aX0 + jerk * h, F=held, mode=Contact.STUCK, event=e)
+    assert stick_onset_x_error(start, end, h, 1 / M, w2=0.0) == pytest.approx(x_true - x_held, rel=1e-6, abs=1e-18)
 
 
 def test_a_growing_error_saturates_instead_of_overflowing():

@@ -41,7 +41,7 @@ import math
 from dataclasses import asdict, dataclass
 
 from .controlled import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
-from .estimate import chord_damping
+from .estimate import chord_damping, stick_onset_x_error
 from .interpolation import NS
 from .settings import ERROR_SETTINGS
 from .system import Contact, CoupledSystem, Point
@@ -439,6 +439,8 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             # the friction's state off its path moves the force by about its share of the
             # largest force per share of the largest state: an impulse over the step
             state = self.errors.state_carry * local.f / self.magnitudes.f * self.magnitudes.F * h * self.velocity_per_impulse
-        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, local.x, local.v + local.impulse + state,
+        x = stick_onset_x_error(point, new, h, self.velocity_per_impulse, self.estimate.w2) \
+            if stuck and point.mode.slipping else local.x
+        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, local.v + local.impulse + state,
                                                  stuck, x_scale, v_scale, stuck_through=stuck and point.mode.stuck)
         new.est_error = abs(local.v)

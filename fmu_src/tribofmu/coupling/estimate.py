@@ -14,7 +14,8 @@ acceleration against its position) and c from each slip step. A stuck contact ho
 exactly: no error in v while stuck, and x rides on the drive's X, so its error stays what it
 was when the contact stuck (the stick force takes up the spring's pull). Events (breakaway,
 stick onset, a lubricant that re-solidifies inside a step) enter through the local errors of
-the steps that hold them.
+the steps that hold them; the step into a stick through the x error of its held force
+(:func:`stick_onset_x_error`).
 
 c may be negative: a Stribeck law's force falls as the slip grows from rest, and an error
 grows while it slips there. The slip solve measures only the size of the slope (its loop
@@ -28,9 +29,9 @@ miss the motion by v''''/24 s^2 (h - s)^2 inside a step of h: no state error (0 
 nothing carries it), but where steps are long (a dry slip, a contact stuck on the drive) the
 larger part of what the user sees.
 
-Measured (``benchmarks/bench_trust.py --one-run``, 2026-11-27): carried estimate / true error
-on Fig. 2 0.28 -> 0.98 with the interpolants' miss and the x error held through sticks;
-mixed friction at delta = 1 0.007 -> 0.88 with the chord's slope as well.
+Measured (``benchmarks/bench_trust.py --one-run``, default tol, 2026-11-27): estimate / true
+error on Fig. 2 0.28 -> 0.78, a dry drive at omega = 3 6.1 -> 0.94, mixed friction at
+delta = 1 0.007 -> 0.88, boundary friction stuck all through 0 -> 1.0.
 """
 from __future__ import annotations
 
@@ -123,6 +124,24 @@ def chord_damping(start, end, velocity_per_impulse: float, dv_resolution: float)
         return None
     return (end.F - start.F) / ddv * velocity_per_impulse
 
+
+def stick_onset_x_error(start, end, h: float, velocity_per_impulse: float, w2: float) -> float:
+    """The error in x [m] (true less computed) of the step of h [s] from a slipping point start
+    to a point end stuck at the fraction end.event of it, which the coupling solves with one
+    force held all through, the one that brings v to V at the end (so its mean is the true
+    force's mean). Against the true force, the friction's F0 until the onset and then the
+    stick force, rising at r = M (aX' + w2 V) (M a + 2K x with a = aX, x' = V), the held
+    force misses x by dF e h^2 / (2M) (the jump dF to the stick force at the fraction e) and
+    by r ((1 - e) h)^3 / (12 M) (the stick force's ramp over the stuck part). (The step's own
+    error term, dF h^2 / (3M) whatever e, is the bound the step control needs; carried, it
+    made Fig. 2's x error 50x the true one, and a dry drive at omega = 3 7x its true error.)"""
+    if velocity_per_impulse <= 0.0 or h <= 0.0:
+        return 0.0
+    mass = 1.0 / velocity_per_impulse
+    e = min(max(end.event, 0.0), 1.0)
+    jump = end.F - start.F
+    rate = mass * ((end.aX - start.aX) / h + w2 * 0.5 * (start.V + end.V))
+    return -(jump * e * h * h / 2.0 + rate * ((1.0 - e) * h) ** 3 / 12.0) / mass
 
 def _same(a: float, b: float) -> bool:
     return a == b or (math.isnan(a) and math.isnan(b))
