@@ -10,14 +10,17 @@ from scipy.linalg import expm
 
 from tribofmu.coupling.algorithms import AdaptiveCoupling
 from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError
+from tribofmu.coupling.system import Contact
 from tribofmu.physics import FluidLaw
 
 from fakes import drive_scales, fig2_system
 
 # (w2 [1/s^2], c [1/s], h [s]): under-, over- and critically damped, undamped, a free mass,
-# a free mass with damping, and a damping so stiff that exp(l2 h) underflows
+# a free mass with damping, a damping so stiff that exp(l2 h) underflows, and negative
+# damping (a friction whose force falls as the slip grows: the error grows)
 CASES = [(1e4, 10.0, 1e-3), (100.0, 1e3, 2e-3), (2500.0, 100.0, 1e-3), (4e4, 0.0, 5e-3),
-         (0.0, 0.0, 1e-2), (0.0, 50.0, 1e-2), (1e4, 1e6, 1e-3), (23333.0, 3.0, 0.02)]
+         (0.0, 0.0, 1e-2), (0.0, 50.0, 1e-2), (1e4, 1e6, 1e-3), (23333.0, 3.0, 0.02),
+         (23333.0, -400.0, 2e-3), (100.0, -3e3, 1e-3)]
 
 
 def matrix(w2, c):
@@ -96,12 +99,23 @@ class P:
     t_ns: int
     global_error: float
     v: float
+    a: float = 0.0  # m/s^2, dv/dt: the interpolants' slopes
+    aX: float = 0.0
+    mode: Contact = Contact.FORWARD
 
 
 def random_points(seed=3, n=60, span=1.0):
+    """Random errors at random times, on a motion the cubic interpolants follow exactly (v a
+    cubic in t: no interpolation term, the window's RMS is the carried error's alone)."""
     rng = random.Random(seed)
     times = sorted(rng.sample(range(1, int(span * 1e9)), n - 1))
-    return [P(0, 0.0, 0.0)] + [P(t, rng.uniform(-1e-4, 1e-4), rng.uniform(-0.2, 0.2)) for t in times]
+    c = [rng.uniform(-0.2, 0.2) for _ in range(4)]
+
+    def point(t_ns, error):
+        t = t_ns * 1e-9
+        return P(t_ns, error, c[0] + c[1] * t + c[2] * t * t + c[3] * t ** 3, c[1] + 2 * c[2] * t + 3 * c[3] * t * t)
+
+    return [point(0, 0.0)] + [point(t, rng.uniform(-1e-4, 1e-4)) for t in times]
 
 
 # the whole run, a window cutting through steps, one reaching beyond the last point (the RMS

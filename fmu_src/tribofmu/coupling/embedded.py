@@ -41,6 +41,7 @@ import math
 from dataclasses import asdict, dataclass
 
 from .controlled import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
+from .estimate import chord_damping, stick_onset_x_error
 from .interpolation import NS
 from .settings import ERROR_SETTINGS
 from .system import Contact, CoupledSystem, Point
@@ -427,7 +428,9 @@ class EmbeddedCoupling(ErrorControlledCoupling):
 
     def _carry_error(self, point: Point, new: Point, local: LocalError, h: float) -> None:
         """Carry the global error estimate over the accepted step (coupling/estimate.py)."""
-        damping = self.loop_gain / self.loop_gain_step * (2.0 if new.ramped else 1.0)
+        damping = chord_damping(point, new, self.velocity_per_impulse, self.settings.zero_velocity * self.scales.velocity)
+        if damping is None:  # (the loop gain: the slope's size, of the block's share of the end force)
+            damping = self.loop_gain / self.loop_gain_step * (2.0 if new.ramped else 1.0)
         x_scale, v_scale = self.position_scale(point, new), self.velocity_scale(point, new)
         stuck = new.mode.stuck
         self.estimate.observe(new.x, new.a, new.F, self.velocity_per_impulse, W2_POSITION_FLOOR * x_scale)
@@ -436,6 +439,8 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             # the friction's state off its path moves the force by about its share of the
             # largest force per share of the largest state: an impulse over the step
             state = self.errors.state_carry * local.f / self.magnitudes.f * self.magnitudes.F * h * self.velocity_per_impulse
-        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, local.x,
-                                                 local.v + local.impulse + state, stuck, x_scale, v_scale)
+        x = stick_onset_x_error(point, new, h, self.velocity_per_impulse, self.estimate.w2) \
+            if stuck and point.mode.slipping else local.x
+        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, local.v + local.impulse + state,
+                                                 stuck, x_scale, v_scale, stuck_through=stuck and point.mode.stuck)
         new.est_error = abs(local.v)

@@ -10,20 +10,38 @@ so an error (ex [m], ev [m/s]) in its state moves, to first order, as
 w2 = 2K/M [1/s^2] (the springs over the mass) and c = (dF/d(dv)) / M [1/s] (the friction's
 slope over the mass: the damping the friction adds to an error). The coupling knows neither
 K nor M; it measures both from the block's own answers (its velocity per unit impulse, its
-acceleration against its position) and c from the loop gain of each slip step. A stuck
-contact holds v = V exactly: no error in v while stuck. Events (breakaway, stick onset, a
-lubricant that re-solidifies inside a step) enter through the local errors of the steps that
-hold them.
+acceleration against its position) and c from each slip step. A stuck contact holds v = V
+exactly: no error in v while stuck, and x rides on the drive's X, so its error stays what it
+was when the contact stuck (the stick force takes up the spring's pull). Events (breakaway,
+stick onset, a lubricant that re-solidifies inside a step) enter through the local errors of
+the steps that hold them; the step into a stick through the x error of its held force
+(:func:`stick_onset_x_error`).
+
+c may be negative: a Stribeck law's force falls as the slip grows from rest, and an error
+grows while it slips there. The slip solve measures only the size of the slope (its loop
+gain); where the force is a function of dv alone (no internal state, no changing inputs),
+:func:`chord_damping` takes the slope, sign and all, from the chord between the step's ends.
 
 :class:`WindowError` turns the carried error into the measure --tol bounds (docs/coupling.md): the RMS of
-the error in v over the scene's shown window, divided by the largest |v| there.
+the error in v over the scene's shown window, divided by the largest |v| there. Results
+between communication points are cubic Hermite interpolants (coupling/interpolation.py), which
+miss the motion by v''''/24 s^2 (h - s)^2 inside a step of h: no state error (0 at the points,
+nothing carries it), but where steps are long (a dry slip, a contact stuck on the drive) the
+larger part of what the user sees.
+
+Measured (``benchmarks/bench_trust.py --one-run``, default tol, 2026-11-27): estimate / true
+error on Fig. 2 0.28 -> 0.78, a dry drive at omega = 3 6.1 -> 0.94, mixed friction at
+delta = 1 0.007 -> 0.88, boundary friction stuck all through 0 -> 1.0.
 """
 from __future__ import annotations
 
 import cmath
 import math
 
-from .interpolation import NS
+from .interpolation import NS, velocity_slopes
+
+# exp() of more than this overflows a float: a carry that grows past it has long saturated
+EXP_LIMIT = 700.0
 
 
 class GlobalErrorEstimate:
@@ -42,16 +60,21 @@ class GlobalErrorEstimate:
                 self.w2 = w2
 
     def advance(self, h: float, damping: float, local_x: float, local_v: float, stuck: bool,
-                x_scale: float = math.inf, v_scale: float = math.inf) -> float:
+                x_scale: float = math.inf, v_scale: float = math.inf, stuck_through: bool = False) -> float:
         """Carry the error over a step of h [s] with the friction's damping c [1/s], add the
         step's local errors (x [m], v [m/s]); returns the error in v [m/s] at its end.
+        stuck: stuck at the step's end (no error in v there); stuck_through: stuck at both
+        ends, the block riding on the drive all along: the error in x is held, not carried by
+        the spring (carried as a free block's, it fell 3x over a stick where the true error
+        stayed put: mixed friction, delta = 1).
 
         The carried error saturates at the motion's own size (x_scale [m], v_scale [m/s]):
         a linearised carry is meaningless past it (a stiff spring whose 2K/M the block's
-        answers give only roughly would otherwise let it grow without bound)."""
-        ex, ev = self._flow(h, damping)
-        self.ex = max(-x_scale, min(x_scale, ex + local_x))
-        self.ev = 0.0 if stuck else max(-v_scale, min(v_scale, ev + local_v))
+        answers give only roughly would otherwise let it grow without bound, as would a
+        friction whose slope is negative)."""
+        ex, ev = (self.ex, 0.0) if stuck_through else self._flow(h, damping)
+        self.ex = _saturated(ex + local_x, x_scale)
+        self.ev = 0.0 if stuck else _saturated(ev + local_v, v_scale)
         return self.ev
 
     def _flow(self, h: float, c: float) -> tuple[float, float]:
@@ -66,8 +89,10 @@ class GlobalErrorEstimate:
             nv = e * (ev + h * (-w2 * ex + (-c - lam) * ev))
             return nx.real, nv.real
         # exp(A h) = (e^(l1 h) (A - l2) - e^(l2 h) (A - l1)) / (l1 - l2); a stiff l2 underflows to 0
+        if (l1 * h).real > EXP_LIMIT:  # (a negative c grows the error past any scale: saturated)
+            return math.copysign(math.inf, ex or 1.0), math.copysign(math.inf, ev or 1.0)
         e1 = cmath.exp(l1 * h)
-        e2 = cmath.exp(l2 * h) if (l2 * h).real > -700.0 else 0.0
+        e2 = cmath.exp(l2 * h) if (l2 * h).real > -EXP_LIMIT else 0.0
         d = l1 - l2
         ax, av = ev, -w2 * ex - c * ev  # A (ex, ev)
         nx = (e1 * (ax - l2 * ex) - e2 * (ax - l1 * ex)) / d
@@ -75,35 +100,156 @@ class GlobalErrorEstimate:
         return nx.real, nv.real
 
 
+def _saturated(value: float, scale: float) -> float:
+    """value within [-scale, scale]; at the scale where the linear carry overflowed (nan)."""
+    if math.isnan(value):
+        return scale
+    return max(-scale, min(scale, value))
+
+
+def chord_damping(start, end, velocity_per_impulse: float, dv_resolution: float) -> float | None:
+    """The friction's damping c [1/s] over the slip step from point start to point end: the
+    chord of its force against dv, (F1 - F0) / (dv1 - dv0), times the block's velocity per
+    unit impulse 1/M [m/s per N s]; negative where the force falls as the slip grows.
+    None where the chord is not the slope of F(dv): across a change of contact mode, for a
+    friction with an internal state (f moves the force too: Fig. 6's chords read its melting
+    as slope, 4x -> 64x the true error), with changing inputs (n, T), or where dv moved by no
+    more than the solve resolves at the two ends (2 dv_resolution [m/s])."""
+    if not (end.mode.slipping and start.mode == end.mode) or velocity_per_impulse <= 0.0:
+        return None
+    if start.f != 0.0 or end.f != 0.0 or not (_same(start.n, end.n) and _same(start.T, end.T)):
+        return None
+    ddv = end.dv - start.dv
+    if abs(ddv) <= 2.0 * dv_resolution:
+        return None
+    return (end.F - start.F) / ddv * velocity_per_impulse
+
+
+def stick_onset_x_error(start, end, h: float, velocity_per_impulse: float, w2: float) -> float:
+    """The error in x [m] (true less computed) of the step of h [s] from a slipping point start
+    to a point end stuck at the fraction end.event of it, which the coupling solves with one
+    force held all through, the one that brings v to V at the end (so its mean is the true
+    force's mean). Against the true force, the friction's F0 until the onset and then the
+    stick force, rising at r = M (aX' + w2 V) (M a + 2K x with a = aX, x' = V), the held
+    force misses x by dF e h^2 / (2M) (the jump dF to the stick force at the fraction e) and
+    by r ((1 - e) h)^3 / (12 M) (the stick force's ramp over the stuck part). (The step's own
+    error term, dF h^2 / (3M) whatever e, is the bound the step control needs; carried, it
+    made Fig. 2's x error 50x the true one, and a dry drive at omega = 3 7x its true error.)"""
+    if velocity_per_impulse <= 0.0 or h <= 0.0:
+        return 0.0
+    mass = 1.0 / velocity_per_impulse
+    e = min(max(end.event, 0.0), 1.0)
+    jump = end.F - start.F
+    rate = mass * ((end.aX - start.aX) / h + w2 * 0.5 * (start.V + end.V))
+    return -(jump * e * h * h / 2.0 + rate * ((1.0 - e) * h) ** 3 / 12.0) / mass
+
+def _same(a: float, b: float) -> bool:
+    return a == b or (math.isnan(a) and math.isnan(b))
+
+
+def interpolant_jerk(start, end) -> float:
+    """The third derivative [m/s^4] of the cubic Hermite interpolant of v over the step from
+    point start to point end (constant on the step), as results are interpolated."""
+    h = (end.t_ns - start.t_ns) / NS
+    slope_start, slope_end = velocity_slopes(start, end)
+    return 6.0 * (h * (slope_start + slope_end) - 2.0 * (end.v - start.v)) / h ** 3
+
+
+def step_kind(start, end) -> int | None:
+    """Steps whose interpolants may be compared: stuck all through (0), slipping one way all
+    through (its direction), else None (the contact changed: a kink no cubic follows)."""
+    if start.mode.stuck and end.mode.stuck:
+        return 0
+    return int(end.mode) if end.mode.slipping and start.mode == end.mode else None
+
+
+def fourth_derivative(jerk: float, h: float, other_jerk: float, other_h: float) -> float:
+    """|v''''| [m/s^5] from two adjacent steps' interpolant third derivatives (each that at its
+    step's middle, to second order) and the steps' lengths h [s]."""
+    return abs(jerk - other_jerk) / (0.5 * (h + other_h))
+
+
+def hermite_miss_square(u: float) -> float:
+    """The integral of (u^2 (1 - u)^2)^2 from 0 to u: the cubic Hermite interpolant's miss,
+    v''''/24 h^4 u^2 (1 - u)^2, squared (1/630 at u = 1: the Beta function B(5, 5))."""
+    return u ** 5 / 5.0 - 2.0 * u ** 6 / 3.0 + 6.0 * u ** 7 / 7.0 - u ** 8 / 2.0 + u ** 9 / 9.0
+
+
 class WindowError:
     """Audit of the estimated global error in v over a window [start, end] [s]: fed the
-    points in chunks (``add``), it gives RMS(error in v) / max |v| on the window."""
+    points in chunks (``add``), it gives RMS(error in v) / max |v| on the window.
+
+    Two parts add as squares (the carried error's sign is not known well enough to let them
+    cancel): the carried error (``global_error`` of the points, linear between them) and the
+    interpolants' own miss inside each step, v''''/24 s^2 (h - s)^2, v'''' the divided
+    difference of the interpolants' third derivatives over the step and the one before it of
+    the same kind (:func:`step_kind`; for the first of its kind, the one after). A step across
+    a change of contact mode has no interpolation term: its kink is the event's, whose timing
+    the local errors carry."""
 
     def __init__(self, window: tuple[float, float]):
         self.start, self.end = window
         self.square_integral = 0.0  # (m/s)^2 s
         self.covered = 0.0  # s
         self.v_max = 0.0  # m/s
-        self.previous = None  # (t [s], error [m/s]) of the last point seen
+        self.previous = None  # the last point seen
+        self.last_step = None  # (kind, jerk [m/s^4], h [s]) of the last step
+        self.waiting = None  # the last step if none before it was of its kind: (p0, p1, kind, jerk, h)
 
     def add(self, points) -> None:
         for p in points:
-            t, e = p.t_ns / NS, p.global_error
-            if self.previous is not None and self.previous[0] < t:
-                t0, e0 = self.previous
-                lo, hi = max(t0, self.start), min(t, self.end)
-                if hi > lo:
-                    # the error moves linearly between points: the exact mean of its square
-                    a = e0 + (e - e0) * (lo - t0) / (t - t0)
-                    b = e0 + (e - e0) * (hi - t0) / (t - t0)
-                    self.square_integral += (hi - lo) * (a * a + a * b + b * b) / 3.0
-                    self.covered += hi - lo
-            if self.start <= t <= self.end:
+            if self.previous is not None and self.previous.t_ns < p.t_ns:
+                self._step(self.previous, p)
+            if self.start <= p.t_ns / NS <= self.end:
                 self.v_max = max(self.v_max, abs(p.v))
-            self.previous = (t, e)
+            self.previous = p
+
+    def _step(self, p0, p1) -> None:
+        kind = step_kind(p0, p1)
+        jerk = interpolant_jerk(p0, p1) if kind is not None else 0.0
+        h = (p1.t_ns - p0.t_ns) / NS
+        if self.waiting is not None:  # this step is the one after it, if of its kind
+            w0, w1, w_kind, w_jerk, w_h = self.waiting
+            self._add_step(w0, w1, fourth_derivative(w_jerk, w_h, jerk, h) if w_kind == kind else 0.0)
+            self.waiting = None
+        last = self.last_step
+        if kind is None:
+            self._add_step(p0, p1, 0.0)
+        elif last is not None and last[0] == kind:
+            self._add_step(p0, p1, fourth_derivative(jerk, h, last[1], last[2]))
+        else:
+            self.waiting = (p0, p1, kind, jerk, h)
+        self.last_step = (kind, jerk, h)
+
+    def _add_step(self, p0, p1, fourth: float) -> None:
+        square, covered = self._step_square(p0, p1, fourth)
+        self.square_integral += square
+        self.covered += covered
+
+    def _step_square(self, p0, p1, fourth: float) -> tuple[float, float]:
+        """The integral [(m/s)^2 s] of the squared error over the part of the step p0 -> p1
+        inside the window, with v'''' = fourth [m/s^5]; and that part's length [s]."""
+        t0, t1 = p0.t_ns / NS, p1.t_ns / NS
+        lo, hi = max(t0, self.start), min(t1, self.end)
+        if hi <= lo:
+            return 0.0, 0.0
+        e0, e1 = p0.global_error, p1.global_error
+        # the carried error moves linearly between points: the exact integral of its square
+        a = e0 + (e1 - e0) * (lo - t0) / (t1 - t0)
+        b = e0 + (e1 - e0) * (hi - t0) / (t1 - t0)
+        square = (hi - lo) * (a * a + a * b + b * b) / 3.0
+        if fourth:
+            h = t1 - t0
+            peak = fourth * h ** 4 / 24.0  # the interpolant misses by peak u^2 (1 - u)^2, u = s / h
+            square += peak * peak * h * (hermite_miss_square((hi - t0) / h) - hermite_miss_square((lo - t0) / h))
+        return square, hi - lo
 
     def nrms(self) -> float:
         """The estimate (nan when the run did not cover the window or v is 0 there)."""
-        if self.covered <= 0.0 or self.v_max == 0.0:
+        square, covered = self.square_integral, self.covered
+        if self.waiting is not None:  # the last step, none of its kind around it: its carried part
+            more = self._step_square(self.waiting[0], self.waiting[1], 0.0)
+            square, covered = square + more[0], covered + more[1]
+        if covered <= 0.0 or self.v_max == 0.0:
             return math.nan
-        return math.sqrt(self.square_integral / self.covered) / self.v_max
+        return math.sqrt(square / covered) / self.v_max
