@@ -71,12 +71,18 @@ def observed_order(difference: float, previous: float | None) -> float | None:
     return min(max(order, MIN_ORDER), OBSERVED_ORDER_MAX)
 
 
+def wanted_tightening(error: float, tol: float) -> float:
+    """The factor of per-step tolerance a run checked as ``error`` is expected to need to meet
+    tol (the error assumed to fall as the per-step tolerance to ASSUMED_ORDER)."""
+    return (error / (SAFETY * tol)) ** (1.0 / ASSUMED_ORDER)
+
+
 def next_tightening(error: float, tol: float) -> float:
     """How much tighter than the last run (whose error was checked as ``error``) the next run
     is: CHECK_RATIO when one or two more factors are expected to meet tol (the last run and
     the next form the next pair, and the chain shows its order), else the factor planned for
     a new pair (at most MAX_JUMP)."""
-    wanted = (error / (SAFETY * tol)) ** (1.0 / ASSUMED_ORDER)
+    wanted = wanted_tightening(error, tol)
     return CHECK_RATIO if wanted <= CHAIN_TIGHTENING_MAX else min(MAX_JUMP, wanted)
 
 
@@ -168,6 +174,8 @@ class CheckSequence:
         self.chain_difference = None  # the last pair's difference, while the next run continues its chain
         self.order = None  # the order the reported pair's chain showed (None: two runs only)
         self.limit = "the time budget ran out"  # why a sequence short of tol ended
+        # the pair being formed is expected to meet tol (its plan says so): nothing runs ahead of it
+        self.expected_to_meet = False
 
     def planned(self) -> int:
         """Runs planned so far, the next one's pair included (for the progress bar)."""
@@ -175,8 +183,12 @@ class CheckSequence:
 
     def then(self) -> float | None:
         """The per-step tolerance the sequence asks for after the next run if it goes on as a
-        chain (a second worker starts it meanwhile); None when it cannot go on."""
+        chain (a second worker starts it meanwhile); None when it cannot go on, or when the next
+        run completes a pair its plan expects to meet tol (a run started ahead of it would most
+        likely be stopped unused: Fig. 6 spent half again its CPU time on one)."""
         if len(self.records) + 1 >= MAX_RUNS or self.step_tol <= MIN_STEP_TOL:
+            return None
+        if self.base is not None and self.expected_to_meet:
             return None
         return max(self.step_tol / CHECK_RATIO, MIN_STEP_TOL)
 
@@ -198,6 +210,9 @@ class CheckSequence:
                           else f"{MAX_RUNS} runs, the most one sequence makes")
             return True
         factor = CHECK_RATIO if math.isnan(error) else next_tightening(error, self.tol)
+        # a chain one factor from tol, or a pair planned to meet it; the first pair knows nothing
+        self.expected_to_meet = not math.isnan(error) and (
+            factor != CHECK_RATIO or wanted_tightening(error, self.tol) <= CHECK_RATIO)
         self.base = result if factor == CHECK_RATIO else None  # else a new pair, planned tighter
         if self.base is None:
             self.chain_difference = None

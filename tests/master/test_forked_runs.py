@@ -59,6 +59,17 @@ def test_a_run_started_ahead_and_not_asked_for_is_stopped():
     assert result.stats["check"]["runs_stopped_unused"] == 1
 
 
+def test_nothing_runs_ahead_of_a_pair_the_plan_expects_to_meet_tol():
+    # error = step_tol: the first pair misses (its checked error at MIN_ORDER), and the chain's
+    # one more factor is expected to meet tol; the third run meets it, and no fourth was started
+    result = sequence(2, power_law(1.0))
+    assert len(result.stats["check"]["runs"]) == 3 and result.ok
+    assert result.stats["check"]["runs_stopped_unused"] == 0
+    # two more factors expected: the fourth is started ahead (and stopped when the third meets)
+    result = sequence(2, power_law(1.5))
+    assert len(result.stats["check"]["runs"]) == 3 and result.stats["check"]["runs_stopped_unused"] == 1
+
+
 def test_a_childs_exception_is_raised_in_the_parent_as_it_was():
     def failing(**kw):
         raise FMUCallError("friction", "fmi2DoStep", 3, ["at t = 0.1 s"])
