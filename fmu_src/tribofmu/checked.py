@@ -210,14 +210,26 @@ class CheckSequence:
                           else f"{MAX_RUNS} runs, the most one sequence makes")
             return True
         factor = CHECK_RATIO if math.isnan(error) else next_tightening(error, self.tol)
-        # a chain one factor from tol, or a pair planned to meet it; the first pair knows nothing
-        self.expected_to_meet = not math.isnan(error) and (
-            factor != CHECK_RATIO or wanted_tightening(error, self.tol) <= CHECK_RATIO)
+        self.expected_to_meet = self._expects_to_meet(result, error, factor)
         self.base = result if factor == CHECK_RATIO else None  # else a new pair, planned tighter
         if self.base is None:
             self.chain_difference = None
         self.step_tol = max(self.step_tol / factor, MIN_STEP_TOL)
         return False
+
+    def _expects_to_meet(self, result, error: float, factor: float) -> bool:
+        """Whether the pair the next run forms or starts is expected to meet tol: a chain one
+        factor from it, a pair planned to meet it, or, for the first run of a pair, what its own
+        propagated estimate (``estimated_error``) says the pair's checked error will be (errors
+        falling as the per-step tolerance to ASSUMED_ORDER). Only what runs ahead follows from
+        this, never a result: a wrong guess costs wall time, not accuracy."""
+        if not math.isnan(error):
+            return factor != CHECK_RATIO or wanted_tightening(error, self.tol) <= CHECK_RATIO
+        own = (result.stats.get("estimated_error") or {}).get("nrms_v")
+        if own is None or not math.isfinite(own):
+            return False
+        falls = 1.0 - CHECK_RATIO ** -ASSUMED_ORDER  # the pair's difference, as a share of this run's error
+        return own * falls / (CHECK_RATIO ** MIN_ORDER - 1.0) <= self.tol
 
     def kept(self) -> tuple:
         """The runs whose samples may still be reported."""

@@ -24,8 +24,23 @@ from test_checked import FakeRuns, power_law
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="forked runs need fork()")
 
 
-def sequence(workers, error, sink=None, **kw):
-    return checked.checked_simulation(FakeRuns(error), tol=1e-3, max_wall=None, sink=sink, workers=workers, **kw)
+class EstimatingRuns(FakeRuns):
+    """FakeRuns whose own (propagated) estimate is ``own`` times its true window error."""
+
+    def __init__(self, error, own: float):
+        super().__init__(error)
+        self.own = own
+
+    def __call__(self, **kw):
+        result = super().__call__(**kw)
+        exact = FakeRuns(lambda step_tol: 0.0)(step_tol=1.0)
+        result.stats["estimated_error"] = {"nrms_v": self.own * checked.window_difference(result, exact)}
+        return result
+
+
+def sequence(workers, error, sink=None, own=None, **kw):
+    runs = FakeRuns(error) if own is None else EstimatingRuns(error, own)
+    return checked.checked_simulation(runs, tol=1e-3, max_wall=None, sink=sink, workers=workers, **kw)
 
 
 def leftovers() -> list[str]:
@@ -53,10 +68,21 @@ def test_the_sink_gets_the_reported_runs_samples_once_from_a_forked_run():
 
 
 def test_a_run_started_ahead_and_not_asked_for_is_stopped():
-    # the first pair meets tol: the chain's third run, started when the first run ended, goes
-    result = sequence(2, power_law(0.3))
+    # the first run's own estimate (10x its error) says the pair will not meet tol: the chain's
+    # third run starts when the first ends; the pair meets tol, and the third is stopped
+    result = sequence(2, power_law(0.3), own=10.0)
     assert len(result.stats["check"]["runs"]) == 2
     assert result.stats["check"]["runs_stopped_unused"] == 1
+
+
+def test_a_first_run_whose_estimate_says_its_pair_meets_tol_starts_nothing_ahead():
+    one = sequence(2, power_law(0.3), own=1.0)
+    assert len(one.stats["check"]["runs"]) == 2 and one.stats["check"]["runs_stopped_unused"] == 0
+    # a wrong guess costs time, never the answer: the same runs and result as one at a time
+    fooled = sequence(2, power_law(2.0), own=0.01)
+    alone = sequence(1, power_law(2.0))
+    assert [r["step_tol"] for r in fooled.stats["check"]["runs"]] == [r["step_tol"] for r in alone.stats["check"]["runs"]]
+    assert np.array_equal(fooled.v, alone.v) and fooled.ok == alone.ok
 
 
 def test_nothing_runs_ahead_of_a_pair_the_plan_expects_to_meet_tol():
