@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 import os
 import pickle
-import resource
 import select
 import signal
 import struct
@@ -81,8 +80,13 @@ def check_workers(asked: int | None = None) -> int:
 
 
 def cpu_seconds() -> float:
-    """CPU time [s] of this process and of its children that ended (stopped ones included)."""
+    """CPU time [s] of this process and of its children that ended (stopped ones included;
+    where there is no ``resource`` module, as on Windows, which forks none, this process's)."""
     own = time.process_time()
+    try:
+        import resource
+    except ImportError:
+        return own
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
     return own + children.ru_utime + children.ru_stime
 
