@@ -24,6 +24,7 @@ run in this process, one after another (:class:`InlineRuns`).
 """
 from __future__ import annotations
 
+import gc
 import math
 import os
 import pickle
@@ -183,7 +184,17 @@ class ForkedRuns:
                 stream.flush()
             except (OSError, ValueError, AttributeError):
                 pass
-        pid = os.fork()
+        # The child's garbage collector would touch every object the parent holds, and each page
+        # it touches is copied: frozen, they are not collected there (the parent's take them
+        # back at once). Fig. 2's call: 0.29 -> 0.19 s, 0.37 -> 0.23 s in a caller holding 2 million
+        # objects (a forked run took 0.195 s where the same run in the call's process took 0.14).
+        gc.freeze()
+        pid = -1
+        try:
+            pid = os.fork()
+        finally:
+            if pid != 0:
+                gc.unfreeze()
         if pid == 0:  # the child: never returns
             os.close(read_end)
             _child_main(self.run_once, step_tol, max_wall, spool, write_end, result_path, parent)
