@@ -153,6 +153,8 @@ class ForkedRuns:
         for child in [c for c in self.children if not _same(c.step_tol, step_tol) and not _same(c.step_tol, then)]:
             self._stop(child)
         wanted = self._find(step_tol) or self._start(step_tol, max_wall)
+        if wanted is None:  # no process to be had (fork failed): this one runs here, nothing ahead
+            return InlineRuns(self.run_once, self.make_spool).take(step_tol, max_wall)
         if then is not None and self._find(then) is None and len(self.children) < self.workers:
             self._start(then, max_wall)
         if wanted.progress is not None and self.progress is not None:
@@ -174,7 +176,9 @@ class ForkedRuns:
     def _find(self, step_tol: float | None) -> _Child | None:
         return next((c for c in self.children if _same(c.step_tol, step_tol)), None)
 
-    def _start(self, step_tol: float, max_wall: float | None) -> _Child:
+    def _start(self, step_tol: float, max_wall: float | None) -> _Child | None:
+        """The run at step_tol started in a forked child (None: the fork failed, as when the
+        user's process limit is reached; nothing is left behind)."""
         spool = self.make_spool()
         result_path = self._folder / f"run-{os.getpid()}-{len(self.children)}-{time.monotonic_ns()}.pickle"
         read_end, write_end = os.pipe()
@@ -192,6 +196,12 @@ class ForkedRuns:
         pid = -1
         try:
             pid = os.fork()
+        except OSError:
+            for end in (read_end, write_end):
+                os.close(end)
+            if spool is not None:
+                spool.close()
+            return None
         finally:
             if pid != 0:
                 gc.unfreeze()

@@ -260,3 +260,25 @@ def test_a_call_from_another_thread_runs_one_run_at_a_time():
     worker.start()
     worker.join()
     assert seen == [1]
+
+
+def test_a_fork_that_fails_runs_the_run_here_and_leaves_the_collector_as_it_was(monkeypatch):
+    import gc
+
+    def no_fork():
+        raise BlockingIOError(11, "Resource temporarily unavailable")
+
+    monkeypatch.setattr(os, "fork", no_fork)
+    before = leftovers()
+    result = sequence(2, power_law(0.3), sink=lambda start, signals: None)
+    alone = sequence(1, power_law(0.3))
+    assert np.array_equal(result.v, alone.v) and result.ok == alone.ok
+    assert gc.get_freeze_count() == 0 and gc.isenabled()
+    assert leftovers() == before
+
+
+def test_the_collector_takes_back_the_parents_objects_after_a_fork():
+    import gc
+
+    sequence(2, power_law(0.3))
+    assert gc.get_freeze_count() == 0
