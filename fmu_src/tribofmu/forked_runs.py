@@ -18,9 +18,9 @@ it) into a pickle in the parent's run folder, where everything it leaves is remo
 How many runs go at once: api.simulate's ``check_workers``, else ``TRIBOFMU_CHECK_WORKERS``,
 else the usable cores on Linux (elsewhere 1: macOS's system libraries are not safe to use in a
 forked child, Windows has no fork), in the main thread only (1 in any other), and never more
-than MAX_WORKERS (a sequence has at most two
-runs it can use: the one it waits for and the next). 1, or a platform without ``fork``: every
-run in this process, one after another (:class:`InlineRuns`).
+than MAX_WORKERS. 1, or a platform without ``fork``: every run in this process, one after
+another (:class:`InlineRuns`). What runs ahead follows the sequence's own expectations
+(:meth:`tribofmu.checked.CheckSequence.then`), and a fork that fails runs that run here.
 """
 from __future__ import annotations
 
