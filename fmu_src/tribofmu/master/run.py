@@ -102,9 +102,11 @@ class Pace:
         projected = max(projected, wall)
         judged = max_wall is not None and wall >= self.limits.projection_share * max_wall
         if over or (judged and projected > max_wall):
+            # (a checked call's later runs get what its earlier ones left of --max-wall)
+            past = " (past --max-wall, counted from the call's start)" if over else ""
             raise RunawayError(
                 f"stopped at t = {t_ns / NS:.6g} s of {self.stop_ns / NS:.6g} s after "
-                f"{wall:.0f} s{' (past --max-wall)' if over else ''}: at this pace the run would take "
+                f"{_duration(wall)}{past}: at this pace the run would take "
                 f"{_duration(projected)} ({where()}); loosen --tol, shorten time.periods, or allow "
                 f"more with --max-wall")
         # told when two intervals in a row project past notice_after: not on one slow stretch
@@ -293,4 +295,4 @@ def _duration(seconds: float) -> str:
     for unit, size in (("years", 3.15e7), ("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
         if seconds >= 2 * size:
             return f"{seconds / size:.3g} {unit}"
-    return f"{seconds:.0f} s"
+    return f"{seconds:.3g} s" if seconds < 10.0 else f"{seconds:.0f} s"  # (1 s after 0.85 s read as none)
