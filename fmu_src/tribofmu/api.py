@@ -109,8 +109,8 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     done (see :class:`~tribofmu.master.run.GridRecorder`), to stream them to disk;
     keep_window: keep only the shown window in the result (with a sink, memory then does not
     grow with the run). check_workers: how many runs of the adaptive's check go at once, each
-    in a forked process (None: ``TRIBOFMU_CHECK_WORKERS``, else the usable cores, at most 2;
-    see :mod:`tribofmu.forked_runs`); the result is the same whatever it is.
+    in a forked process (None: ``TRIBOFMU_CHECK_WORKERS``, else on Linux the usable cores, at
+    most 2; see :mod:`tribofmu.forked_runs`); the result is the same whatever it is.
 
     Every argument is checked before any FMU is found or built: a wrong type or a value out
     of range raises :class:`~tribofmu.errors.ArgumentError` (one line naming it).
