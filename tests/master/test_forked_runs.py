@@ -282,3 +282,30 @@ def test_the_collector_takes_back_the_parents_objects_after_a_fork():
 
     sequence(2, power_law(0.3))
     assert gc.get_freeze_count() == 0
+
+
+class OutOfTimeRuns(FakeRuns):
+    """FakeRuns whose runs tighter than ``below`` run out of their budget (keyed by the
+    per-step tolerance: a forked run's call count is its own)."""
+
+    def __init__(self, error, below: float):
+        super().__init__(error)
+        self.below = below
+
+    def __call__(self, step_tol=None, **kw):
+        result = super().__call__(step_tol=step_tol, **kw)
+        if step_tol < self.below:
+            result.ok, result.message = False, "stopped at t = 1 s: at this pace the run would take 2 h"
+            result.stats["out_of_time"] = True
+        return result
+
+
+def test_a_run_out_of_its_budget_ends_the_sequence_as_one_at_a_time_does():
+    before = leftovers()
+    made = [checked.checked_simulation(OutOfTimeRuns(power_law(300.0), below=6e-4), tol=1e-3, max_wall=100.0,
+                                       workers=workers) for workers in (1, 2)]
+    one, two = made
+    assert not two.ok and two.message == one.message and "not checked" in two.message
+    assert [r["step_tol"] for r in two.stats["check"]["runs"]] == [r["step_tol"] for r in one.stats["check"]["runs"]]
+    assert np.array_equal(one.v, two.v)
+    assert leftovers() == before
