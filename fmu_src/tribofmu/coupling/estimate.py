@@ -107,6 +107,11 @@ def _saturated(value: float, scale: float) -> float:
     return max(-scale, min(scale, value))
 
 
+def _same(a: float, b: float) -> bool:
+    """Equal, or both nan (an input the scene does not have, as T without a Thermal FMU)."""
+    return a == b or (math.isnan(a) and math.isnan(b))
+
+
 def chord_damping(start, end, velocity_per_impulse: float, dv_resolution: float) -> float | None:
     """The friction's damping c [1/s] over the slip step from point start to point end: the
     chord of its force against dv, (F1 - F0) / (dv1 - dv0), times the block's velocity per
@@ -142,9 +147,6 @@ def stick_onset_x_error(start, end, h: float, velocity_per_impulse: float, w2: f
     jump = end.F - start.F
     rate = mass * ((end.aX - start.aX) / h + w2 * 0.5 * (start.V + end.V))
     return -(jump * e * h * h / 2.0 + rate * ((1.0 - e) * h) ** 3 / 12.0) / mass
-
-def _same(a: float, b: float) -> bool:
-    return a == b or (math.isnan(a) and math.isnan(b))
 
 
 def interpolant_jerk(start, end) -> float:
