@@ -31,7 +31,7 @@ from .provenance import overrides_dict, record
 from .result_csv import ResultCsvWriter, write_result_csv
 from .errors import ArgumentError, FMUError, FMUSetupError, UsageError  # noqa: F401 (FMUSetupError re-exported)
 from .coupling.algorithms import Scales, make_algorithm
-from .coupling.estimate import WindowError
+from .coupling.estimate import WindowError, carry_problem
 from .coupling.interpolation import INPUT_SIGNALS, NS, SAMPLES_PER_PERIOD, SIGNALS
 from .coupling.system import CoupledSystem
 from .master import FMUCallError, FMUFileError, FMUInstance, GridRecorder, RunLimits, run
@@ -151,8 +151,9 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
 
     if name != "adaptive":
         return run_once(step_tol=None)
+    vouches = own_estimate_problem(scenario, inputs_vary(scenario)) is None
     return checked_simulation(run_once, tol if tol is not None else DEFAULT_TOL, budget, sink, workers=workers,
-                              progress=progress, notice=notice, prepare=load_fmus)
+                              progress=progress, notice=notice, prepare=load_fmus, vouches=vouches)
 
 
 # -- the arguments of a call, checked at the door ----------------------------------------------
@@ -257,7 +258,7 @@ def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float
         keep = (int(np.searchsorted(grid, start - 1e-12)), int(np.searchsorted(grid, end + 1e-12, side="right")))
     audit = EnergyAudit(scenario)
     error_audit = WindowError(scenario.window)
-    inputs = bool({"Thermal", "Load"} & set(scenario.fmus))
+    inputs = inputs_vary(scenario)
     recorder = GridRecorder(grid, [audit, error_audit], inputs=inputs, keep_points=keep_points, sink=sink,
                             keep=keep)
     limits = RunLimits(max_wall=max_wall)
@@ -297,7 +298,7 @@ def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float
              "output_points": int(reached),
              "fmus": {name: {"file": str((fmu_dir / f"{name}.fmu").resolve()), "guid": getattr(slave, "guid", None)}
                       for name, slave in slaves.items()}}
-    stats["estimated_error"] = estimated_error(coupling, error_audit)
+    stats["estimated_error"] = estimated_error(coupling, error_audit, own_estimate_problem(scenario, inputs))
     stats["warnings"] = []
     stats["energy"] = audit.result()
     heat = audit.heat()
@@ -417,17 +418,36 @@ def fmu_calls_per_step(outcome) -> dict[str, Any] | None:
     return {"total": sum(kinds.values()), "by_kind": kinds}
 
 
-def estimated_error(coupling, audit: WindowError) -> dict[str, Any]:
-    """The run's own propagated estimate of its nRMS(v) on the shown window, and how it was
-    made (an adaptive run's reported error is the checked one: :mod:`tribofmu.checked`)."""
+def estimated_error(coupling, audit: WindowError, problem: str | None = None) -> dict[str, Any]:
+    """The run's own propagated estimate of its nRMS(v) on the shown window, how it was made,
+    and whether it can vouch for the run (``vouches``; ``problem``: why not, from
+    :func:`own_estimate_problem`). An adaptive call reports it only where it vouches and meets
+    tol with a margin; else the checked error (:mod:`tribofmu.checked`)."""
     if not hasattr(coupling, "estimate"):
-        return {"nrms_v": None, "method": "none: a fixed-step coupling estimates no error; "
-                                          "use --algorithm adaptive, or tribofmu accuracy"}
+        return {"nrms_v": None, "vouches": False,
+                "method": "none: a fixed-step coupling estimates no error; use --algorithm adaptive, "
+                          "or tribofmu accuracy"}
     value = audit.nrms()
-    return {"nrms_v": value if math.isfinite(value) else None,
+    return {"nrms_v": value if math.isfinite(value) else None, "vouches": problem is None,
             "method": f"propagated: the {coupling.name} coupling's local error estimates (and the "
                       "friction's impulse misses) carried through the block's linearised motion to the "
-                      "window (coupling/estimate.py); not checked"}
+                      "window (coupling/estimate.py); "
+                      + ("it vouches for the run (its derivation holds here)" if problem is None
+                         else f"it cannot vouch for the run: {problem}")}
+
+
+def inputs_vary(scenario: Scenario) -> bool:
+    """Whether other FMUs (Thermal, Load) feed the friction's inputs T, n over the run."""
+    return bool({"Thermal", "Load"} & set(scenario.fmus))
+
+
+def own_estimate_problem(scenario: Scenario, inputs_vary: bool) -> str | None:
+    """Why a run's carried estimate cannot vouch for a run of scenario (None: it can); see
+    :func:`tribofmu.coupling.estimate.carry_problem`. inputs_vary: a Load or Thermal FMU
+    feeds the friction."""
+    if "Friction" not in scenario.fmus:
+        return None  # no friction: the block's own linear motion, which the carry follows exactly
+    return carry_problem(scenario.friction.law(), inputs_vary)
 
 
 def build_system(scenario: Scenario, slaves: dict) -> CoupledSystem:

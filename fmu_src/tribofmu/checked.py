@@ -48,6 +48,18 @@ MAX_JUMP = CHECK_SETTINGS.max_jump
 MIN_STEP_TOL = CHECK_SETTINGS.min_step_tol
 MAX_RUNS = CHECK_SETTINGS.max_runs
 MIN_BUDGET = CHECK_SETTINGS.min_budget  # s
+ONE_RUN_MARGIN = CHECK_SETTINGS.one_run_margin
+
+
+def vouched_error(result) -> float | None:
+    """ONE_RUN_MARGIN times the run's own carried estimate of its error where that estimate
+    vouches for the run (``stats["estimated_error"]["vouches"]``: its derivation holds for
+    the scene, coupling/estimate.py carry_problem); None where it cannot, or has no value."""
+    own = result.stats.get("estimated_error") or {}
+    value = own.get("nrms_v")
+    if not own.get("vouches") or value is None or not math.isfinite(value):
+        return None
+    return ONE_RUN_MARGIN * value
 
 
 def checked_error(difference: float, previous: float | None = None) -> float:
@@ -165,7 +177,7 @@ class CheckSequence:
     """The decisions of the check over its runs as they come (it makes no run itself): which
     per-step tolerance comes next, which run is reported and with what error, when to stop."""
 
-    def __init__(self, tol: float, step_tol: float):
+    def __init__(self, tol: float, step_tol: float, vouches: bool = False):
         self.tol, self.step_tol = tol, step_tol  # the global tol; the next run's per-step tolerance
         self.records: list[RunRecord] = []
         self.base = None  # the looser run of the pair being formed (None: a new pair starts)
@@ -174,12 +186,18 @@ class CheckSequence:
         self.chain_difference = None  # the last pair's difference, while the next run continues its chain
         self.order = None  # the order the reported pair's chain showed (None: two runs only)
         self.limit = "the time budget ran out"  # why a sequence short of tol ended
-        # the pair being formed is expected to meet tol (its plan says so): nothing runs ahead of it
-        self.expected_to_meet = False
+        # the runs stand on their own estimates (they vouch): no pairs. Before the first run,
+        # what the scene says (vouches), which a run without an estimate overrules
+        self.own = vouches
+        self.own_last = None  # (per-step tolerance, own error) of the last run that vouched for itself
+        # the pair being formed is expected to meet tol (its plan says so): nothing runs ahead of it.
+        # A first run that vouches for itself is: at a per-step tolerance of tol its true error
+        # lands at 0.05-0.25 tol (first_step_tol's measure), inside tol over the margin
+        self.expected_to_meet = vouches
 
     def planned(self) -> int:
         """Runs planned so far, the next one's pair included (for the progress bar)."""
-        return len(self.records) + (2 if self.base is None else 1)
+        return len(self.records) + (2 if self.base is None and not self.own else 1)
 
     def then(self) -> float | None:
         """The per-step tolerance the sequence asks for after the next run if it goes on as a
@@ -188,27 +206,37 @@ class CheckSequence:
         likely be stopped unused: Fig. 6 spent half again its CPU time on one)."""
         if len(self.records) + 1 >= MAX_RUNS or self.step_tol <= MIN_STEP_TOL:
             return None
-        if self.base is not None and self.expected_to_meet:
+        if self.expected_to_meet and (self.base is not None or self.own):
             return None
         return max(self.step_tol / CHECK_RATIO, MIN_STEP_TOL)
 
     def add(self, result) -> bool:
         """Take the next run's (completed) result; True when the sequence ends with it."""
-        error = math.nan
-        if self.base is not None:
+        error, own = math.nan, vouched_error(result)
+        if own is not None:  # the run vouches for itself: its own estimate is its error
+            self.own, self.best, self.best_error = True, result, own
+            error = own
+        elif self.base is not None:
+            self.own = False
             difference = window_difference(self.base, result)
             self.order = observed_order(difference, self.chain_difference)
             self.best, self.best_error = result, checked_error(difference, self.chain_difference)
             error = self.best_error
             self.chain_difference = difference
         elif self.best is None:
-            self.best = result
+            self.best, self.own = result, False
         if error <= self.tol:
             return True
         if self.step_tol <= MIN_STEP_TOL or len(self.records) >= MAX_RUNS:
             self.limit = (f"the per-step tolerance reached its floor {MIN_STEP_TOL:g}" if self.step_tol <= MIN_STEP_TOL
                           else f"{MAX_RUNS} runs, the most one sequence makes")
             return True
+        if own is not None:  # the next run, planned from this one's error, vouches for itself too
+            factor = self._own_tightening(own)
+            self.own_last = (self.step_tol, own)
+            self.expected_to_meet, self.base = True, None
+            self.step_tol = max(self.step_tol / factor, MIN_STEP_TOL)
+            return False
         factor = CHECK_RATIO if math.isnan(error) else next_tightening(error, self.tol)
         self.expected_to_meet = self._expects_to_meet(result, error, factor)
         self.base = result if factor == CHECK_RATIO else None  # else a new pair, planned tighter
@@ -216,6 +244,21 @@ class CheckSequence:
             self.chain_difference = None
         self.step_tol = max(self.step_tol / factor, MIN_STEP_TOL)
         return False
+
+    def _own_tightening(self, own: float) -> float:
+        """How much tighter the run after one whose own error ``own`` missed tol is: planned to
+        land one CHECK_RATIO below tol (a run's steps grow only as the per-step tolerance to the
+        -1/3, 26 % for that ratio, where a miss costs a whole run), at the order the last two
+        runs' own errors showed (ASSUMED_ORDER before there are two), at least CHECK_RATIO and
+        at most MAX_JUMP."""
+        order = ASSUMED_ORDER
+        if self.own_last is not None and self.own_last[0] > self.step_tol:
+            previous_tol, previous = self.own_last
+            # (an error that did not fall: the slowest order allowed for, the longest jump)
+            shown = math.log(previous / own) / math.log(previous_tol / self.step_tol) if own < previous else 0.0
+            order = min(max(shown, MIN_ORDER), OBSERVED_ORDER_MAX)
+        wanted = (own * CHECK_RATIO / (SAFETY * self.tol)) ** (1.0 / order)
+        return min(MAX_JUMP, max(CHECK_RATIO, wanted))
 
     def _expects_to_meet(self, result, error: float, factor: float) -> bool:
         """Whether the pair the next run forms or starts is expected to meet tol: a chain one
@@ -240,7 +283,7 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
                        sink: Callable[[int, dict], None] | None = None,
                        step_tol: float | None = None, *, workers: int | None = None,
                        progress: Callable[[Any], None] | None = None, notice: Callable[[str], None] | None = None,
-                       prepare: Callable[[], None] | None = None):
+                       prepare: Callable[[], None] | None = None, vouches: bool = False):
     """Run ``run_once(step_tol=..., max_wall=..., sink=...)`` in check pairs from per-step
     tolerance ``step_tol`` (default FIRST_STEP_TOL x tol) down, until the tighter run of a
     pair is checked to meet ``tol`` on the window, or the budget ``max_wall`` [s] (None:
@@ -255,13 +298,16 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     The runs go ``workers`` at once (:mod:`tribofmu.forked_runs`: None, the usable cores up to
     two); ``run_once`` then also takes ``progress`` and ``notice``, which a forked run tells
     through its parent to the ones given here. prepare(): what every run does first and can
-    share (unzipping the FMUs), done once before the first run is forked."""
+    share (unzipping the FMUs), done once before the first run is forked. vouches: the scene's
+    runs carry an estimate that can vouch for them (api.own_estimate_problem): the first run is
+    expected to stand alone, and nothing is started beside it."""
     begin, cpu_begin = time.perf_counter(), cpu_seconds()
     count = check_workers(workers)
     make_spool = (lambda: Spool()) if sink is not None else (lambda: None)
     runs = (InlineRuns(run_once, make_spool) if count == 1 else
             ForkedRuns(run_once, make_spool, count, progress=progress, notice=notice, prepare=prepare))
-    sequence = CheckSequence(tol, max(step_tol if step_tol is not None else FIRST_STEP_TOL * tol, MIN_STEP_TOL))
+    sequence = CheckSequence(tol, max(step_tol if step_tol is not None else FIRST_STEP_TOL * tol, MIN_STEP_TOL),
+                             vouches)
     held: dict[int, Spool] = {}  # the spooled samples of the runs that may be reported
     try:
         while True:
@@ -317,20 +363,15 @@ def _finish(result, difference: float | None, sequence: CheckSequence, began: tu
         stats["tolerance_met"] = False
         stats["completed"] = False
         return result
-    how = (f"p = {MIN_ORDER:g}, the slowest convergence allowed for" if order is None else
-           f"p = {order:.2g}, the order this run and the two looser ones before it showed, times "
-           f"{ORDER_SAFETY:g}, and at most the estimate at p = {MIN_ORDER:g}")
     stats["estimated_error"] = {
         "nrms_v": difference if checked else None,
-        "method": ("checked: the run was repeated at a per-step tolerance "
-                   f"{CHECK_RATIO:g}x tighter and the two compared on the window (Shampine's rule); the "
-                   f"tighter run is reported, with their difference over {CHECK_RATIO:g}^p - 1 as its error "
-                   f"({how})") if checked else
-                  f"not checked: {limit} before the run could be repeated at a tighter tolerance",
+        "method": _method(checked, sequence),
         "propagated": own.get("nrms_v"),  # the run's own linearised estimate, for comparison
+        "vouches": bool(own.get("vouches")),
     }
     stats["tolerance_met"] = bool(met)
-    stats["warnings"] = [] if met else [_advice(difference if checked else None, tol, records, limit)]
+    stats["warnings"] = [] if met else [_advice(difference if checked else None, tol, records, limit,
+                                                      "estimated" if sequence.own else "checked")]
     result.ok = bool(met)
     stats["ok"] = result.ok
     stats["completed"] = True
@@ -342,11 +383,28 @@ def _finish(result, difference: float | None, sequence: CheckSequence, began: tu
     return result
 
 
-def _advice(difference: float | None, tol: float, records: list[RunRecord], limit: str) -> str:
+def _method(checked: bool, sequence: CheckSequence) -> str:
+    """How the reported error was made, for stats.json."""
+    if checked and sequence.own:
+        return (f"own: the run's carried estimate of its error (coupling/estimate.py) times {ONE_RUN_MARGIN:g}; "
+                "it vouches for the run here (its derivation holds: the friction a function of dv alone "
+                "with a bounded slope), so the run was not repeated")
+    if not checked:
+        return f"not checked: {sequence.limit} before the run could be repeated at a tighter tolerance"
+    order = sequence.order
+    how = (f"p = {MIN_ORDER:g}, the slowest convergence allowed for" if order is None else
+           f"p = {order:.2g}, the order this run and the two looser ones before it showed, times "
+           f"{ORDER_SAFETY:g}, and at most the estimate at p = {MIN_ORDER:g}")
+    return ("checked: the run was repeated at a per-step tolerance "
+            f"{CHECK_RATIO:g}x tighter and the two compared on the window (Shampine's rule); the "
+            f"tighter run is reported, with their difference over {CHECK_RATIO:g}^p - 1 as its error ({how})")
+
+
+def _advice(difference: float | None, tol: float, records: list[RunRecord], limit: str, kind: str) -> str:
     spent = sum(r.wall_time for r in records)
     if difference is None:
         return (f"tolerance {tol:g} not checked: {limit} after {len(records)} run(s) ({spent:.0f} s); "
                 f"loosen --tol, or raise --max-wall")
-    return (f"tolerance {tol:g} not met: the checked nRMS(v) is {difference:.2g} after {len(records)} "
+    return (f"tolerance {tol:g} not met: the {kind} nRMS(v) is {difference:.2g} after {len(records)} "
             f"runs ({spent:.0f} s, per-step tolerance down to {records[-1].step_tol:.2g}; {limit}); "
             f"loosen --tol, or raise --max-wall")

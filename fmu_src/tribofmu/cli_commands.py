@@ -80,9 +80,12 @@ def cmd_simulate(args) -> int:
         bar.close()  # also when the call failed before the run began
     work_done()  # the result set is complete (or the failure is known): what follows only says so
     estimate = result.stats["estimated_error"]["nrms_v"]
-    checked = result.stats["estimated_error"].get("method", "").startswith("checked")
+    method = result.stats["estimated_error"].get("method", "")
+    checked, own = method.startswith("checked"), method.startswith("own")  # own: one run vouched for itself
     accuracy = (f", {'checked' if checked else 'estimated'} nRMS(v) {estimate:.2g}"
-                + (f" (tol {result.stats['tol']:g})" if checked else "")) if estimate is not None else ""
+                + (f" (tol {result.stats['tol']:g})" if checked else
+                   f" (tol {result.stats['tol']:g}, one run: its own estimate vouches)" if own else "")
+                ) if estimate is not None else ""
     print(f"{scenario.name}: {result.message}; {result.stats['communication_steps']} steps, "
           f"{result.stats['wall_time']:.2f} s{accuracy} -> {out}/")
     if not result.stats.get("completed", result.ok):

@@ -152,6 +152,8 @@ class ForkedRuns:
         chain. Runs the sequence has passed by are stopped."""
         for child in [c for c in self.children if not _same(c.step_tol, step_tol) and not _same(c.step_tol, then)]:
             self._stop(child)
+        if then is None and not self.children:  # nothing to run beside it: a fork would only cost
+            return InlineRuns(self.run_once, self.make_spool).take(step_tol, max_wall)
         wanted = self._find(step_tol) or self._start(step_tol, max_wall)
         if wanted is None:  # no process to be had (fork failed): this one runs here, nothing ahead
             return InlineRuns(self.run_once, self.make_spool).take(step_tol, max_wall)

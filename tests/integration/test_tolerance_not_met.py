@@ -17,7 +17,8 @@ SHORT = ["--set", "time.periods=1", "--set", "time.window=[0,1]"]
 def test_a_tolerance_not_met_keeps_the_results_says_so_and_exits_3(tmp_path, fmu_dir, monkeypatch, capsys):
     monkeypatch.setattr(checked, "MAX_RUNS", 1)  # the sequence stops before its check
     out = tmp_path / "o"
-    captured = main("simulate", "fig2_dry", *SHORT, "--tol", "1e-5", "--max-wall", "0", "--fmu-dir", fmu_dir,
+    # a shear-thinning fluid: its runs' own estimates cannot vouch for them (a check is needed)
+    captured = main("simulate", "fig5_pseudoplastic", *SHORT, "--tol", "1e-5", "--max-wall", "0", "--fmu-dir", fmu_dir,
                     "--out", out, "--no-plots", "-q", capsys=capsys)
     assert captured.returncode == 3, captured.stderr
     lines = captured.stderr.strip().splitlines()
@@ -30,7 +31,7 @@ def test_a_tolerance_not_met_keeps_the_results_says_so_and_exits_3(tmp_path, fmu
 
 def test_a_met_tolerance_is_ok_and_reports_the_checked_error(tmp_path, fmu_dir, capsys):
     out = tmp_path / "o"
-    captured = main("simulate", "fig2_dry", *SHORT, "--fmu-dir", fmu_dir, "--out", out, "--no-plots", "-q",
+    captured = main("simulate", "fig5_pseudoplastic", *SHORT, "--fmu-dir", fmu_dir, "--out", out, "--no-plots", "-q",
                     capsys=capsys)
     assert captured.returncode == 0, captured.stderr
     assert "checked nRMS(v)" in captured.stdout and "(tol 0.001)" in captured.stdout
@@ -42,3 +43,15 @@ def test_a_met_tolerance_is_ok_and_reports_the_checked_error(tmp_path, fmu_dir, 
     per_step = stats["fmu_calls_per_step"]
     assert set(per_step["by_kind"]) == {"get", "set", "doStep", "save", "restore", "free"}
     assert per_step["total"] == sum(per_step["by_kind"].values()) and 5 < per_step["total"] < 100
+
+
+def test_a_run_whose_own_estimate_vouches_is_reported_alone_and_says_so(tmp_path, fmu_dir, capsys):
+    out = tmp_path / "o"
+    captured = main("simulate", "fig2_dry", *SHORT, "--fmu-dir", fmu_dir, "--out", out, "--no-plots", "-q",
+                    capsys=capsys)
+    assert captured.returncode == 0, captured.stderr
+    assert "estimated nRMS(v)" in captured.stdout and "one run: its own estimate vouches" in captured.stdout
+    stats = json.loads((out / "stats.json").read_text())
+    error = stats["estimated_error"]
+    assert stats["ok"] and len(stats["check"]["runs"]) == 1 and error["vouches"]
+    assert error["nrms_v"] == checked.ONE_RUN_MARGIN * error["propagated"] <= 1e-3

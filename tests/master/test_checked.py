@@ -194,3 +194,77 @@ def test_differences_that_do_not_shrink_are_not_credited_an_order():
     assert checked.observed_order(2e-4, 1e-4) is None and checked.observed_order(1e-4, None) is None
     assert checked.checked_error(1e-4, 1e-4) == checked.checked_error(1e-4)
     assert checked.observed_order(1e-4, 1e-3) == checked.OBSERVED_ORDER_MAX  # 3.3 is not credited
+
+
+# -- a run whose own carried estimate vouches for it (issue 36: one run where one is enough) --
+class VouchingRuns(FakeRuns):
+    """FakeRuns whose runs carry their own estimate, own(step_tol), saying it vouches (as
+    api's runs of a friction that is a function of dv alone with a bounded slope)."""
+
+    def __init__(self, error, own, vouches=True):
+        super().__init__(error)
+        self.own, self.vouches = own, vouches
+
+    def __call__(self, step_tol=None, **kwargs):
+        result = super().__call__(step_tol, **kwargs)
+        result.stats["estimated_error"] = {"nrms_v": self.own(step_tol), "vouches": self.vouches}
+        return result
+
+
+def test_a_run_whose_own_estimate_vouches_and_meets_tol_with_the_margin_is_reported_alone():
+    runs = VouchingRuns(power_law(0.3), own=power_law(0.2))  # own 2e-4 at 1e-3: 4e-4 with the margin
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    assert len(runs.calls) == 1
+    assert result.ok and result.stats["tolerance_met"]
+    error = result.stats["estimated_error"]
+    assert error["nrms_v"] == pytest.approx(checked.ONE_RUN_MARGIN * 2e-4)
+    assert error["method"].startswith("own") and error["vouches"] and error["propagated"] == pytest.approx(2e-4)
+    assert len(result.stats["check"]["runs"]) == 1
+
+
+def test_an_own_estimate_past_tol_over_the_margin_plans_the_next_run_from_it_with_no_pair():
+    runs = VouchingRuns(power_law(3.0), own=power_law(2.0))  # 2e-3 at 1e-3: 4e-3 with the margin
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    tols = [c[0] for c in runs.calls]
+    # the plan: error falling as the per-step tolerance, aiming one CHECK_RATIO below tol:
+    # 4e-3 -> 5e-4 asks for 8x tighter
+    assert tols == pytest.approx([1e-3, 1e-3 / 8.0])
+    assert result.ok and result.stats["step_tol"] == pytest.approx(1.25e-4)
+    assert result.stats["estimated_error"]["nrms_v"] == pytest.approx(checked.ONE_RUN_MARGIN * 2.5e-4)
+
+
+def test_the_third_run_is_planned_at_the_order_the_first_two_own_errors_showed():
+    own = power_law(0.04, order=0.5)
+    runs = VouchingRuns(own, own=own)
+    checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    tols = [c[0] for c in runs.calls]
+    assert len(tols) == 3
+    shown = math.log(own(tols[0]) / own(tols[1])) / math.log(tols[0] / tols[1])
+    assert shown == pytest.approx(0.5)
+    wanted = (checked.ONE_RUN_MARGIN * own(tols[1]) * checked.CHECK_RATIO / 1e-3) ** (1.0 / shown)
+    assert tols[1] / tols[2] == pytest.approx(wanted) and wanted > 2.5  # (order 1 would ask for 2.25)
+
+
+def test_an_own_estimate_that_falls_slower_than_planned_takes_one_more_run_not_a_wrong_ok():
+    own = power_law(0.02, order=0.3)  # falls as step_tol^0.3: the plan under-jumps
+    runs = VouchingRuns(own, own=own)
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    tols = [c[0] for c in runs.calls]
+    assert len(tols) >= 3 and all(1.0 < a / b <= checked.MAX_JUMP for a, b in zip(tols, tols[1:]))
+    if result.ok:
+        assert checked.ONE_RUN_MARGIN * own(result.stats["step_tol"]) <= 1e-3
+    else:
+        assert "estimated nRMS(v)" in result.message
+
+
+@pytest.mark.parametrize("own", [{"nrms_v": 2e-4, "vouches": False}, {"nrms_v": None, "vouches": True},
+                                 {"nrms_v": math.nan, "vouches": True}])
+def test_an_estimate_that_cannot_vouch_or_has_no_value_is_checked_by_a_pair(own):
+    class Runs(FakeRuns):
+        def __call__(self, step_tol=None, **kwargs):
+            result = super().__call__(step_tol, **kwargs)
+            result.stats["estimated_error"] = dict(own)
+            return result
+    runs = Runs(power_law(0.3))
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    assert len(runs.calls) == 2 and result.stats["estimated_error"]["method"].startswith("checked")

@@ -19,7 +19,7 @@ from tribofmu.errors import ArgumentError, FMUCallError, TriboFMUError
 from tribofmu.master.run import RunProgress
 from tribofmu.run_folder import run_folder
 
-from test_checked import FakeRuns, power_law
+from test_checked import FakeRuns, VouchingRuns, power_law
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="forked runs need fork()")
 
@@ -60,6 +60,18 @@ def test_two_workers_take_the_same_runs_and_report_the_same_result(error):
     assert leftovers() == before
 
 
+@pytest.mark.parametrize("own", [power_law(0.2), power_law(2.0), power_law(0.02, 0.3)],
+                         ids=["one run", "a second planned", "slow order"])
+def test_two_workers_take_the_same_vouching_runs_and_report_the_same_result(own):
+    before = leftovers()
+    one, two = (checked.checked_simulation(VouchingRuns(own, own=own), tol=1e-3, max_wall=None, workers=w)
+                for w in (1, 2))
+    assert [r["step_tol"] for r in two.stats["check"]["runs"]] == [r["step_tol"] for r in one.stats["check"]["runs"]]
+    assert np.array_equal(one.v, two.v)
+    assert two.ok == one.ok and two.stats["estimated_error"] == one.stats["estimated_error"]
+    assert leftovers() == before
+
+
 def test_the_sink_gets_the_reported_runs_samples_once_from_a_forked_run():
     received = []
     result = sequence(2, power_law(300.0), sink=lambda start, signals: received.append((start, signals)))
@@ -96,6 +108,15 @@ def test_nothing_runs_ahead_of_a_pair_the_plan_expects_to_meet_tol():
     assert len(result.stats["check"]["runs"]) == 3 and result.stats["check"]["runs_stopped_unused"] == 1
 
 
+def test_a_run_with_nothing_to_run_beside_it_runs_in_the_calls_process():
+    runs = forked_runs.ForkedRuns(lambda **kw: os.getpid(), lambda: None, 2)
+    try:
+        assert runs.take(1e-3, None) == (os.getpid(), None)  # no fork: nothing else to run at once
+        assert runs.take(1e-3, None, then=5e-4)[0] != os.getpid()
+    finally:
+        runs.close()
+
+
 def test_a_childs_exception_is_raised_in_the_parent_as_it_was():
     def failing(**kw):
         raise FMUCallError("friction", "fmi2DoStep", 3, ["at t = 0.1 s"])
@@ -120,7 +141,7 @@ def test_an_exception_that_does_not_come_back_from_a_pickle_is_one_line_with_its
 
     runs = forked_runs.ForkedRuns(failing, lambda: None, 2)
     with pytest.raises(TriboFMUError, match="Odd: odd 1 2"):
-        runs.take(1e-3, None)
+        runs.take(1e-3, None, then=5e-4)
     runs.close()
 
 
@@ -141,7 +162,7 @@ def test_a_child_killed_from_outside_is_one_line_naming_its_run():
 
     runs = forked_runs.ForkedRuns(killed, lambda: None, 2)
     with pytest.raises(TriboFMUError, match=r"per-step tolerance 0.001 ended without a result \(killed by signal 9\)"):
-        runs.take(1e-3, None)
+        runs.take(1e-3, None, then=5e-4)
     runs.close()
 
 
@@ -156,7 +177,7 @@ def test_progress_and_notices_of_the_awaited_run_reach_the_callbacks():
     told, notices = [], []
     runs = forked_runs.ForkedRuns(talking, lambda: None, 2, progress=told.append, notice=notices.append)
     try:
-        assert runs.take(1e-3, None) == (1e-3, None)  # (the result, no spool)
+        assert runs.take(1e-3, None, then=5e-4) == (1e-3, None)  # (the result, no spool)
     finally:
         runs.close()
     assert [p.steps for p in told] == [10, 20, 30] and told[-1].t == pytest.approx(1.0)

@@ -44,6 +44,27 @@ from .interpolation import NS, velocity_slopes
 EXP_LIMIT = 700.0
 
 
+def carry_problem(law, inputs_vary: bool) -> str | None:
+    """Why the carried estimate cannot vouch for a run of friction ``law`` (None: it can).
+
+    The carry above is exact to first order where its derivation holds: the friction force a
+    function of dv alone with a bounded slope. It does not hold for
+    - a law with an internal state (the lubricant's f): its melting and re-solidifying are
+      events whose timing errors jump the force, which no linear carry follows (the state's
+      share enters through a weight, ErrorSettings.state_carry, not through a derivation);
+    - a force with an unbounded slope at rest (``law.slope_bounded``: a shear-thinning fluid),
+      where the linearisation fails as dv passes 0 (gamma = -0.7: 0.28-0.36x the true error);
+    - inputs n, T that change over the run (a Load or Thermal FMU): the chord of F against dv
+      is then not the slope the carry needs, and the carry's damping has no sign."""
+    if law.has_state:
+        return f"{law.label} has an internal state (the lubricant's melting and re-solidifying)"
+    if not law.slope_bounded:
+        return f"the {law.label} force's slope is unbounded at rest"
+    if inputs_vary:
+        return "the friction's inputs n, T change over the run (a Load or Thermal FMU)"
+    return None
+
+
 class GlobalErrorEstimate:
     """The carried error (ex [m], ev [m/s]) and what it needs of the block."""
 

@@ -165,6 +165,14 @@ class FrictionLaw:
         """Whether the power-law term ``m sgn(dv)|dv|^(gamma+1)`` is part of the force."""
         return False
 
+    @property
+    def slope_bounded(self) -> bool:
+        """Whether the slip force's slope dF/d(dv) stays bounded as dv -> 0 (the force is
+        Lipschitz in dv on each slip branch): the power-law term's exponent gamma + 1 is at
+        least 1. A shear-thinning term (gamma < 0) has an infinite slope at rest, where an
+        error's growth or decay cannot be linearised (coupling/estimate.py)."""
+        return not self.has_power_law_term or self.gamma >= 0.0
+
     # -- stick (laws with sticks = True) ------------------------------------------------
     def static_limit(self, n: float) -> float:
         """The largest force [N] the contact holds at dv = 0 under normal stress n [Pa]

@@ -100,6 +100,12 @@ class MixedLaw(FrictionLaw):
     def static_limit(self, n: float) -> float:
         return self.mu_static * abs(self.load(n))
 
+    @property
+    def slope_bounded(self) -> bool:
+        """The Stribeck curve's slope at breakaway, -(mu_s - mu_c) delta (s/v_s)^delta / s,
+        is bounded as s -> 0 only for delta >= 1 (or no Stribeck drop)."""
+        return self.stribeck_exponent >= 1.0 or self.mu_static == self.mu_friction
+
     def _coefficient_integral(self, speed: float) -> float:
         """The integral of mu(s) ds from 0 to speed [m/s], exact (an incomplete gamma function)."""
         a = 1.0 / self.stribeck_exponent
