@@ -304,7 +304,8 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     begin, cpu_begin = time.perf_counter(), cpu_seconds()
     count = check_workers(workers)
     make_spool = (lambda: Spool()) if sink is not None else (lambda: None)
-    runs = (InlineRuns(run_once, make_spool) if count == 1 else
+    # (runs that vouch for themselves are planned one at a time: nothing ever runs beside them)
+    runs = (InlineRuns(run_once, make_spool) if count == 1 or vouches else
             ForkedRuns(run_once, make_spool, count, progress=progress, notice=notice, prepare=prepare))
     sequence = CheckSequence(tol, max(step_tol if step_tol is not None else FIRST_STEP_TOL * tol, MIN_STEP_TOL),
                              vouches)

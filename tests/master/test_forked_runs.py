@@ -72,6 +72,14 @@ def test_two_workers_take_the_same_vouching_runs_and_report_the_same_result(own)
     assert leftovers() == before
 
 
+def test_a_scene_whose_runs_vouch_for_themselves_runs_them_in_the_calls_process():
+    own = power_law(2.0)  # two runs: the second planned from the first's own error
+    runs = VouchingRuns(own, own=own)
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, workers=2, vouches=True)
+    assert len(runs.calls) == 2 and result.ok  # (a forked run's call would not be recorded here)
+    assert result.stats["check"]["workers"] == 1 and result.stats["check"]["runs_stopped_unused"] == 0
+
+
 def test_the_sink_gets_the_reported_runs_samples_once_from_a_forked_run():
     received = []
     result = sequence(2, power_law(300.0), sink=lambda start, signals: received.append((start, signals)))
