@@ -250,7 +250,7 @@ def test_an_own_estimate_that_falls_slower_than_planned_takes_one_more_run_not_a
     runs = VouchingRuns(own, own=own)
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
     tols = [c[0] for c in runs.calls]
-    assert len(tols) >= 3 and all(1.0 < a / b <= checked.MAX_JUMP for a, b in zip(tols, tols[1:]))
+    assert len(tols) >= 3 and all(a / b >= checked.CHECK_RATIO for a, b in zip(tols, tols[1:]))
     if result.ok:
         assert checked.ONE_RUN_MARGIN * own(result.stats["step_tol"]) <= 1e-3
     else:
@@ -268,3 +268,11 @@ def test_an_estimate_that_cannot_vouch_or_has_no_value_is_checked_by_a_pair(own)
     runs = Runs(power_law(0.3))
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
     assert len(runs.calls) == 2 and result.stats["estimated_error"]["method"].startswith("checked")
+
+
+def test_an_own_estimate_far_from_tol_jumps_as_far_as_it_asks_in_one_plan():
+    runs = VouchingRuns(power_law(30.0), own=power_law(30.0))  # the first run 30x tol off
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    tols = [c[0] for c in runs.calls]
+    assert len(tols) == 2 and result.ok  # a planned pair's cap (MAX_JUMP) would have taken three
+    assert tols[0] / tols[1] == pytest.approx(30.0 * checked.ONE_RUN_MARGIN * checked.CHECK_RATIO)
