@@ -428,6 +428,8 @@ def estimated_error(coupling, audit: WindowError, problem: str | None = None) ->
                 "method": "none: a fixed-step coupling estimates no error; use --algorithm adaptive, "
                           "or tribofmu accuracy"}
     value = audit.nrms()
+    if problem is None and coupling.estimate.saturated:
+        problem = "its carried error reached the motion's own size (past its linearisation)"
     return {"nrms_v": value if math.isfinite(value) else None, "vouches": problem is None,
             "method": f"propagated: the {coupling.name} coupling's local error estimates (and the "
                       "friction's impulse misses) carried through the block's linearised motion to the "

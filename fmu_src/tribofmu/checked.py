@@ -249,18 +249,20 @@ class CheckSequence:
         """How much tighter the run after one whose own error ``own`` missed tol is: planned to
         land one CHECK_RATIO below tol (a run's steps grow only as the per-step tolerance to the
         -1/3, 26 % for that ratio, where a miss costs a whole run), at the order the last two
-        runs' own errors showed (ASSUMED_ORDER before there are two), at least CHECK_RATIO. Not
-        capped at MAX_JUMP as a planned pair is: an estimate that vouches is no guess, and an
-        order of at most 1 (runs that vouch converge at 0.7-1) under-jumps rather than over
-        (mixed friction's first run lies 30x off tol: capped at 8, five runs at tol 1e-4)."""
-        order = ASSUMED_ORDER
+        runs' own errors showed (ASSUMED_ORDER before there are two), at least CHECK_RATIO. The
+        first plan is not capped: at ASSUMED_ORDER, the highest order runs that vouch show
+        (0.7-1), it under-jumps rather than over (mixed friction's first run lies 30x off tol:
+        capped at MAX_JUMP, five runs at tol 1e-4). A plan from an observed order is capped at
+        MAX_JUMP as a planned pair is: two estimates' ratio at loose tolerances is a guess (one
+        such plan jumped 1600x, to an error 60x below tol)."""
+        order, cap = ASSUMED_ORDER, math.inf
         if self.own_last is not None and self.own_last[0] > self.step_tol:
             previous_tol, previous = self.own_last
             # (an error that did not fall: the slowest order allowed for, the longest jump)
             shown = math.log(previous / own) / math.log(previous_tol / self.step_tol) if own < previous else 0.0
-            order = min(max(shown, MIN_ORDER), OBSERVED_ORDER_MAX)
+            order, cap = min(max(shown, MIN_ORDER), OBSERVED_ORDER_MAX), MAX_JUMP
         wanted = (own * CHECK_RATIO / (SAFETY * self.tol)) ** (1.0 / order)
-        return max(CHECK_RATIO, wanted)
+        return min(cap, max(CHECK_RATIO, wanted))
 
     def _expects_to_meet(self, result, error: float, factor: float) -> bool:
         """Whether the pair the next run forms or starts is expected to meet tol: a chain one

@@ -276,3 +276,12 @@ def test_an_own_estimate_far_from_tol_jumps_as_far_as_it_asks_in_one_plan():
     tols = [c[0] for c in runs.calls]
     assert len(tols) == 2 and result.ok  # a planned pair's cap (MAX_JUMP) would have taken three
     assert tols[0] / tols[1] == pytest.approx(30.0 * checked.ONE_RUN_MARGIN * checked.CHECK_RATIO)
+
+
+def test_a_plan_from_an_observed_order_is_capped_and_an_error_that_never_falls_ends_not_ok():
+    runs = VouchingRuns(lambda step_tol: 2e-3, own=lambda step_tol: 2e-3)  # never falls
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
+    tols = [c[0] for c in runs.calls]
+    assert tols[1] / tols[2] == pytest.approx(checked.MAX_JUMP)  # the slowest order, capped
+    assert len(tols) == checked.MAX_RUNS or tols[-1] == checked.MIN_STEP_TOL
+    assert not result.ok and "tolerance 0.001 not met: the estimated nRMS(v) is 0.004" in result.message

@@ -67,6 +67,37 @@ def test_a_stuck_step_zeroes_the_error_in_v_but_carries_x():
     assert estimate.ex == pytest.approx((expm(matrix(w2, c) * h) @ e0)[0] + 1e-8, rel=1e-12)
 
 
+def test_a_carry_that_reaches_the_motions_size_says_it_saturated():
+    estimate = GlobalErrorEstimate()
+    estimate.w2 = 100.0
+    estimate.advance(1e-3, 0.0, 1e-9, 1e-6, stuck=False, x_scale=1e-2, v_scale=0.1)
+    assert not estimate.saturated  # within the motion's size: a linear carry
+    estimate.advance(1e-3, -5e3, 0.0, 0.5, stuck=False, x_scale=1e-2, v_scale=0.1)
+    assert estimate.saturated and estimate.ev == 0.1  # held at the scale, and it says so
+    estimate.advance(1e-3, 0.0, 0.0, 0.0, stuck=True, x_scale=1e-2, v_scale=0.1)
+    assert estimate.saturated  # once saturated, the run's estimate cannot vouch for it
+
+
+def carry_problem_of(law, inputs_vary=False):
+    from tribofmu.coupling.estimate import carry_problem
+    return carry_problem(law, inputs_vary)
+
+
+@pytest.mark.parametrize("law, vouches", [
+    (FluidLaw(gamma=0.0), True), (FluidLaw(gamma=1.5), True), (FluidLaw(gamma=-0.2), False),
+])
+def test_the_carry_vouches_only_for_a_force_of_dv_alone_with_a_bounded_slope(law, vouches):
+    from tribofmu.physics import laws
+
+    assert (carry_problem_of(law) is None) == vouches
+    assert carry_problem_of(law, inputs_vary=True) is not None  # a Load or Thermal FMU moves n, T
+    assert carry_problem_of(laws.DryLaw()) is None
+    assert "internal state" in carry_problem_of(laws.BoundaryLaw())
+    assert carry_problem_of(laws.MixedLaw(stribeck_exponent=1.0)) is None
+    assert "unbounded" in carry_problem_of(laws.MixedLaw(stribeck_exponent=0.5))
+    assert carry_problem_of(laws.MixedLaw(stribeck_exponent=0.5, mu_static=0.5, mu_friction=0.5)) is None
+
+
 def test_the_block_is_learned_from_its_answers():
     """a = F/M - w2 x: from a point and the block's velocity per unit impulse 1/M."""
     M, K = 0.6, 7000.0

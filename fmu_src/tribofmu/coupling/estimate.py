@@ -71,6 +71,9 @@ class GlobalErrorEstimate:
     def __init__(self):
         self.ex = self.ev = 0.0
         self.w2 = 0.0  # 1/s^2, 2K/M as last measured (0: not yet)
+        # the carry reached the motion's own size somewhere: past its linearisation, it says only
+        # that the run is far off, not how far (it cannot vouch for the run)
+        self.saturated = False
 
     def observe(self, x: float, a: float, F: float, velocity_per_impulse: float, x_floor: float) -> None:
         """Learn w2 from a point: a = F/M - w2 x, with 1/M the block's velocity per unit impulse
@@ -94,8 +97,11 @@ class GlobalErrorEstimate:
         answers give only roughly would otherwise let it grow without bound, as would a
         friction whose slope is negative)."""
         ex, ev = (self.ex, 0.0) if stuck_through else self._flow(h, damping)
-        self.ex = _saturated(ex + local_x, x_scale)
-        self.ev = 0.0 if stuck else _saturated(ev + local_v, v_scale)
+        ex, ev = ex + local_x, ev + local_v
+        self.ex = _saturated(ex, x_scale)
+        self.ev = 0.0 if stuck else _saturated(ev, v_scale)
+        if self.ex != ex or (not stuck and self.ev != ev):
+            self.saturated = True
         return self.ev
 
     def _flow(self, h: float, c: float) -> tuple[float, float]:
