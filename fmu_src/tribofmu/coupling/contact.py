@@ -11,9 +11,11 @@ in none yet (as Modelica's ``PartialFriction`` starts ``Unknown``):
 
 One step (:class:`ImplicitStep`) first *classifies* the step from the friction at +-delta
 (or from the slip it predicts), then runs the solver of that mode (coupling/solvers.py): the
-slip root, the stick force, or the stick ramp. The block's answers are modelled where they can
-be (coupling/blocks.py's BlockResponse, the step's own; the last steps' slope and Jacobian come
-in from the coupling's ReuseCache). A ramped step (the force ramping over the step) that meets
+slip root, the stick force, or the stick ramp. The block's answers are predicted by its learned
+model where the coupling has one (coupling/blocks.py's BlockPrediction: the block then steps
+once, at the answer, which checks the prediction; a miss is the outcome RETRY_UNPREDICTED, and
+the caller solves the step again without it), else modelled where they can be (BlockResponse,
+the step's own; the last steps' slope and Jacobian come in from the coupling's ReuseCache). A ramped step (the force ramping over the step) that meets
 stiffness, a stick or a reversal ends in the explicit outcome :data:`RETRY_HELD`: the caller
 rolls back and solves the step again with the force held. The step reports what it measured
 (:class:`StepReport`: loop gain, the block's velocity per unit impulse, evaluations) instead
@@ -26,10 +28,10 @@ stuck and the force is the one that keeps dv = 0.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from . import solvers
-from .blocks import BlockAnswer, BlockResponse, BlockSlope, StickJacobian
+from .blocks import BlockAnswer, BlockModel, BlockPrediction, BlockResponse, BlockSlope, StickJacobian
 from .evaluations import BlockSide, FrictionSide
 from .interpolation import NS
 from .settings import SETTINGS, CouplingSettings
@@ -53,6 +55,18 @@ RETRY_HELD_STIFF = RetryHeld("the loop is too stiff to ramp the force")
 RETRY_HELD_TRANSITION = RetryHeld("the contact sticks or reverses inside the step")
 
 
+@dataclass(frozen=True)
+class RetryUnpredicted:
+    """The outcome of a step whose block answers were predicted (blocks.BlockPrediction) and
+    whose real block step disagreed: the caller rolls back and solves it again, the same way,
+    with the block's answers real."""
+
+    why: str = "the block's real step disagreed with its prediction"
+
+
+RETRY_UNPREDICTED = RetryUnpredicted()
+
+
 @dataclass
 class StepReport:
     """What one step measured, for the algorithm to keep or drop (a rolled-back step's
@@ -65,6 +79,9 @@ class StepReport:
     bounds: tuple[float, float] | None = None  # [N] the friction's force range at dv = 0 (stuck steps)
     block_slope: BlockSlope | None = None  # measured from two real block steps of one family
     stick_jacobian: StickJacobian | None = None  # measured by a stick ramp
+    # [N, m, m/s^2] (F_end, x, a) of every real block step (blocks.BlockIdentification's data)
+    block_answers: list = field(default_factory=list)
+    predicted: bool = False  # the block's answers were predicted and the real step agreed
 
 
 @dataclass(frozen=True)
@@ -91,7 +108,8 @@ class ImplicitStep:
 
     def __init__(self, settings: StepSettings, system: CoupledSystem, point: Point, saved: States,
                  h_ns: int, drive: tuple[float, float, float], ramp: bool,
-                 block_slope: BlockSlope | None = None, stick_jacobian: StickJacobian | None = None):
+                 block_slope: BlockSlope | None = None, stick_jacobian: StickJacobian | None = None,
+                 block_model: BlockModel | None = None):
         self.settings, self.point = settings, point
         self.previous = Contact(point.mode)
         self.h_ns, t, self.h = h_ns, point.t_ns / NS, h_ns / NS
@@ -102,7 +120,9 @@ class ImplicitStep:
         self.friction = FrictionSide(system, [v for v in saved.handles.values() if v[0] is system.friction], t,
                                      self.h)
         # the block, its real answers under one family of forces and the affine model through them
-        response = BlockResponse(h_ns, ramp, block_slope, settings.tuning.same_force_rtol)
+        # (with the block's learned model, its answers are predicted and the last one stepped)
+        prediction = BlockPrediction(block_model, point.x, point.v, self.h) if block_model is not None else None
+        response = BlockResponse(h_ns, ramp, block_slope, settings.tuning.same_force_rtol, prediction)
         self.block = BlockSide(system, [v for v in saved.handles.values() if v[0] is system.block], t, self.h,
                                self.V, point.F, ramp, response, self.report)
         # the last stick ramp's, where it was of this length (exact for a linear block)
@@ -114,6 +134,23 @@ class ImplicitStep:
         """The block really stepped under the end force F; False where its model had missed
         (by more than settings.tuning.model_miss_tolerance root tolerances)."""
         return self.block.real_at(F, self.settings.tuning.model_miss_tolerance * self.root_tol)
+
+    def stuck_real_at(self, event: float) -> bool:
+        """:meth:`block_real_at` the stuck step's force (its stick ramp or stick force); a stick
+        ramp solved on the block's predicted answers (stuck all through: event 1) must also
+        leave the real block on the drive's path, to the ramp's own tolerance (else the
+        prediction missed: False, ``prediction_missed``)."""
+        response = self.block.response
+        predicted = self.block.last is response.last_predicted
+        if not self.block_real_at(self.block.last.F_end):
+            return False
+        if not predicted or self.previous != Contact.STUCK or event < 1.0:
+            return True
+        target = self.point.x + self.X - self.point.X
+        if abs(self.block.real.x - target) <= self.settings.tuning.stick_ramp_position_tol * self.settings.position_scale:
+            return True
+        response.prediction, response.prediction_missed = None, True
+        return False
 
     def loop(self, dv: float) -> float:
         """H(dv): how far the block's answer is from the assumed dv."""
@@ -141,15 +178,19 @@ class ImplicitStep:
         return probe.dv - side * self.delta
 
     # -- the machine ----------------------------------------------------------------------
-    def solve(self) -> Point | RetryHeld:
-        """The new point, or RETRY_HELD where a ramped step turns out stuck, reversing or stiff."""
+    def solve(self) -> Point | RetryHeld | RetryUnpredicted:
+        """The new point, or RETRY_HELD where a ramped step turns out stuck, reversing or stiff,
+        or RETRY_UNPREDICTED where the block's real step disagreed with its prediction."""
         classified = self.classify()
         if isinstance(classified, RetryHeld):
             return classified
         mode, slip, event = classified
+        response = self.block.response
         if mode == Contact.STUCK:
             event = self.solve_stuck(event)
-            if not self.block_real_at(self.block.last.F_end):
+            if not self.stuck_real_at(event):
+                if response.prediction_missed:
+                    return RETRY_UNPREDICTED
                 event = self.solve_stuck(event)  # again, every iterate stepped
                 self.block_real_at(self.block.last.F_end)
             self.friction.step(0.0)
@@ -163,11 +204,19 @@ class ImplicitStep:
             if stepped is None or stepped.dv != dv:  # (else the stepped trials settled it there)
                 dv = self.settle(dv, gain, mode)
             if not self.block_real_at(self.friction.last.F):
+                if response.prediction_missed:
+                    return RETRY_UNPREDICTED
                 dv = self.settle(dv, gain, mode)  # again, every iterate stepped
                 self.block_real_at(self.friction.last.F)
             _, F, f, F_mean = self.friction.last
         ramped = self.block.ramp
         self.report.block_slope = self.block.response.measured_slope(ramped)
+        if response.prediction is not None:
+            # one real step, no secant of two: the learned 1/M (a secant of two held steps
+            # measured sin(w h)/(w h M), of two ramped 2 (1 - cos(w h))/(w h)^2 M, of a stick
+            # ramp's a mix: 1/M as h -> 0, what its readers take it for)
+            self.report.predicted = True
+            self.report.velocity_per_impulse = response.prediction.model.inv_M
         F, x, v, a, F0, F_rate = self.block.last
         return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
                      F_rate=F_rate, mode=mode, event=event, ramped=ramped, F_mean=F_mean)
@@ -220,7 +269,8 @@ class ImplicitStep:
                     event = reach if 0.0 < reach < 1.0 else 1.0
                 return Contact(int(side)), self.slip_root(side * delta, h_side, side), event
             if self.block.ramp:
-                if not all(sample.rate == 0.0 for sample in self.block.response.samples):
+                response = self.block.response
+                if response.ramp_moved or not all(sample.rate == 0.0 for sample in response.samples):
                     return RETRY_HELD_TRANSITION
                 # The ramp's rate was 0 in every real step so far (a force that did not move,
                 # as dry friction's in slip): they are the held step's own, so the solve goes
@@ -315,8 +365,9 @@ class ImplicitStep:
         step at which the ramp leaves the friction's bounds (1: stuck throughout)."""
         pos, neg = self.probes[1.0], self.probes[-1.0]
         jacobian, tuning = self.stick_jacobian, self.settings.tuning
-        start_at_pos = jacobian is not None and self.block.real.F_end == pos.F
-        outcome = solvers.stick_ramp(self.block.at, pos, neg, self.h, self.h_ns, self.point.x + self.X - self.point.X,
+        real = self.block.real
+        start_at_pos = jacobian is not None and real is not None and real.F_end == pos.F
+        outcome = solvers.stick_ramp(self.block.ramp_at, pos, neg, self.h, self.h_ns, self.point.x + self.X - self.point.X,
                                      jacobian, start_at_pos, delta=self.delta,
                                      position_tol=tuning.stick_ramp_position_tol * self.settings.position_scale,
                                      iterations=tuning.stick_ramp_iterations)
@@ -327,10 +378,13 @@ class ImplicitStep:
 
 def solve_step(settings: StepSettings, system: CoupledSystem, point: Point, saved: States, h_ns: int,
                drive: tuple[float, float, float], ramp: bool, block_slope: BlockSlope | None = None,
-               stick_jacobian: StickJacobian | None = None) -> tuple[Point | RetryHeld, StepReport]:
+               stick_jacobian: StickJacobian | None = None, block_model: BlockModel | None = None
+               ) -> tuple[Point | RetryHeld | RetryUnpredicted, StepReport]:
     """One implicit step from ``point`` over ``h_ns`` [ns] (the drive already at its end,
     ``drive`` = X, V, aX; the block and friction saved in ``saved``): the new point (every
-    slave standing there) or RETRY_HELD, and what the step measured. ``block_slope`` and
-    ``stick_jacobian``: the last steps' (blocks.ReuseCache), to save real block steps."""
-    step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, block_slope, stick_jacobian)
+    slave standing there), RETRY_HELD or RETRY_UNPREDICTED, and what the step measured.
+    ``block_slope``, ``stick_jacobian`` and ``block_model``: the last steps' (blocks.ReuseCache),
+    to save real block steps (with a model, the block steps once, at the answer)."""
+    step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, block_slope, stick_jacobian,
+                        block_model)
     return step.solve(), step.report

@@ -94,7 +94,18 @@ class BlockSide:
             if d_impulse != 0.0 and v != last.v:
                 self.report.velocity_per_impulse = abs((v - last.v) / d_impulse)
         self.last = self.real = BlockAnswer(F0 + rate * h, x, v, a, F0, rate)
+        self.report.block_answers.append((F0 + rate * h, x, a))  # (what identifies the block)
         return self.V - v, x
+
+    def ramp_at(self, F0: float, rate: float) -> tuple[float, float]:
+        """The block's relative velocity and position after the step under F0 + rate s: the
+        prediction's where there is one (no step; :meth:`real_at` checks the last), else a real
+        step (:meth:`at`)."""
+        prediction = self.response.prediction
+        if prediction is None:
+            return self.at(F0, rate)
+        self.last = self.response.last_predicted = prediction.answer(F0, rate, F0 + rate * self.h)
+        return self.V - self.last.v, self.last.x
 
     def under(self, F: float, real: bool = False) -> float:
         """The block's relative velocity after the step whose force ends at F: modelled from
@@ -116,15 +127,24 @@ class BlockSide:
         """Leave the block really stepped under the end force F (if its latest answer was
         modelled, or under another force); False if the model had missed the real answer by
         more than miss_tolerance [m/s] (the model is then switched off)."""
-        real, last = self.real, self.last
+        real, last, response = self.real, self.last, self.response
         if real is not None and real.F_end == F and last is real:
             return True
         modelled = last if last is not None and last.F_end == F else None
-        seeded = modelled is not None and self.response.last_seeded
-        self.under(F, real=True)
+        seeded = modelled is not None and response.last_seeded
+        predicted = modelled is not None and modelled is response.last_predicted
+        if predicted:  # (the force program it predicted for: a stick ramp's is of no family)
+            self.at(modelled.F0, modelled.rate)
+            self.last = self.real = self.real._replace(F_end=F)
+            response.samples.append(self.real)
+        else:
+            self.under(F, real=True)
         if modelled is not None and abs(modelled.v - self.real.v) > miss_tolerance:
-            # a seeded model is off by its slope's scaling: the two real answers model exactly
-            # from here; a model from two real answers that misses: the block is not affine
-            self.response.affine = seeded
+            if predicted:  # the learned block is not this block (the step is solved again without it)
+                response.prediction, response.prediction_missed = None, True
+            else:
+                # a seeded model is off by its slope's scaling: the two real answers model exactly
+                # from here; a model from two real answers that misses: the block is not affine
+                response.affine = seeded
             return False
         return True

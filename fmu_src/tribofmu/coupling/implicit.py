@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass, fields
 
 from .base import Counters, CouplingAlgorithm, Scales
 from .blocks import ReuseCache
-from .contact import RetryHeld, StepSettings, slip_mode, solve_step
+from .contact import RetryHeld, RetryUnpredicted, StepSettings, slip_mode, solve_step
 from .interpolation import NS
 from .settings import SETTINGS
 from .system import Contact, CoupledSystem, Point, States
@@ -88,17 +88,27 @@ class ImplicitCoupling(CouplingAlgorithm):
         self.counters = Counters(**state["counters"])
         self.reuse = ReuseCache.from_export(state)
 
-    def _solve(self, system, point, saved, h_ns, drive, ramp) -> Point | RetryHeld:
-        """One ImplicitStep; keeps what it measured (the loop gain, the block's response)."""
+    def _solve(self, system, point, saved, h_ns, drive, ramp, predict: bool = True) -> Point | RetryHeld:
+        """One ImplicitStep; keeps what it measured (the loop gain, the block's response).
+        predict: the block's answers may be predicted by its learned model (blocks.BlockModel)."""
         h = h_ns / NS
         tuning = self.settings
         settings = StepSettings(self.expected_gain(h), self.root_tolerance(), tuning.zero_velocity * self.scales.velocity,
                                 self.scales.position, stepped_trials=tuning.stepped_trials and self.stick_bounds is None,
                                 tuning=tuning)
         reuse = self.reuse
+        model = reuse.block.model() if predict else None
         new, report = solve_step(settings, system, point, saved, h_ns, drive, ramp, reuse.block_slopes.get(ramp),
-                                 reuse.stick_jacobian)
+                                 reuse.stick_jacobian, model)
         self.counters.iterations += report.iterations
+        for answer in report.block_answers:
+            reuse.block.observe(*answer)
+        if isinstance(new, RetryUnpredicted):
+            # the learned block missed its real step: forget it, and solve the step as if there
+            # were none (its measurements, made on the prediction, are dropped)
+            reuse.block.forget()
+            system.restore(saved)
+            return self._solve(system, point, saved, h_ns, drive, ramp, predict=False)
         self.counters.stick_steps += report.stuck and not isinstance(new, RetryHeld)
         if report.loop_gain is not None:
             self.loop_gain, self.loop_gain_step = report.loop_gain, h
