@@ -172,11 +172,28 @@ class ReuseCache:
     block_slopes: dict[bool, BlockSlope] = field(default_factory=dict)
     stick_jacobian: StickJacobian | None = None
     block: BlockIdentification = field(default_factory=BlockIdentification)
+    # (t_ns, contact mode, d(dv)/dt [m/s^2]) at the last two points steps started from
+    slopes: list[tuple[int, int, float]] = field(default_factory=list)
+
+    def dv_curvature(self, t_ns: int, mode: int, dv_slope: float) -> float | None:
+        """d^2(dv)/dt^2 [m/s^3] over the last step, which ended at t_ns [ns] in ``mode`` with
+        d(dv)/dt = dv_slope [m/s^2] there (the point the next step starts from; a try again
+        from it keeps what it has); None where that step started in another mode, or no step
+        is known (the first step, or a run continued from an earlier point)."""
+        slopes = self.slopes
+        if slopes and slopes[-1][0] > t_ns:
+            slopes.clear()
+        if not slopes or slopes[-1][0] != t_ns:
+            self.slopes = slopes = slopes[-1:] + [(t_ns, mode, dv_slope)]
+        if len(slopes) < 2 or slopes[0][1] != mode:
+            return None
+        return (dv_slope - slopes[0][2]) / ((t_ns - slopes[0][0]) / 1e9)
 
     def export(self) -> dict:
         return {"block_slopes": [list(slope) for slope in self.block_slopes.values()],
                 "stick_jacobian": list(self.stick_jacobian) if self.stick_jacobian is not None else None,
-                "block_answers": [list(answer) for answer in self.block.answers]}
+                "block_answers": [list(answer) for answer in self.block.answers],
+                "slopes": [list(slope) for slope in self.slopes]}
 
     @classmethod
     def from_export(cls, state: dict) -> "ReuseCache":
@@ -185,7 +202,8 @@ class ReuseCache:
         # (a state exported before the block was identified has none: it is learned again)
         answers = [tuple(answer) for answer in state.get("block_answers", [])]
         return cls({slope.ramp: slope for slope in slopes},
-                   StickJacobian(*jacobian) if jacobian is not None else None, BlockIdentification(answers))
+                   StickJacobian(*jacobian) if jacobian is not None else None, BlockIdentification(answers),
+                   [tuple(slope) for slope in state.get("slopes", [])])
 
 
 class BlockResponse:

@@ -21,12 +21,38 @@ class FrictionAnswer(NamedTuple):
     F_mean: float | None
 
 
+class KnownTrials:
+    """The friction's trial answers at the probes' relative velocities (+-delta: its force
+    bounds at rest), kept from step to step while the friction stands where they were read:
+    the same normal stress n and temperature T in, the same state f out. A trial reads the
+    friction's output at its state (no step), and the friction's force at a given dv is a
+    function of n, T and its state f (the Friction FMU's contract, models/Friction.py: F =
+    law.force(dv, n, f)): the same trial gives the same answer, to the last bit, so a step
+    that finds it here reads it from here (dry friction's stuck steps: both probes). Nothing
+    of the run's state: a run without it gives the same answers."""
+
+    def __init__(self):
+        self.where: tuple | None = None  # (n [Pa], T [K], f [1]) the answers were read at
+        self.answers: dict[float, tuple[float, float]] = {}  # dv [m/s] -> (F [N], f [1])
+
+    def at(self, where: tuple) -> dict[float, tuple[float, float]]:
+        """The answers read where the friction stands now (``where`` = (n, T, f)): kept while
+        it stays there, a fresh (empty) table from a step that moved it (a NaN never matches)."""
+        if where != self.where:
+            self.where, self.answers = where, {}
+        return self.answers
+
+
 class FrictionSide:
     """The friction over the step from t over h [s]; ``saved``: its (slave, state handle) pairs
-    at the step's start."""
+    at the step's start; ``known``: trial answers (dv -> F, f) at its start state read before
+    (:class:`KnownTrials`), where the step may reuse and add those at the velocities
+    ``remembered`` (the probes')."""
 
-    def __init__(self, system: CoupledSystem, saved: list, t: float, h: float):
+    def __init__(self, system: CoupledSystem, saved: list, t: float, h: float,
+                 known: dict[float, tuple[float, float]] | None = None, remembered: tuple[float, ...] = ()):
         self.system, self.saved, self.t, self.h = system, saved, t, h
+        self.known, self.remembered = known, remembered
         self.last: FrictionAnswer | None = None  # its latest answer
         # its latest step's answer (its state is at the step's end); None: not stepped since
         # the step's start
@@ -36,9 +62,15 @@ class FrictionSide:
     def at(self, dv: float) -> tuple[float, float]:
         """A trial: F [N], f [1] at the relative velocity dv [m/s] with the friction's state
         where it stands (its output's direct feedthrough; no step)."""
-        F, f = self.system.friction_outputs(dv)
+        known = self.known if self.stepped is None else None  # (at the start state only)
+        if known is not None and dv in known:
+            F, f = known[dv]  # (read at this state before: no call; the input stays as it is)
+        else:
+            F, f = self.system.friction_outputs(dv)
+            self.input = dv
+            if known is not None and dv in self.remembered:
+                known[dv] = (F, f)
         self.last = FrictionAnswer(dv, F, f, None)
-        self.input = dv
         return F, f
 
     def step(self, dv: float) -> None:

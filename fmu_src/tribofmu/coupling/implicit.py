@@ -4,11 +4,12 @@ force the block felt and the friction at the resulting relative velocity agree (
 response) and its exported state."""
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 
 from .base import Counters, CouplingAlgorithm, Scales
 from .blocks import ReuseCache
 from .contact import RetryHeld, RetryUnpredicted, StepSettings, slip_mode, solve_step
+from .evaluations import KnownTrials
 from .interpolation import NS
 from .settings import SETTINGS
 from .system import Contact, CoupledSystem, Point, States
@@ -47,8 +48,10 @@ class ImplicitCoupling(CouplingAlgorithm):
     def __init__(self, step=None, tol=None):
         super().__init__(step, tol)
         self.set_carried(self.carried())
-        # the solves' own measurements that save the next steps FMU calls (blocks.ReuseCache)
+        # the solves' own measurements that save the next steps FMU calls (blocks.ReuseCache),
+        # and the friction's probe trials, read again only where it moved (evaluations.KnownTrials)
         self.reuse = ReuseCache()
+        self.trials = KnownTrials()
 
     def expected_gain(self, h: float) -> float:
         """The loop gain a slip step of h [s] should meet: the last one's, scaled by the
@@ -97,9 +100,11 @@ class ImplicitCoupling(CouplingAlgorithm):
                                 self.scales.position, stepped_trials=tuning.stepped_trials and self.stick_bounds is None,
                                 tuning=tuning)
         reuse = self.reuse
+        settings = replace(settings, dv_curvature=reuse.dv_curvature(point.t_ns, int(point.mode), point.aX - point.a))
         model = reuse.block.model() if predict else None
+        known = self.trials.at((system.friction_n, point.T, point.f))  # (where the friction stands)
         new, report = solve_step(settings, system, point, saved, h_ns, drive, ramp, reuse.block_slopes.get(ramp),
-                                 reuse.stick_jacobian, model)
+                                 reuse.stick_jacobian, model, known)
         self.counters.iterations += report.iterations
         for answer in report.block_answers:
             reuse.block.observe(*answer)

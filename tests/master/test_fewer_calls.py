@@ -1,0 +1,71 @@
+"""What saves the friction's calls (coupling/evaluations.py KnownTrials, the slip's predicted dv in
+coupling/contact.py) through the step's contract: the same answer, fewer calls. Rigs as in
+test_contact.py (fakes: in-process parts, exact closed forms)."""
+from dataclasses import replace
+
+import pytest
+
+from tribofmu.coupling.blocks import BlockModel, ReuseCache
+from tribofmu.coupling.evaluations import KnownTrials
+from tribofmu.coupling.system import Contact
+from tribofmu.physics import FluidLaw
+
+from fakes import DRY_LAW, call_log, point_at, rig, settings, solve
+
+
+def stuck_rig():
+    K, x0, V0 = 2000.0, 1e-3, 0.05
+    system = rig(DRY_LAW, M=1.0, K=K, x0=x0, v0=V0, V0=V0)
+    return system, point_at(system, Contact.STUCK, 2 * K * x0, F_rate=2 * K * V0)
+
+
+def test_a_stuck_step_where_the_friction_stood_before_reads_no_probe_again():
+    """Dry friction stuck twice from where it stood (same n, T and state f): the second step
+    takes its force bounds at +-delta from the first's trials, and steps the friction once
+    (set, doStep, get) to the same answer; a step at another normal stress reads them again."""
+    trials = KnownTrials()
+    answers, logs = [], []
+    for where in ((-20.0, 290.0, 0.0), (-20.0, 290.0, 0.0), (-30.0, 290.0, 0.0)):
+        system, start = stuck_rig()
+        log = call_log(system.friction)
+        new, report = solve(system, start, 1e-3, block_model=BlockModel(1.0, 4000.0), known_trials=trials.at(where))
+        answers.append((new.x, new.v, new.F, new.F_rate, report.bounds))
+        logs.append([kind for kind in log if kind != "save"])  # (the test's own save of the start)
+    first, again, elsewhere = logs
+    assert first.count("get") == 3 and again == ["set", "doStep", "get"] and elsewhere == first
+    assert answers[1] == answers[0]
+
+
+def test_the_slip_s_predicted_dv_follows_its_curvature_into_one_friction_step():
+    """A free mass dragged through F = m dv by a drive at constant speed: dv relaxes as
+    exp(-m t / M), its slope -m dv / M and curvature (m/M)^2 dv at the start. A ramped step
+    whose dv is extrapolated along both lands within the root's tolerance of the root at its
+    first friction step (before: along the slope alone, a second step); with no loop gain known
+    it still starts there (before: trials at +-delta and the root's bracket)."""
+    m, M, dv0, h, root_tol = 50.0, 1.0, 0.1, 1e-3, 1e-5
+    counts, roots = {}, {}
+    for gain in (0.0, h * m / M):
+        for curvature in (None, (m / M) ** 2 * dv0):
+            system = rig(FluidLaw(m=m, gamma=0.0), M=M, v0=0.0, V0=dv0)
+            start = point_at(system, Contact.FORWARD, m * dv0)
+            log = call_log(system.friction)
+            step = replace(settings(gain, root_tol=root_tol), stepped_trials=True, dv_curvature=curvature)
+            new, _ = solve(system, start, h, ramp=True, step_settings=step, block_model=BlockModel(1.0 / M, 0.0))
+            assert new.ramped and new.mode == Contact.FORWARD
+            counts[gain, curvature is not None] = log.count("doStep"), log.count("get")
+            roots[gain, curvature is not None] = new.dv
+    assert counts[0.0, True] == counts[h * m / M, True] == (1, 1)
+    assert counts[h * m / M, False][0] == counts[0.0, False][0] == 2
+    assert max(roots.values()) - min(roots.values()) <= 2 * root_tol
+
+
+def test_the_curvature_is_the_slope_s_change_over_the_last_step_of_one_mode():
+    """d^2(dv)/dt^2 from the slopes at the last two points steps started from: none for the
+    first, none across a change of mode, and a try again from the same point keeps it."""
+    cache = ReuseCache()
+    assert cache.dv_curvature(0, 1, -5.0) is None
+    assert cache.dv_curvature(1_000_000, 1, -4.0) == pytest.approx(1000.0)
+    assert cache.dv_curvature(1_000_000, 1, -4.0) == pytest.approx(1000.0)  # (the same point again)
+    assert cache.dv_curvature(1_500_000, 0, 0.0) is None  # (it stuck)
+    assert cache.dv_curvature(2_000_000, 1, 1.0) is None  # (a slip again, from a stuck point)
+    assert cache.dv_curvature(500_000, 1, 1.0) is None  # (continued from an earlier point)
