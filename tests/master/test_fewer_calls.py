@@ -49,7 +49,8 @@ def test_the_slip_s_predicted_dv_follows_its_curvature_into_one_friction_step():
             system = rig(FluidLaw(m=m, gamma=0.0), M=M, v0=0.0, V0=dv0)
             start = point_at(system, Contact.FORWARD, m * dv0)
             log = call_log(system.friction)
-            step = replace(settings(gain, root_tol=root_tol), stepped_trials=True, dv_curvature=curvature)
+            step = replace(settings(gain, root_tol=root_tol), stepped_trials=True,
+                           dv_slope_fit=None if curvature is None else (curvature, 0.0))
             new, _ = solve(system, start, h, ramp=True, step_settings=step, block_model=BlockModel(1.0 / M, 0.0))
             assert new.ramped and new.mode == Contact.FORWARD
             counts[gain, curvature is not None] = log.count("doStep"), log.count("get")
@@ -59,13 +60,15 @@ def test_the_slip_s_predicted_dv_follows_its_curvature_into_one_friction_step():
     assert max(roots.values()) - min(roots.values()) <= 2 * root_tol
 
 
-def test_the_curvature_is_the_slope_s_change_over_the_last_step_of_one_mode():
-    """d^2(dv)/dt^2 from the slopes at the last two points steps started from: none for the
-    first, none across a change of mode, and a try again from the same point keeps it."""
+def test_the_slope_s_course_is_fitted_through_the_last_points_of_one_mode():
+    """d(dv)/dt's course s(t) = s0 + c1 t + c2 t^2 through the slopes at the last three points
+    steps started from (here s = -5 + 1000 t + 2e5 t^2 [t in s]): a line through two, none for
+    the first, none across a change of mode, and a try again from the same point keeps it."""
     cache = ReuseCache()
-    assert cache.dv_curvature(0, 1, -5.0) is None
-    assert cache.dv_curvature(1_000_000, 1, -4.0) == pytest.approx(1000.0)
-    assert cache.dv_curvature(1_000_000, 1, -4.0) == pytest.approx(1000.0)  # (the same point again)
-    assert cache.dv_curvature(1_500_000, 0, 0.0) is None  # (it stuck)
-    assert cache.dv_curvature(2_000_000, 1, 1.0) is None  # (a slip again, from a stuck point)
-    assert cache.dv_curvature(500_000, 1, 1.0) is None  # (continued from an earlier point)
+    assert cache.slope_fit(0, 1, -5.0) is None
+    assert cache.slope_fit(1_000_000, 1, -3.8) == pytest.approx((1200.0, 0.0))
+    assert cache.slope_fit(2_000_000, 1, -2.2) == pytest.approx((1800.0, 2e5))
+    assert cache.slope_fit(2_000_000, 1, -2.2) == pytest.approx((1800.0, 2e5))  # (the same point again)
+    assert cache.slope_fit(2_500_000, 0, 0.0) is None  # (it stuck)
+    assert cache.slope_fit(3_000_000, 1, 1.0) is None  # (a slip again, from a stuck point)
+    assert cache.slope_fit(500_000, 1, 1.0) is None  # (continued from an earlier point)

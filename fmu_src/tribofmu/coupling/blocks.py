@@ -172,22 +172,32 @@ class ReuseCache:
     block_slopes: dict[bool, BlockSlope] = field(default_factory=dict)
     stick_jacobian: StickJacobian | None = None
     block: BlockIdentification = field(default_factory=BlockIdentification)
-    # (t_ns, contact mode, d(dv)/dt [m/s^2]) at the last two points steps started from
+    # (t_ns, contact mode, d(dv)/dt [m/s^2]) at the last three points steps started from
     slopes: list[tuple[int, int, float]] = field(default_factory=list)
 
-    def dv_curvature(self, t_ns: int, mode: int, dv_slope: float) -> float | None:
-        """d^2(dv)/dt^2 [m/s^3] over the last step, which ended at t_ns [ns] in ``mode`` with
-        d(dv)/dt = dv_slope [m/s^2] there (the point the next step starts from; a try again
-        from it keeps what it has); None where that step started in another mode, or no step
-        is known (the first step, or a run continued from an earlier point)."""
+    def slope_fit(self, t_ns: int, mode: int, dv_slope: float) -> tuple[float, float] | None:
+        """How d(dv)/dt went on over the last steps, for the next step's predicted dv: (c1 [m/s^3],
+        c2 [m/s^4]) of the slope s(t) = dv_slope + c1 t + c2 t^2 (t from t_ns) through the
+        slopes at the last three points steps started from (two: c2 = 0), the latest at t_ns
+        [ns] in ``mode`` (the point the next step starts from; a try again from it keeps what
+        it has). Only points of that mode count; None where none went before (the first step,
+        after a change of mode, or a run continued from an earlier point)."""
         slopes = self.slopes
         if slopes and slopes[-1][0] > t_ns:
             slopes.clear()
         if not slopes or slopes[-1][0] != t_ns:
-            self.slopes = slopes = slopes[-1:] + [(t_ns, mode, dv_slope)]
-        if len(slopes) < 2 or slopes[0][1] != mode:
-            return None
-        return (dv_slope - slopes[0][2]) / ((t_ns - slopes[0][0]) / 1e9)
+            self.slopes = slopes = slopes[-2:] + [(t_ns, mode, dv_slope)]
+        before = [(t / 1e9 - t_ns / 1e9, s) for t, m, s in slopes[:-1] if m == mode]
+        if len(before) == 2 and all(m == mode for _, m, _ in slopes):
+            (t1, s1), (t2, s2) = before
+            det = t1 * t2 * (t2 - t1)
+            if det != 0.0:  # (s - dv_slope) = c1 t + c2 t^2 through both
+                d1, d2 = s1 - dv_slope, s2 - dv_slope
+                return (d1 * t2 * t2 - d2 * t1 * t1) / det, (d2 * t1 - d1 * t2) / det
+        if before and slopes[-2][1] == mode:
+            t1, s1 = before[-1]
+            return (s1 - dv_slope) / t1, 0.0
+        return None
 
     def export(self) -> dict:
         return {"block_slopes": [list(slope) for slope in self.block_slopes.values()],

@@ -92,8 +92,9 @@ class StepSettings:
     ``stepped_trials``: a slip going on is sought with the friction stepped from its first
     trial (:meth:`ImplicitStep.stepped_slip`), for a law that has not stuck; ``tuning``: the
     coupling's constants (max_ramp_gain above which a ramp would ring, max_iterations of any
-    iteration, the solvers' own); ``dv_curvature`` [m/s^3]: d^2(dv)/dt^2 over the last step,
-    slipping the same way (None: unknown), for the slip's predicted dv."""
+    iteration, the solvers' own); ``dv_slope_fit``: (c1 [m/s^3], c2 [m/s^4]) of d(dv)/dt's
+    course s(t) = s(0) + c1 t + c2 t^2 over the last steps slipping the same way (None:
+    unknown), for the slip's predicted dv (blocks.ReuseCache.slope_fit)."""
 
     expected_gain: float
     root_tol: float
@@ -101,7 +102,7 @@ class StepSettings:
     position_scale: float
     stepped_trials: bool = False
     tuning: CouplingSettings = SETTINGS  # (coupling/settings.py)
-    dv_curvature: float | None = None
+    dv_slope_fit: tuple[float, float] | None = None
 
 
 class ImplicitStep:
@@ -315,13 +316,13 @@ class ImplicitStep:
         +-delta, which saves the probe and keeps trial velocities near the answer (a trial
         far beyond it can melt the lubricant: costly, and a detour for the root finder).
         Returns (dv, gain), or None where the prediction does not show slip on this side."""
-        point, delta, curvature = self.point, self.delta, self.settings.dv_curvature
-        if self.block.ramp and curvature is not None:
+        point, delta, fit, h = self.point, self.delta, self.settings.dv_slope_fit, self.h
+        if self.block.ramp and fit is not None:
             # A ramped step (the trapezoidal rule) follows the coupled motion to O(h^3): its
-            # dv extrapolated along the last step's slope and curvature. (On fig6 that guess
-            # was within the root's tolerance in 39 % of its steps, the one below in 16 %:
-            # one friction step instead of two.)
-            guess = point.dv + (point.aX - point.a) * self.h + 0.5 * curvature * self.h * self.h
+            # dv extrapolated along the slope's course over the last steps. (On fig6 that
+            # guess was within the root's tolerance in 54 % of its steps, 34 % along the last
+            # step's curvature alone, 16 % with the one below: one friction step, not two.)
+            guess = point.dv + (point.aX - point.a + fit[0] * h / 2.0 + fit[1] * h * h / 3.0) * h
         else:
             # dv moves with the drive's acceleration less the block's; the loop's own answer
             # pulls it back by 1/(1 + gain) (a stiff loop hardly lets dv change).

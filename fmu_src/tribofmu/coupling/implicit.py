@@ -100,7 +100,7 @@ class ImplicitCoupling(CouplingAlgorithm):
                                 self.scales.position, stepped_trials=tuning.stepped_trials and self.stick_bounds is None,
                                 tuning=tuning)
         reuse = self.reuse
-        settings = replace(settings, dv_curvature=reuse.dv_curvature(point.t_ns, int(point.mode), point.aX - point.a))
+        settings = replace(settings, dv_slope_fit=reuse.slope_fit(point.t_ns, int(point.mode), point.aX - point.a))
         model = reuse.block.model() if predict else None
         known = self.trials.at((system.friction_n, point.T, point.f))  # (where the friction stands)
         new, report = solve_step(settings, system, point, saved, h_ns, drive, ramp, reuse.block_slopes.get(ramp),
