@@ -40,11 +40,10 @@ def test_the_slip_s_predicted_dv_follows_its_curvature_into_one_friction_step():
     """A free mass dragged through F = m dv by a drive at constant speed: dv relaxes as
     exp(-m t / M), its slope -m dv / M and curvature (m/M)^2 dv at the start. A ramped step
     whose dv is extrapolated along both lands within the root's tolerance of the root at its
-    first friction step (before: along the slope alone, a second step); with no loop gain known
-    it still starts there (before: trials at +-delta and the root's bracket)."""
+    first friction step (before: along the slope alone, a second step)."""
     m, M, dv0, h, root_tol = 50.0, 1.0, 0.1, 1e-3, 1e-5
     counts, roots = {}, {}
-    for gain in (0.0, h * m / M):
+    for gain in (h * m / M,):
         for curvature in (None, (m / M) ** 2 * dv0):
             system = rig(FluidLaw(m=m, gamma=0.0), M=M, v0=0.0, V0=dv0)
             start = point_at(system, Contact.FORWARD, m * dv0)
@@ -55,8 +54,8 @@ def test_the_slip_s_predicted_dv_follows_its_curvature_into_one_friction_step():
             assert new.ramped and new.mode == Contact.FORWARD
             counts[gain, curvature is not None] = log.count("doStep"), log.count("get")
             roots[gain, curvature is not None] = new.dv
-    assert counts[0.0, True] == counts[h * m / M, True] == (1, 1)
-    assert counts[h * m / M, False][0] == counts[0.0, False][0] == 2
+    assert counts[h * m / M, True] == (1, 1)
+    assert counts[h * m / M, False][0] == 2
     assert max(roots.values()) - min(roots.values()) <= 2 * root_tol
 
 
