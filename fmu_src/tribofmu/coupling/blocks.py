@@ -174,36 +174,44 @@ class ReuseCache:
     block: BlockIdentification = field(default_factory=BlockIdentification)
     # (t_ns, contact mode, d(dv)/dt [m/s^2]) at the last three points steps started from
     slopes: list[tuple[int, int, float]] = field(default_factory=list)
+    # (t_ns and mode of the point a try started from, its slip root's miss of the extrapolated
+    # dv per h^3 [m/s^4]): the last try whose dv was predicted along the slope's course
+    guess_miss: tuple[int, int, float] | None = None
 
-    def slope_fit(self, t_ns: int, mode: int, dv_slope: float) -> tuple[float, float] | None:
+    def slope_fit(self, t_ns: int, mode: int, dv_slope: float) -> tuple[float, float, float] | None:
         """How d(dv)/dt went on over the last steps, for the next step's predicted dv: (c1 [m/s^3],
         c2 [m/s^4]) of the slope s(t) = dv_slope + c1 t + c2 t^2 (t from t_ns) through the
         slopes at the last three points steps started from (two: c2 = 0), the latest at t_ns
         [ns] in ``mode`` (the point the next step starts from; a try again from it keeps what
-        it has). Only points of that mode count; None where none went before (the first step,
-        after a change of mode, or a run continued from an earlier point)."""
+        it has), and the last try's miss per h^3 [m/s^4] (from this point or the one before, of
+        this mode; else 0). Only points of that mode count; None where none went before (the
+        first step, after a change of mode, or a run continued from an earlier point)."""
         slopes = self.slopes
         if slopes and slopes[-1][0] > t_ns:
             slopes.clear()
         if not slopes or slopes[-1][0] != t_ns:
             self.slopes = slopes = slopes[-2:] + [(t_ns, mode, dv_slope)]
         before = [(t / 1e9 - t_ns / 1e9, s) for t, m, s in slopes[:-1] if m == mode]
+        miss = self.guess_miss
+        recent = miss is not None and miss[1] == mode and any(miss[0] == t for t, m, _ in slopes[-2:] if m == mode)
+        rate = miss[2] if recent else 0.0
         if len(before) == 2 and all(m == mode for _, m, _ in slopes):
             (t1, s1), (t2, s2) = before
             det = t1 * t2 * (t2 - t1)
             if det != 0.0:  # (s - dv_slope) = c1 t + c2 t^2 through both
                 d1, d2 = s1 - dv_slope, s2 - dv_slope
-                return (d1 * t2 * t2 - d2 * t1 * t1) / det, (d2 * t1 - d1 * t2) / det
+                return (d1 * t2 * t2 - d2 * t1 * t1) / det, (d2 * t1 - d1 * t2) / det, rate
         if before and slopes[-2][1] == mode:
             t1, s1 = before[-1]
-            return (s1 - dv_slope) / t1, 0.0
+            return (s1 - dv_slope) / t1, 0.0, rate
         return None
 
     def export(self) -> dict:
         return {"block_slopes": [list(slope) for slope in self.block_slopes.values()],
                 "stick_jacobian": list(self.stick_jacobian) if self.stick_jacobian is not None else None,
                 "block_answers": [list(answer) for answer in self.block.answers],
-                "slopes": [list(slope) for slope in self.slopes]}
+                "slopes": [list(slope) for slope in self.slopes],
+                "guess_miss": list(self.guess_miss) if self.guess_miss is not None else None}
 
     @classmethod
     def from_export(cls, state: dict) -> "ReuseCache":
@@ -213,7 +221,8 @@ class ReuseCache:
         answers = [tuple(answer) for answer in state.get("block_answers", [])]
         return cls({slope.ramp: slope for slope in slopes},
                    StickJacobian(*jacobian) if jacobian is not None else None, BlockIdentification(answers),
-                   [tuple(slope) for slope in state.get("slopes", [])])
+                   [tuple(slope) for slope in state.get("slopes", [])],
+                   tuple(state["guess_miss"]) if state.get("guess_miss") is not None else None)
 
 
 class BlockResponse:

@@ -108,6 +108,8 @@ class ImplicitCoupling(CouplingAlgorithm):
         self.counters.iterations += report.iterations
         for answer in report.block_answers:
             reuse.block.observe(*answer)
+        if report.guess_miss is not None:
+            reuse.guess_miss = (point.t_ns, int(point.mode), report.guess_miss)
         if isinstance(new, RetryUnpredicted):
             # the learned block missed its real step: forget it, and solve the step as if there
             # were none (its measurements, made on the prediction, are dropped)
