@@ -145,10 +145,10 @@ def test_a_wrong_model_is_caught_by_the_real_step_and_the_step_solved_without_it
     assert ends[1].x == pytest.approx(ends[0].x, abs=1e-15)
 
 
-def test_the_adaptive_coupling_steps_the_block_about_once_a_try_on_fig2_s_rig():
+def test_the_adaptive_coupling_steps_the_block_about_once_a_step_on_fig2_s_rig():
     """On fig. 2's rig (stick, breakaway, slip, reversal) the learned block leaves one real
-    block step per tried step, about: the first steps learn it, a landing or rejection
-    rolls a try back (it was stepped for the try)."""
+    block step per accepted step, about (the first steps learn it): a try that is landed or
+    rejected never stepped it (its real step waits for the step to be kept)."""
     from fakes import drive_scales, fig2_system
     from tribofmu.coupling.embedded import EmbeddedCoupling
     from tribofmu.master import run
@@ -160,6 +160,6 @@ def test_the_adaptive_coupling_steps_the_block_about_once_a_try_on_fig2_s_rig():
     algorithm = EmbeddedCoupling(tol=1e-4)
     run(system, algorithm, scales.period, scales)
     counters = algorithm.counters
-    tries = counters.steps + counters.rejected + counters.landed
-    assert tries <= len(stepped) <= 1.05 * tries
+    assert counters.rejected + counters.landed > 0
+    assert counters.steps <= len(stepped) <= 1.1 * counters.steps
     assert algorithm.reuse.block.model().inv_M == pytest.approx(1 / 0.6, rel=1e-12)

@@ -29,6 +29,7 @@ stuck and the force is the one that keeps dv = 0.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 from . import solvers
 from .blocks import BlockAnswer, BlockModel, BlockPrediction, BlockResponse, BlockSlope, StickJacobian
@@ -83,6 +84,8 @@ class StepReport:
     block_answers: list = field(default_factory=list)
     predicted: bool = False  # the block's answers were predicted and the real step agreed
     guess_miss: float | None = None  # [m/s^4] the slip root's miss of its extrapolated dv, per h^3
+    # the block's real step at the answer, left to the caller (defer): commit(point) -> agreed
+    commit: Callable[[Point], bool] | None = None
 
 
 @dataclass(frozen=True)
@@ -114,7 +117,7 @@ class ImplicitStep:
     def __init__(self, settings: StepSettings, system: CoupledSystem, point: Point, saved: States,
                  h_ns: int, drive: tuple[float, float, float], ramp: bool,
                  block_slope: BlockSlope | None = None, stick_jacobian: StickJacobian | None = None,
-                 block_model: BlockModel | None = None, known_trials: dict | None = None):
+                 block_model: BlockModel | None = None, known_trials: dict | None = None, defer: bool = False):
         self.settings, self.point = settings, point
         self.previous = Contact(point.mode)
         self.h_ns, t, self.h = h_ns, point.t_ns / NS, h_ns / NS
@@ -135,12 +138,31 @@ class ImplicitStep:
         self.stick_jacobian = stick_jacobian if stick_jacobian is not None and stick_jacobian.h_ns == h_ns else None
         self.probes: dict[float, Probe] = {}  # side (+-1.0) -> the held step under the friction at side * delta
         self.extrapolated: float | None = None  # [m/s] the slip's dv along the slope's course (if predicted)
+        # the block's real step at a predicted answer is left to the caller (commit): a step
+        # the caller then rolls back (landed, rejected) never steps the block
+        self.defer = defer
 
     # -- evaluations ----------------------------------------------------------------------
     def block_real_at(self, F: float) -> bool:
         """The block really stepped under the end force F; False where its model had missed
         (by more than settings.tuning.model_miss_tolerance root tolerances)."""
         return self.block.real_at(F, self.settings.tuning.model_miss_tolerance * self.root_tol)
+
+    def defers(self) -> bool:
+        """Whether the block's real step is left to the caller: asked to, with the block's last
+        answer a prediction."""
+        return self.defer and self.block.last is self.block.response.last_predicted
+
+    def committer(self, real_at: Callable[[], bool]) -> Callable[[Point], bool]:
+        """commit(point): the block's real step at the step's answer (``real_at``), the point
+        then holding its real x, v, a; False where it disagreed with the prediction (the caller
+        rolls back and solves the step again without the block's model)."""
+        def commit(point: Point) -> bool:
+            if not real_at():
+                return False
+            point.x, point.v, point.a = self.block.real.x, self.block.real.v, self.block.real.a
+            return True
+        return commit
 
     def stuck_real_at(self, event: float) -> bool:
         """:meth:`block_real_at` the stuck step's force (its stick ramp or stick force); a stick
@@ -195,7 +217,9 @@ class ImplicitStep:
         response = self.block.response
         if mode == Contact.STUCK:
             event = self.solve_stuck(event)
-            if not self.stuck_real_at(event):
+            if self.defers():
+                self.report.commit = self.committer(lambda: self.stuck_real_at(event))
+            elif not self.stuck_real_at(event):
                 if response.prediction_missed:
                     return RETRY_UNPREDICTED
                 event = self.solve_stuck(event)  # again, every iterate stepped
@@ -210,7 +234,9 @@ class ImplicitStep:
             stepped = self.friction.stepped
             if stepped is None or stepped.dv != dv:  # (else the stepped trials settled it there)
                 dv = self.settle(dv, gain, mode)
-            if not self.block_real_at(self.friction.last.F):
+            if self.defers():
+                self.report.commit = self.committer(lambda F=self.friction.last.F: self.block_real_at(F))
+            elif not self.block_real_at(self.friction.last.F):
                 if response.prediction_missed:
                     return RETRY_UNPREDICTED
                 dv = self.settle(dv, gain, mode)  # again, every iterate stepped
@@ -404,13 +430,16 @@ class ImplicitStep:
 def solve_step(settings: StepSettings, system: CoupledSystem, point: Point, saved: States, h_ns: int,
                drive: tuple[float, float, float], ramp: bool, block_slope: BlockSlope | None = None,
                stick_jacobian: StickJacobian | None = None, block_model: BlockModel | None = None,
-               known_trials: dict | None = None) -> tuple[Point | RetryHeld | RetryUnpredicted, StepReport]:
+               known_trials: dict | None = None, defer: bool = False
+               ) -> tuple[Point | RetryHeld | RetryUnpredicted, StepReport]:
     """One implicit step from ``point`` over ``h_ns`` [ns] (the drive already at its end,
     ``drive`` = X, V, aX; the block and friction saved in ``saved``): the new point (every
     slave standing there), RETRY_HELD or RETRY_UNPREDICTED, and what the step measured.
     ``block_slope``, ``stick_jacobian`` and ``block_model``: the last steps' (blocks.ReuseCache),
     to save real block steps (with a model, the block steps once, at the answer); ``known_trials``:
-    the friction's probe answers read at its state before (evaluations.KnownTrials)."""
+    the friction's probe answers read at its state before (evaluations.KnownTrials); ``defer``:
+    a predicted block's real step is left to the report's ``commit`` (the point's x, v, a are the
+    prediction's until then)."""
     step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, block_slope, stick_jacobian,
-                        block_model, known_trials)
+                        block_model, known_trials, defer)
     return step.solve(), step.report
