@@ -192,9 +192,7 @@ class ReuseCache:
         if not slopes or slopes[-1][0] != t_ns:
             self.slopes = slopes = slopes[-2:] + [(t_ns, mode, dv_slope)]
         before = [(t / 1e9 - t_ns / 1e9, s) for t, m, s in slopes[:-1] if m == mode]
-        miss = self.guess_miss
-        recent = miss is not None and miss[1] == mode and any(miss[0] == t for t, m, _ in slopes[-2:] if m == mode)
-        rate = miss[2] if recent else 0.0
+        rate = self.miss_rate(mode)
         if len(before) == 2 and all(m == mode for _, m, _ in slopes):
             (t1, s1), (t2, s2) = before
             det = t1 * t2 * (t2 - t1)
@@ -205,6 +203,14 @@ class ReuseCache:
             t1, s1 = before[-1]
             return (s1 - dv_slope) / t1, 0.0, rate
         return None
+
+    def miss_rate(self, mode: int) -> float:
+        """The last try's miss per h^3 [m/s^4] where it started from one of the last two points
+        (this one or the one before) in ``mode``; else 0."""
+        miss = self.guess_miss
+        if miss is None or miss[1] != mode:
+            return 0.0
+        return miss[2] if any(miss[0] == t for t, m, _ in self.slopes[-2:] if m == mode) else 0.0
 
     def export(self) -> dict:
         return {"block_slopes": [list(slope) for slope in self.block_slopes.values()],

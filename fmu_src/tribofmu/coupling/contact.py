@@ -58,9 +58,8 @@ RETRY_HELD_TRANSITION = RetryHeld("the contact sticks or reverses inside the ste
 
 @dataclass(frozen=True)
 class RetryUnpredicted:
-    """The outcome of a step whose block answers were predicted (blocks.BlockPrediction) and
-    whose real block step disagreed: the caller rolls back and solves it again, the same way,
-    with the block's answers real."""
+    """The outcome of a step whose real block step disagreed with its prediction (blocks.
+    BlockPrediction): the caller rolls back and solves it again with real block answers."""
 
     why: str = "the block's real step disagreed with its prediction"
 
@@ -80,12 +79,10 @@ class StepReport:
     bounds: tuple[float, float] | None = None  # [N] the friction's force range at dv = 0 (stuck steps)
     block_slope: BlockSlope | None = None  # measured from two real block steps of one family
     stick_jacobian: StickJacobian | None = None  # measured by a stick ramp
-    # [N, m, m/s^2] (F_end, x, a) of every real block step (blocks.BlockIdentification's data)
-    block_answers: list = field(default_factory=list)
+    block_answers: list = field(default_factory=list)  # [N, m, m/s^2] (F_end, x, a) of real block steps
     predicted: bool = False  # the block's answers were predicted and the real step agreed
     guess_miss: float | None = None  # [m/s^4] the slip root's miss of its extrapolated dv, per h^3
-    # the block's real step at the answer, left to the caller (defer): commit(point) -> agreed
-    commit: Callable[[Point], bool] | None = None
+    commit: Callable[[Point], bool] | None = None  # the block's real step left to the caller (defer)
 
 
 @dataclass(frozen=True)
@@ -149,14 +146,12 @@ class ImplicitStep:
         return self.block.real_at(F, self.settings.tuning.model_miss_tolerance * self.root_tol)
 
     def defers(self) -> bool:
-        """Whether the block's real step is left to the caller: asked to, with the block's last
-        answer a prediction."""
+        """The block's real step is left to the caller (asked to; its last answer predicted)."""
         return self.defer and self.block.last is self.block.response.last_predicted
 
     def committer(self, real_at: Callable[[], bool]) -> Callable[[Point], bool]:
-        """commit(point): the block's real step at the step's answer (``real_at``), the point
-        then holding its real x, v, a; False where it disagreed with the prediction (the caller
-        rolls back and solves the step again without the block's model)."""
+        """commit(point): the block's real step at the answer (``real_at``), the point then
+        holding its real x, v, a; False where it disagreed with the prediction."""
         def commit(point: Point) -> bool:
             if not real_at():
                 return False
@@ -214,36 +209,11 @@ class ImplicitStep:
         if isinstance(classified, RetryHeld):
             return classified
         mode, slip, event = classified
+        ended = self.end_stuck(event) if mode == Contact.STUCK else self.end_slip(slip, mode, event)
+        if isinstance(ended, (RetryHeld, RetryUnpredicted)):
+            return ended
+        event, f, F_mean = ended
         response = self.block.response
-        if mode == Contact.STUCK:
-            event = self.solve_stuck(event)
-            if self.defers():
-                self.report.commit = self.committer(lambda: self.stuck_real_at(event))
-            elif not self.stuck_real_at(event):
-                if response.prediction_missed:
-                    return RETRY_UNPREDICTED
-                event = self.solve_stuck(event)  # again, every iterate stepped
-                self.block_real_at(self.block.last.F_end)
-            self.friction.step(0.0)
-            f, F_mean = self.friction.last.f, None  # the block felt the stick force, not the friction's
-        else:
-            dv, gain = slip
-            self.report.loop_gain = gain
-            if self.block.ramp and gain >= self.settings.tuning.max_ramp_gain:
-                return RETRY_HELD_STIFF
-            stepped = self.friction.stepped
-            if stepped is None or stepped.dv != dv:  # (else the stepped trials settled it there)
-                dv = self.settle(dv, gain, mode)
-            if self.defers():
-                self.report.commit = self.committer(lambda F=self.friction.last.F: self.block_real_at(F))
-            elif not self.block_real_at(self.friction.last.F):
-                if response.prediction_missed:
-                    return RETRY_UNPREDICTED
-                dv = self.settle(dv, gain, mode)  # again, every iterate stepped
-                self.block_real_at(self.friction.last.F)
-            dv, F, f, F_mean = self.friction.last
-            if self.extrapolated is not None and mode == self.previous:
-                self.report.guess_miss = (dv - self.extrapolated) / self.h ** 3
         ramped = self.block.ramp
         self.report.block_slope = self.block.response.measured_slope(ramped)
         if response.prediction is not None:
@@ -255,6 +225,44 @@ class ImplicitStep:
         F, x, v, a, F0, F_rate = self.block.last
         return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
                      F_rate=F_rate, mode=mode, event=event, ramped=ramped, F_mean=F_mean)
+
+    def end_stuck(self, event: float) -> tuple[float, float, None] | RetryUnpredicted:
+        """Stuck at the end: the stick ramp or force, the block there (or left to the report's
+        commit), the friction stepped at rest: (event, f, None)."""
+        response = self.block.response
+        event = self.solve_stuck(event)
+        if self.defers():
+            self.report.commit = self.committer(lambda: self.stuck_real_at(event))
+        elif not self.stuck_real_at(event):
+            if response.prediction_missed:
+                return RETRY_UNPREDICTED
+            event = self.solve_stuck(event)  # again, every iterate stepped
+            self.block_real_at(self.block.last.F_end)
+        self.friction.step(0.0)
+        return event, self.friction.last.f, None  # (the block felt the stick force, not the friction's)
+
+    def end_slip(self, slip: tuple[float, float], mode: Contact,
+                 event: float) -> tuple[float, float, float | None] | RetryHeld | RetryUnpredicted:
+        """Slipping at the end: the slip root settled, the block there (or left to the report's
+        commit): (event, f, the friction's mean force)."""
+        dv, gain = slip
+        self.report.loop_gain = gain
+        if self.block.ramp and gain >= self.settings.tuning.max_ramp_gain:
+            return RETRY_HELD_STIFF
+        stepped = self.friction.stepped
+        if stepped is None or stepped.dv != dv:  # (else the stepped trials settled it there)
+            dv = self.settle(dv, gain, mode)
+        if self.defers():
+            self.report.commit = self.committer(lambda F=self.friction.last.F: self.block_real_at(F))
+        elif not self.block_real_at(self.friction.last.F):
+            if self.block.response.prediction_missed:
+                return RETRY_UNPREDICTED
+            dv = self.settle(dv, gain, mode)  # again, every iterate stepped
+            self.block_real_at(self.friction.last.F)
+        dv, _, f, F_mean = self.friction.last
+        if self.extrapolated is not None and mode == self.previous:
+            self.report.guess_miss = (dv - self.extrapolated) / self.h ** 3
+        return event, f, F_mean
 
     def settle(self, dv: float, gain: float, mode: Contact) -> float:
         """The slip root with the friction's state integrated along the step.
@@ -351,15 +359,12 @@ class ImplicitStep:
         Returns (dv, gain), or None where the prediction does not show slip on this side."""
         point, delta, fit, h = self.point, self.delta, self.settings.dv_slope_fit, self.h
         if self.block.ramp and fit is not None:
-            # A ramped step (the trapezoidal rule) follows the coupled motion to O(h^3): its
-            # dv extrapolated along the slope's course over the last steps. (On fig6 that
-            # guess was within the root's tolerance in 54 % of its steps, 34 % along the last
-            # step's curvature alone, 16 % with the one below: one friction step, not two.)
+            # A ramped step (the trapezoidal rule) follows the coupled motion to O(h^3): dv
+            # extrapolated along the slope's course (fig6: within the root's tolerance in 54 %
+            # of its steps, 16 % with the guess below: one friction step, not two) ...
             self.extrapolated = point.dv + (point.aX - point.a + fit[0] * h / 2.0 + fit[1] * h * h / 3.0) * h
-            # The root misses that extrapolation by the step's own local error (the
-            # trapezoidal rule's, ~h^3), which changes little from step to step: the last
-            # step's miss, scaled by h^3, lands within the root's tolerance in 80 % of fig6's
-            # steps (55 % without).
+            # ... which the root misses by the rule's own local error (~h^3), changing little
+            # from step to step: with the last step's miss per h^3, 75 % (offline 80 %).
             guess = self.extrapolated + fit[2] * h ** 3
         else:
             # dv moves with the drive's acceleration less the block's; the loop's own answer

@@ -202,18 +202,6 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         self.magnitudes.accept(new)
         return [new]
 
-    def _committed(self, system: CoupledSystem, start, new: Point) -> bool:
-        """The block's real step at the step's predicted answer (deferred past the landing and
-        the error check: a try rolled back never stepped it); new then holds its real x, v, a.
-        False where it disagreed with the prediction: rolled back and the block's model
-        forgotten, for the step to be solved again without it."""
-        commit, self.pending_commit = self.pending_commit, None
-        if commit is None or commit(new):
-            return True
-        system.restore(start)
-        self.reuse.block.forget()
-        return False
-
     @staticmethod
     def next_history(point: Point, new: Point, h: float) -> ForceHistory:
         jerk = (new.a - point.a) / h
