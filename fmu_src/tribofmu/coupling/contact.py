@@ -93,10 +93,8 @@ class StepSettings:
     ``stepped_trials``: a slip going on is sought with the friction stepped from its first
     trial (:meth:`ImplicitStep.stepped_slip`), for a law that has not stuck; ``tuning``: the
     coupling's constants (max_ramp_gain above which a ramp would ring, max_iterations of any
-    iteration, the solvers' own); ``dv_slope_fit``: (c1 [m/s^3], c2 [m/s^4]) of d(dv)/dt's
-    course s(t) = s(0) + c1 t + c2 t^2 over the last steps slipping the same way, and the
-    last such step's miss per h^3 [m/s^4] (None: unknown), for the slip's predicted dv
-    (blocks.ReuseCache.slope_fit)."""
+    iteration, the solvers' own); ``dv_slope_fit``: for the slip's predicted dv, d(dv)/dt's
+    course over the last steps and the last one's miss (blocks.ReuseCache.slope_fit)."""
 
     expected_gain: float
     root_tol: float
@@ -150,8 +148,8 @@ class ImplicitStep:
         return self.defer and self.block.last is self.block.response.last_predicted
 
     def committer(self, real_at: Callable[[], bool]) -> Callable[[Point], bool]:
-        """commit(point): the block's real step at the answer (``real_at``), the point then
-        holding its real x, v, a; False where it disagreed with the prediction."""
+        """commit(point): the block's real step (``real_at``), point then holding its real x,
+        v, a; False where it disagreed with the prediction."""
         def commit(point: Point) -> bool:
             if not real_at():
                 return False
@@ -160,10 +158,8 @@ class ImplicitStep:
         return commit
 
     def stuck_real_at(self, event: float) -> bool:
-        """:meth:`block_real_at` the stuck step's force (its stick ramp or stick force); a stick
-        ramp solved on the block's predicted answers (stuck all through: event 1) must also
-        leave the real block on the drive's path, to the ramp's own tolerance (else the
-        prediction missed: False, ``prediction_missed``)."""
+        """:meth:`block_real_at` the stuck step's force; a predicted stick ramp (event 1) must
+        also leave the block on the drive's path to the ramp's tolerance (else it missed)."""
         response = self.block.response
         predicted = self.block.last is response.last_predicted
         if not self.block_real_at(self.block.last.F_end):
@@ -358,14 +354,18 @@ class ImplicitStep:
         far beyond it can melt the lubricant: costly, and a detour for the root finder).
         Returns (dv, gain), or None where the prediction does not show slip on this side."""
         point, delta, fit, h = self.point, self.delta, self.settings.dv_slope_fit, self.h
+        extrapolated = None
         if self.block.ramp and fit is not None:
-            # A ramped step (the trapezoidal rule) follows the coupled motion to O(h^3): dv
-            # extrapolated along the slope's course (fig6: within the root's tolerance in 54 %
-            # of its steps, 16 % with the guess below: one friction step, not two) ...
-            self.extrapolated = point.dv + (point.aX - point.a + fit[0] * h / 2.0 + fit[1] * h * h / 3.0) * h
-            # ... which the root misses by the rule's own local error (~h^3), changing little
-            # from step to step: with the last step's miss per h^3, 75 % (offline 80 %).
-            guess = self.extrapolated + fit[2] * h ** 3
+            # A ramped step (the trapezoidal rule) follows the coupled motion to O(h^3): dv along
+            # the slope's course (fig6: within the root's tolerance in 54 % of its steps) ...
+            extrapolated = point.dv + (point.aX - point.a + fit[0] * h / 2.0 + fit[1] * h * h / 3.0) * h
+        if extrapolated is not None and abs(extrapolated - point.dv) < abs(point.dv):
+            # ... missed by the rule's own local error (~h^3), changing little from step to step:
+            # with the last step's miss per h^3, 75 % (the guess below: 16 %). Not where dv may
+            # reach 0 within the step: there the friction is not smooth, nor its error (gamma =
+            # -0.95's fixed steps: 148 of 1383 with a negative dissipation; 110 so, 112 before)
+            self.extrapolated = extrapolated
+            guess = extrapolated + fit[2] * h ** 3
         else:
             # dv moves with the drive's acceleration less the block's; the loop's own answer
             # pulls it back by 1/(1 + gain) (a stiff loop hardly lets dv change).
