@@ -165,7 +165,8 @@ def settings(expected_gain: float = 0.0, root_tol: float = 1e-12, delta: float =
 
 
 def solve(system: CoupledSystem, point: Point, h: float, ramp: bool = False,
-          step_settings: StepSettings | None = None, block_slope=None, stick_jacobian=None):
+          step_settings: StepSettings | None = None, block_slope=None, stick_jacobian=None, block_model=None,
+          known_trials=None):
     """One implicit step of h [s] from point through the step's contract
     (:func:`~tribofmu.coupling.contact.solve_step`), set up as ImplicitCoupling.solve_step does:
     (the new point or RETRY_HELD, the step's report)."""
@@ -173,7 +174,7 @@ def solve(system: CoupledSystem, point: Point, h: float, ramp: bool = False,
     drive_end = system.step_drive(point.t_ns / NS, h_ns / NS)
     saved = system.save(system.block, system.friction)
     return solve_step(step_settings or settings(), system, point, saved, h_ns, drive_end, ramp, block_slope,
-                      stick_jacobian)
+                      stick_jacobian, block_model, known_trials)
 
 
 def call_log(slave) -> list[str]:

@@ -11,9 +11,11 @@ in none yet (as Modelica's ``PartialFriction`` starts ``Unknown``):
 
 One step (:class:`ImplicitStep`) first *classifies* the step from the friction at +-delta
 (or from the slip it predicts), then runs the solver of that mode (coupling/solvers.py): the
-slip root, the stick force, or the stick ramp. The block's answers are modelled where they can
-be (coupling/blocks.py's BlockResponse, the step's own; the last steps' slope and Jacobian come
-in from the coupling's ReuseCache). A ramped step (the force ramping over the step) that meets
+slip root, the stick force, or the stick ramp. The block's answers are predicted by its learned
+model where the coupling has one (coupling/blocks.py's BlockPrediction: the block then steps
+once, at the answer, which checks the prediction; a miss is the outcome RETRY_UNPREDICTED, and
+the caller solves the step again without it), else modelled where they can be (BlockResponse,
+the step's own; the last steps' slope and Jacobian come in from the coupling's ReuseCache). A ramped step (the force ramping over the step) that meets
 stiffness, a stick or a reversal ends in the explicit outcome :data:`RETRY_HELD`: the caller
 rolls back and solves the step again with the force held. The step reports what it measured
 (:class:`StepReport`: loop gain, the block's velocity per unit impulse, evaluations) instead
@@ -26,10 +28,11 @@ stuck and the force is the one that keeps dv = 0.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Callable
 
 from . import solvers
-from .blocks import BlockAnswer, BlockResponse, BlockSlope, StickJacobian
+from .blocks import BlockAnswer, BlockModel, BlockPrediction, BlockResponse, BlockSlope, StickJacobian
 from .evaluations import BlockSide, FrictionSide
 from .interpolation import NS
 from .settings import SETTINGS, CouplingSettings
@@ -53,6 +56,17 @@ RETRY_HELD_STIFF = RetryHeld("the loop is too stiff to ramp the force")
 RETRY_HELD_TRANSITION = RetryHeld("the contact sticks or reverses inside the step")
 
 
+@dataclass(frozen=True)
+class RetryUnpredicted:
+    """The outcome of a step whose real block step disagreed with its prediction (blocks.
+    BlockPrediction): the caller rolls back and solves it again with real block answers."""
+
+    why: str = "the block's real step disagreed with its prediction"
+
+
+RETRY_UNPREDICTED = RetryUnpredicted()
+
+
 @dataclass
 class StepReport:
     """What one step measured, for the algorithm to keep or drop (a rolled-back step's
@@ -65,6 +79,10 @@ class StepReport:
     bounds: tuple[float, float] | None = None  # [N] the friction's force range at dv = 0 (stuck steps)
     block_slope: BlockSlope | None = None  # measured from two real block steps of one family
     stick_jacobian: StickJacobian | None = None  # measured by a stick ramp
+    block_answers: list = field(default_factory=list)  # [N, m, m/s^2] (F_end, x, a) of real block steps
+    predicted: bool = False  # the block's answers were predicted and the real step agreed
+    guess_miss: float | None = None  # [m/s^4] the slip root's miss of its extrapolated dv, per h^3
+    commit: Callable[[Point], bool] | None = None  # the block's real step left to the caller (defer)
 
 
 @dataclass(frozen=True)
@@ -75,7 +93,8 @@ class StepSettings:
     ``stepped_trials``: a slip going on is sought with the friction stepped from its first
     trial (:meth:`ImplicitStep.stepped_slip`), for a law that has not stuck; ``tuning``: the
     coupling's constants (max_ramp_gain above which a ramp would ring, max_iterations of any
-    iteration, the solvers' own)."""
+    iteration, the solvers' own); ``dv_slope_fit``: for the slip's predicted dv, d(dv)/dt's
+    course over the last steps and the last one's miss (blocks.ReuseCache.slope_fit)."""
 
     expected_gain: float
     root_tol: float
@@ -83,6 +102,7 @@ class StepSettings:
     position_scale: float
     stepped_trials: bool = False
     tuning: CouplingSettings = SETTINGS  # (coupling/settings.py)
+    dv_slope_fit: tuple[float, float, float] | None = None
 
 
 class ImplicitStep:
@@ -91,7 +111,8 @@ class ImplicitStep:
 
     def __init__(self, settings: StepSettings, system: CoupledSystem, point: Point, saved: States,
                  h_ns: int, drive: tuple[float, float, float], ramp: bool,
-                 block_slope: BlockSlope | None = None, stick_jacobian: StickJacobian | None = None):
+                 block_slope: BlockSlope | None = None, stick_jacobian: StickJacobian | None = None,
+                 block_model: BlockModel | None = None, known_trials: dict | None = None, defer: bool = False):
         self.settings, self.point = settings, point
         self.previous = Contact(point.mode)
         self.h_ns, t, self.h = h_ns, point.t_ns / NS, h_ns / NS
@@ -99,21 +120,57 @@ class ImplicitStep:
         self.delta = settings.delta
         self.root_tol = max(self.delta, settings.root_tol)  # m/s
         self.report = StepReport()
+        # (its probes' trials at +-delta read where it stood before are read from known_trials)
         self.friction = FrictionSide(system, [v for v in saved.handles.values() if v[0] is system.friction], t,
-                                     self.h)
+                                     self.h, known_trials, (self.delta, -self.delta))
         # the block, its real answers under one family of forces and the affine model through them
-        response = BlockResponse(h_ns, ramp, block_slope, settings.tuning.same_force_rtol)
+        # (with the block's learned model, its answers are predicted and the last one stepped)
+        prediction = BlockPrediction(block_model, point.x, point.v, self.h) if block_model is not None else None
+        response = BlockResponse(h_ns, ramp, block_slope, settings.tuning.same_force_rtol, prediction)
         self.block = BlockSide(system, [v for v in saved.handles.values() if v[0] is system.block], t, self.h,
                                self.V, point.F, ramp, response, self.report)
         # the last stick ramp's, where it was of this length (exact for a linear block)
         self.stick_jacobian = stick_jacobian if stick_jacobian is not None and stick_jacobian.h_ns == h_ns else None
         self.probes: dict[float, Probe] = {}  # side (+-1.0) -> the held step under the friction at side * delta
+        self.extrapolated: float | None = None  # [m/s] the slip's dv along the slope's course (if predicted)
+        # the block's real step at a predicted answer is left to the caller (commit): a step
+        # the caller then rolls back (landed, rejected) never steps the block
+        self.defer = defer
 
     # -- evaluations ----------------------------------------------------------------------
     def block_real_at(self, F: float) -> bool:
         """The block really stepped under the end force F; False where its model had missed
         (by more than settings.tuning.model_miss_tolerance root tolerances)."""
         return self.block.real_at(F, self.settings.tuning.model_miss_tolerance * self.root_tol)
+
+    def defers(self) -> bool:
+        """The block's real step is left to the caller (asked to; its last answer predicted)."""
+        return self.defer and self.block.last is self.block.response.last_predicted
+
+    def committer(self, real_at: Callable[[], bool]) -> Callable[[Point], bool]:
+        """commit(point): the block's real step (``real_at``), point then holding its real x,
+        v, a; False where it disagreed with the prediction."""
+        def commit(point: Point) -> bool:
+            if not real_at():
+                return False
+            point.x, point.v, point.a = self.block.real.x, self.block.real.v, self.block.real.a
+            return True
+        return commit
+
+    def stuck_real_at(self, event: float) -> bool:
+        """:meth:`block_real_at` the stuck step's force; a predicted stick ramp (event 1) must
+        also leave the block on the drive's path to the ramp's tolerance (else it missed)."""
+        response = self.block.response
+        predicted = self.block.last is response.last_predicted
+        if not self.block_real_at(self.block.last.F_end):
+            return False
+        if not predicted or self.previous != Contact.STUCK or event < 1.0:
+            return True
+        target = self.point.x + self.X - self.point.X
+        if abs(self.block.real.x - target) <= self.settings.tuning.stick_ramp_position_tol * self.settings.position_scale:
+            return True
+        response.prediction, response.prediction_missed = None, True
+        return False
 
     def loop(self, dv: float) -> float:
         """H(dv): how far the block's answer is from the assumed dv."""
@@ -141,36 +198,67 @@ class ImplicitStep:
         return probe.dv - side * self.delta
 
     # -- the machine ----------------------------------------------------------------------
-    def solve(self) -> Point | RetryHeld:
-        """The new point, or RETRY_HELD where a ramped step turns out stuck, reversing or stiff."""
+    def solve(self) -> Point | RetryHeld | RetryUnpredicted:
+        """The new point, or RETRY_HELD where a ramped step turns out stuck, reversing or stiff,
+        or RETRY_UNPREDICTED where the block's real step disagreed with its prediction."""
         classified = self.classify()
         if isinstance(classified, RetryHeld):
             return classified
         mode, slip, event = classified
-        if mode == Contact.STUCK:
-            event = self.solve_stuck(event)
-            if not self.block_real_at(self.block.last.F_end):
-                event = self.solve_stuck(event)  # again, every iterate stepped
-                self.block_real_at(self.block.last.F_end)
-            self.friction.step(0.0)
-            f, F_mean = self.friction.last.f, None  # the block felt the stick force, not the friction's
-        else:
-            dv, gain = slip
-            self.report.loop_gain = gain
-            if self.block.ramp and gain >= self.settings.tuning.max_ramp_gain:
-                return RETRY_HELD_STIFF
-            stepped = self.friction.stepped
-            if stepped is None or stepped.dv != dv:  # (else the stepped trials settled it there)
-                dv = self.settle(dv, gain, mode)
-            if not self.block_real_at(self.friction.last.F):
-                dv = self.settle(dv, gain, mode)  # again, every iterate stepped
-                self.block_real_at(self.friction.last.F)
-            _, F, f, F_mean = self.friction.last
+        ended = self.end_stuck(event) if mode == Contact.STUCK else self.end_slip(slip, mode, event)
+        if isinstance(ended, (RetryHeld, RetryUnpredicted)):
+            return ended
+        event, f, F_mean = ended
+        response = self.block.response
         ramped = self.block.ramp
         self.report.block_slope = self.block.response.measured_slope(ramped)
+        if response.prediction is not None:
+            # one real step, no secant of two: the learned 1/M (a secant of two held steps
+            # measured sin(w h)/(w h M), of two ramped 2 (1 - cos(w h))/(w h)^2 M, of a stick
+            # ramp's a mix: 1/M as h -> 0, what its readers take it for)
+            self.report.predicted = True
+            self.report.velocity_per_impulse = response.prediction.model.inv_M
         F, x, v, a, F0, F_rate = self.block.last
         return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
                      F_rate=F_rate, mode=mode, event=event, ramped=ramped, F_mean=F_mean)
+
+    def end_stuck(self, event: float) -> tuple[float, float, None] | RetryUnpredicted:
+        """Stuck at the end: the stick ramp or force, the block there (or left to the report's
+        commit), the friction stepped at rest: (event, f, None)."""
+        response = self.block.response
+        event = self.solve_stuck(event)
+        if self.defers():
+            self.report.commit = self.committer(lambda: self.stuck_real_at(event))
+        elif not self.stuck_real_at(event):
+            if response.prediction_missed:
+                return RETRY_UNPREDICTED
+            event = self.solve_stuck(event)  # again, every iterate stepped
+            self.block_real_at(self.block.last.F_end)
+        self.friction.step(0.0)
+        return event, self.friction.last.f, None  # (the block felt the stick force, not the friction's)
+
+    def end_slip(self, slip: tuple[float, float], mode: Contact,
+                 event: float) -> tuple[float, float, float | None] | RetryHeld | RetryUnpredicted:
+        """Slipping at the end: the slip root settled, the block there (or left to the report's
+        commit): (event, f, the friction's mean force)."""
+        dv, gain = slip
+        self.report.loop_gain = gain
+        if self.block.ramp and gain >= self.settings.tuning.max_ramp_gain:
+            return RETRY_HELD_STIFF
+        stepped = self.friction.stepped
+        if stepped is None or stepped.dv != dv:  # (else the stepped trials settled it there)
+            dv = self.settle(dv, gain, mode)
+        if self.defers():
+            self.report.commit = self.committer(lambda F=self.friction.last.F: self.block_real_at(F))
+        elif not self.block_real_at(self.friction.last.F):
+            if self.block.response.prediction_missed:
+                return RETRY_UNPREDICTED
+            dv = self.settle(dv, gain, mode)  # again, every iterate stepped
+            self.block_real_at(self.friction.last.F)
+        dv, _, f, F_mean = self.friction.last
+        if self.extrapolated is not None and mode == self.previous:
+            self.report.guess_miss = (dv - self.extrapolated) / self.h ** 3
+        return event, f, F_mean
 
     def settle(self, dv: float, gain: float, mode: Contact) -> float:
         """The slip root with the friction's state integrated along the step.
@@ -205,7 +293,11 @@ class ImplicitStep:
         previous, delta = self.previous, self.delta
         first = -1.0 if previous == Contact.BACKWARD else 1.0
         if previous.slipping and self.settings.expected_gain > 0:
-            # (with no loop gain, as for dry friction, the first pass from +-delta is exact)
+            # (with no loop gain, as for dry friction, the first pass from +-delta is exact. A
+            # lubricant whose last step measured no gain, its force falling with dv, may have
+            # more roots than one: from the predicted dv its boundary gamma = -0.3 point found
+            # another, 1.9e-3 nRMS(v) reported as 3.7e-4 (bench_trust); +-delta's trials
+            # bracket the answer)
             slip = self.predicted_slip(first)
             if slip is not None:
                 return Contact(int(first)), slip, 1.0
@@ -220,7 +312,8 @@ class ImplicitStep:
                     event = reach if 0.0 < reach < 1.0 else 1.0
                 return Contact(int(side)), self.slip_root(side * delta, h_side, side), event
             if self.block.ramp:
-                if not all(sample.rate == 0.0 for sample in self.block.response.samples):
+                response = self.block.response
+                if response.ramp_moved or not all(sample.rate == 0.0 for sample in response.samples):
                     return RETRY_HELD_TRANSITION
                 # The ramp's rate was 0 in every real step so far (a force that did not move,
                 # as dry friction's in slip): they are the held step's own, so the solve goes
@@ -260,10 +353,23 @@ class ImplicitStep:
         +-delta, which saves the probe and keeps trial velocities near the answer (a trial
         far beyond it can melt the lubricant: costly, and a detour for the root finder).
         Returns (dv, gain), or None where the prediction does not show slip on this side."""
-        point, delta = self.point, self.delta
-        # dv moves with the drive's acceleration less the block's; the loop's own answer
-        # pulls it back by 1/(1 + gain) (a stiff loop hardly lets dv change).
-        guess = point.dv + (point.aX - point.a) * self.h / (1.0 + self.settings.expected_gain)
+        point, delta, fit, h = self.point, self.delta, self.settings.dv_slope_fit, self.h
+        extrapolated = None
+        if self.block.ramp and fit is not None:
+            # A ramped step (the trapezoidal rule) follows the coupled motion to O(h^3): dv along
+            # the slope's course (fig6: within the root's tolerance in 54 % of its steps) ...
+            extrapolated = point.dv + (point.aX - point.a + fit[0] * h / 2.0 + fit[1] * h * h / 3.0) * h
+        if extrapolated is not None and abs(extrapolated - point.dv) < abs(point.dv):
+            # ... missed by the rule's own local error (~h^3), changing little from step to step:
+            # with the last step's miss per h^3, 75 % (the guess below: 16 %). Not where dv may
+            # reach 0 within the step: there the friction is not smooth, nor its error (gamma =
+            # -0.95's fixed steps: 148 of 1383 with a negative dissipation; 110 so, 112 before)
+            self.extrapolated = extrapolated
+            guess = extrapolated + fit[2] * h ** 3
+        else:
+            # dv moves with the drive's acceleration less the block's; the loop's own answer
+            # pulls it back by 1/(1 + gain) (a stiff loop hardly lets dv change).
+            guess = point.dv + (point.aX - point.a) * self.h / (1.0 + self.settings.expected_gain)
         if not side * guess > delta:
             return None
         self.block.response.seed_allowed = True
@@ -315,8 +421,9 @@ class ImplicitStep:
         step at which the ramp leaves the friction's bounds (1: stuck throughout)."""
         pos, neg = self.probes[1.0], self.probes[-1.0]
         jacobian, tuning = self.stick_jacobian, self.settings.tuning
-        start_at_pos = jacobian is not None and self.block.real.F_end == pos.F
-        outcome = solvers.stick_ramp(self.block.at, pos, neg, self.h, self.h_ns, self.point.x + self.X - self.point.X,
+        real = self.block.real
+        start_at_pos = jacobian is not None and real is not None and real.F_end == pos.F
+        outcome = solvers.stick_ramp(self.block.ramp_at, pos, neg, self.h, self.h_ns, self.point.x + self.X - self.point.X,
                                      jacobian, start_at_pos, delta=self.delta,
                                      position_tol=tuning.stick_ramp_position_tol * self.settings.position_scale,
                                      iterations=tuning.stick_ramp_iterations)
@@ -327,10 +434,17 @@ class ImplicitStep:
 
 def solve_step(settings: StepSettings, system: CoupledSystem, point: Point, saved: States, h_ns: int,
                drive: tuple[float, float, float], ramp: bool, block_slope: BlockSlope | None = None,
-               stick_jacobian: StickJacobian | None = None) -> tuple[Point | RetryHeld, StepReport]:
+               stick_jacobian: StickJacobian | None = None, block_model: BlockModel | None = None,
+               known_trials: dict | None = None, defer: bool = False
+               ) -> tuple[Point | RetryHeld | RetryUnpredicted, StepReport]:
     """One implicit step from ``point`` over ``h_ns`` [ns] (the drive already at its end,
     ``drive`` = X, V, aX; the block and friction saved in ``saved``): the new point (every
-    slave standing there) or RETRY_HELD, and what the step measured. ``block_slope`` and
-    ``stick_jacobian``: the last steps' (blocks.ReuseCache), to save real block steps."""
-    step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, block_slope, stick_jacobian)
+    slave standing there), RETRY_HELD or RETRY_UNPREDICTED, and what the step measured.
+    ``block_slope``, ``stick_jacobian`` and ``block_model``: the last steps' (blocks.ReuseCache),
+    to save real block steps (with a model, the block steps once, at the answer); ``known_trials``:
+    the friction's probe answers read at its state before (evaluations.KnownTrials); ``defer``:
+    a predicted block's real step is left to the report's ``commit`` (the point's x, v, a are the
+    prediction's until then)."""
+    step = ImplicitStep(settings, system, point, saved, h_ns, drive, ramp, block_slope, stick_jacobian,
+                        block_model, known_trials, defer)
     return step.solve(), step.report

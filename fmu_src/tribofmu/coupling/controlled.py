@@ -113,6 +113,18 @@ class ErrorControlledCoupling(ImplicitCoupling):
             return True
         return False
 
+    def _committed(self, system: CoupledSystem, start: States, new: Point) -> bool:
+        """The block's real step at the step's predicted answer (deferred past the landing and
+        the error check: a try rolled back never stepped it); new then holds its real x, v, a.
+        False where it disagreed with the prediction: rolled back and the block's model
+        forgotten, for the step to be solved again without it."""
+        commit, self.pending_commit = self.pending_commit, None
+        if commit is None or commit(new):
+            return True
+        system.restore(start)
+        self.reuse.block.forget()
+        return False
+
     def _accepted(self, system: CoupledSystem, start: States, h_ns: int, error: float, order: int,
                   min_ns: int, steps: int) -> bool:
         """Accept the tried step of h_ns (``steps`` communication steps) when its error ratio

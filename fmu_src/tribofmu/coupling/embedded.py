@@ -177,7 +177,8 @@ class EmbeddedCoupling(ErrorControlledCoupling):
     def advance(self, system: CoupledSystem, point: Point, stop_ns: int) -> list[Point]:
         h_ns = self.planned_step(point, stop_ns)
         start = self.states_at(system, point)
-        new = self.solve_step(system, point, h_ns, saved=start)
+        # (a predicted block steps for real only once the step is to be kept: _committed)
+        new = self.solve_step(system, point, h_ns, saved=start, defer=True)
         if self._landed(system, start, h_ns, new.event):  # a breakaway inside: end the step there
             return []
         missed = self.missed_breakaway(point, new)
@@ -189,6 +190,9 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         # local error ~ h^(order + 1): ramped h^3, held h^2; a stick ramp's breakaway
         # miss dF^2 with dF ~ h^2: h^4
         order = 3 if local.stuck else (2 if new.ramped else 1)
+        # (_accepted's own condition: a step it keeps)
+        if (err <= 1.0 or h_ns <= self.min_ns) and not self._committed(system, start, new):
+            return self.advance(system, point, stop_ns)  # (once: the block's model is forgotten)
         if not self._accepted(system, start, h_ns, err, order, self.min_ns, 1):
             return []
         if local.stuck and h_ns <= self.h_ns <= self.errors.stuck_hold_growth * h_ns:

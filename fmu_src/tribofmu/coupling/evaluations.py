@@ -21,12 +21,38 @@ class FrictionAnswer(NamedTuple):
     F_mean: float | None
 
 
+class KnownTrials:
+    """The friction's trial answers at the probes' relative velocities (+-delta: its force
+    bounds at rest), kept from step to step while the friction stands where they were read:
+    the same normal stress n and temperature T in, the same state f out. A trial reads the
+    friction's output at its state (no step), and the friction's force at a given dv is a
+    function of n, T and its state f (the Friction FMU's contract, models/Friction.py: F =
+    law.force(dv, n, f)): the same trial gives the same answer, to the last bit, so a step
+    that finds it here reads it from here (dry friction's stuck steps: both probes). Nothing
+    of the run's state: a run without it gives the same answers."""
+
+    def __init__(self):
+        self.where: tuple | None = None  # (n [Pa], T [K], f [1]) the answers were read at
+        self.answers: dict[float, tuple[float, float]] = {}  # dv [m/s] -> (F [N], f [1])
+
+    def at(self, where: tuple) -> dict[float, tuple[float, float]]:
+        """The answers read where the friction stands now (``where`` = (n, T, f)): kept while
+        it stays there, a fresh (empty) table from a step that moved it (a NaN never matches)."""
+        if where != self.where:
+            self.where, self.answers = where, {}
+        return self.answers
+
+
 class FrictionSide:
     """The friction over the step from t over h [s]; ``saved``: its (slave, state handle) pairs
-    at the step's start."""
+    at the step's start; ``known``: trial answers (dv -> F, f) at its start state read before
+    (:class:`KnownTrials`), where the step may reuse and add those at the velocities
+    ``remembered`` (the probes')."""
 
-    def __init__(self, system: CoupledSystem, saved: list, t: float, h: float):
+    def __init__(self, system: CoupledSystem, saved: list, t: float, h: float,
+                 known: dict[float, tuple[float, float]] | None = None, remembered: tuple[float, ...] = ()):
         self.system, self.saved, self.t, self.h = system, saved, t, h
+        self.known, self.remembered = known, remembered
         self.last: FrictionAnswer | None = None  # its latest answer
         # its latest step's answer (its state is at the step's end); None: not stepped since
         # the step's start
@@ -36,9 +62,15 @@ class FrictionSide:
     def at(self, dv: float) -> tuple[float, float]:
         """A trial: F [N], f [1] at the relative velocity dv [m/s] with the friction's state
         where it stands (its output's direct feedthrough; no step)."""
-        F, f = self.system.friction_outputs(dv)
+        known = self.known if self.stepped is None else None  # (at the start state only)
+        if known is not None and dv in known:
+            F, f = known[dv]  # (read at this state before: no call; the input stays as it is)
+        else:
+            F, f = self.system.friction_outputs(dv)
+            self.input = dv
+            if known is not None and dv in self.remembered:
+                known[dv] = (F, f)
         self.last = FrictionAnswer(dv, F, f, None)
-        self.input = dv
         return F, f
 
     def step(self, dv: float) -> None:
@@ -94,7 +126,18 @@ class BlockSide:
             if d_impulse != 0.0 and v != last.v:
                 self.report.velocity_per_impulse = abs((v - last.v) / d_impulse)
         self.last = self.real = BlockAnswer(F0 + rate * h, x, v, a, F0, rate)
+        self.report.block_answers.append((F0 + rate * h, x, a))  # (what identifies the block)
         return self.V - v, x
+
+    def ramp_at(self, F0: float, rate: float) -> tuple[float, float]:
+        """The block's relative velocity and position after the step under F0 + rate s: the
+        prediction's where there is one (no step; :meth:`real_at` checks the last), else a real
+        step (:meth:`at`)."""
+        prediction = self.response.prediction
+        if prediction is None:
+            return self.at(F0, rate)
+        self.last = self.response.last_predicted = prediction.answer(F0, rate, F0 + rate * self.h)
+        return self.V - self.last.v, self.last.x
 
     def under(self, F: float, real: bool = False) -> float:
         """The block's relative velocity after the step whose force ends at F: modelled from
@@ -116,15 +159,24 @@ class BlockSide:
         """Leave the block really stepped under the end force F (if its latest answer was
         modelled, or under another force); False if the model had missed the real answer by
         more than miss_tolerance [m/s] (the model is then switched off)."""
-        real, last = self.real, self.last
+        real, last, response = self.real, self.last, self.response
         if real is not None and real.F_end == F and last is real:
             return True
         modelled = last if last is not None and last.F_end == F else None
-        seeded = modelled is not None and self.response.last_seeded
-        self.under(F, real=True)
+        seeded = modelled is not None and response.last_seeded
+        predicted = modelled is not None and modelled is response.last_predicted
+        if predicted:  # (the force program it predicted for: a stick ramp's is of no family)
+            self.at(modelled.F0, modelled.rate)
+            self.last = self.real = self.real._replace(F_end=F)
+            response.samples.append(self.real)
+        else:
+            self.under(F, real=True)
         if modelled is not None and abs(modelled.v - self.real.v) > miss_tolerance:
-            # a seeded model is off by its slope's scaling: the two real answers model exactly
-            # from here; a model from two real answers that misses: the block is not affine
-            self.response.affine = seeded
+            if predicted:  # the learned block is not this block (the step is solved again without it)
+                response.prediction, response.prediction_missed = None, True
+            else:
+                # a seeded model is off by its slope's scaling: the two real answers model exactly
+                # from here; a model from two real answers that misses: the block is not affine
+                response.affine = seeded
             return False
         return True

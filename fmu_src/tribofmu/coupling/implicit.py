@@ -4,11 +4,12 @@ force the block felt and the friction at the resulting relative velocity agree (
 response) and its exported state."""
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 
 from .base import Counters, CouplingAlgorithm, Scales
 from .blocks import ReuseCache
-from .contact import RetryHeld, StepSettings, slip_mode, solve_step
+from .contact import RetryHeld, RetryUnpredicted, StepSettings, slip_mode, solve_step
+from .evaluations import KnownTrials
 from .interpolation import NS
 from .settings import SETTINGS
 from .system import Contact, CoupledSystem, Point, States
@@ -47,8 +48,11 @@ class ImplicitCoupling(CouplingAlgorithm):
     def __init__(self, step=None, tol=None):
         super().__init__(step, tol)
         self.set_carried(self.carried())
-        # the solves' own measurements that save the next steps FMU calls (blocks.ReuseCache)
+        # the solves' own measurements that save the next steps FMU calls (blocks.ReuseCache),
+        # and the friction's probe trials, read again only where it moved (evaluations.KnownTrials)
         self.reuse = ReuseCache()
+        self.trials = KnownTrials()
+        self.pending_commit = None  # the last step's deferred block step (solve_step's defer)
 
     def expected_gain(self, h: float) -> float:
         """The loop gain a slip step of h [s] should meet: the last one's, scaled by the
@@ -88,17 +92,34 @@ class ImplicitCoupling(CouplingAlgorithm):
         self.counters = Counters(**state["counters"])
         self.reuse = ReuseCache.from_export(state)
 
-    def _solve(self, system, point, saved, h_ns, drive, ramp) -> Point | RetryHeld:
-        """One ImplicitStep; keeps what it measured (the loop gain, the block's response)."""
+    def _solve(self, system, point, saved, h_ns, drive, ramp, predict: bool = True,
+               defer: bool = False) -> Point | RetryHeld:
+        """One ImplicitStep; keeps what it measured (the loop gain, the block's response).
+        predict: the block's answers may be predicted by its learned model (blocks.BlockModel);
+        defer: its real step at the answer is then left to :attr:`pending_commit`."""
         h = h_ns / NS
         tuning = self.settings
         settings = StepSettings(self.expected_gain(h), self.root_tolerance(), tuning.zero_velocity * self.scales.velocity,
                                 self.scales.position, stepped_trials=tuning.stepped_trials and self.stick_bounds is None,
                                 tuning=tuning)
         reuse = self.reuse
+        settings = replace(settings, dv_slope_fit=reuse.slope_fit(point.t_ns, int(point.mode), point.aX - point.a))
+        model = reuse.block.model() if predict else None
+        known = self.trials.at((system.friction_n, point.T, point.f))  # (where the friction stands)
         new, report = solve_step(settings, system, point, saved, h_ns, drive, ramp, reuse.block_slopes.get(ramp),
-                                 reuse.stick_jacobian)
+                                 reuse.stick_jacobian, model, known, defer)
+        self.pending_commit = report.commit
         self.counters.iterations += report.iterations
+        for answer in report.block_answers:
+            reuse.block.observe(*answer)
+        if report.guess_miss is not None:
+            reuse.guess_miss = (point.t_ns, int(point.mode), report.guess_miss)
+        if isinstance(new, RetryUnpredicted):
+            # the learned block missed its real step: forget it, and solve the step as if there
+            # were none (its measurements, made on the prediction, are dropped)
+            reuse.block.forget()
+            system.restore(saved)
+            return self._solve(system, point, saved, h_ns, drive, ramp, predict=False, defer=defer)
         self.counters.stick_steps += report.stuck and not isinstance(new, RetryHeld)
         if report.loop_gain is not None:
             self.loop_gain, self.loop_gain_step = report.loop_gain, h
@@ -138,12 +159,16 @@ class ImplicitCoupling(CouplingAlgorithm):
         return [new]
 
     def solve_step(self, system: CoupledSystem, point: Point, h_ns: int, ramp_allowed: bool = True,
-                   saved: States | None = None) -> Point:
+                   saved: States | None = None, defer: bool = False) -> Point:
         """One implicit step of h_ns from point; leaves every slave at the new point.
 
         ramp_allowed=False holds the force over the step even where a ramp would do. saved:
         the slaves' states at point when the caller holds them already (the step restores the
-        block and friction from them and frees nothing); else the step saves and frees its own."""
+        block and friction from them and frees nothing); else the step saves and frees its own.
+        defer (with saved): where the block's answer was predicted, its real step is left to
+        :attr:`pending_commit` (None: it stands at the new point already), which the caller
+        calls before it keeps the point, or never where it rolls the step back."""
+        self.pending_commit = None
         t, h = point.t_ns / NS, h_ns / NS
         drive = system.step_drive(t, h)
         if system.friction is None:
@@ -159,10 +184,11 @@ class ImplicitCoupling(CouplingAlgorithm):
                 # ring, and at stick or reversal the force jumps: there the force is held.
                 ramp = (ramp_allowed and self.settings.second_order and Contact(point.mode).slipping
                         and self.expected_gain(h) < self.settings.max_ramp_gain)
-                new = self._solve(system, point, saved, h_ns, drive, ramp)
+                defer = defer and not own
+                new = self._solve(system, point, saved, h_ns, drive, ramp, defer=defer)
                 if isinstance(new, RetryHeld):  # the ramp met stiffness or a transition
                     system.restore(saved)
-                    new = self._solve(system, point, saved, h_ns, drive, False)
+                    new = self._solve(system, point, saved, h_ns, drive, False, defer=defer)
             finally:
                 if own:
                     system.free(saved)

@@ -196,6 +196,12 @@ class CoupledSystem:
         self.friction.set_reals(self._dv, [dv])
         return tuple(self.friction.get_reals(self._friction_out[:2]))
 
+    @property
+    def friction_n(self) -> float:
+        """[Pa] the normal stress the friction's input holds now (a step's n(t + h) once
+        :meth:`step_drive` stepped the load)."""
+        return self._n
+
     # -- steps --------------------------------------------------------------------------
     def step_drive(self, t: float, h: float) -> tuple[float, float, float]:
         """Step the drive (and the load program) to t + h [s]; the friction's n becomes the
