@@ -302,12 +302,10 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             f_miss = (new.f - f_predicted) * h / (h + history.h)
             return LocalError(x=0.5 * h * v, v=v, F=curvature * h * h / 8.0, impulse=impulse, f=f_miss)
         # held (or ramped with no history): the force held at its end value misses -F' h^2 / 2.
-        # The state's miss (half its change) is filtered as the force's: the friction follows
-        # f along the step itself, and what holding the force costs it is the block's error
-        # in dv, which the stiff loop pulls back. (Unfiltered, a solid lubricant relaxing to
-        # its equilibrium, f 0 -> 0.16 in 30 us, was rejected at each held step: the rig of
-        # fig6 at gamma = -0.85, K = 2000, per-step 5e-5, first 2 ms: 131 rejected for 635
-        # steps; filtered 4 for 224.)
+        # The state's miss (half its change) is filtered as the force's: the friction follows f
+        # itself, and holding the force costs f only the block's dv error, which a stiff loop
+        # pulls back (unfiltered, a solid lubricant relaxing from rest was rejected at each held
+        # step: tests/master/test_error_norm.py's rig, 131 rejected for 635 steps -> 4 for 224)
         miss = -0.5 * (new.F - point.F) * h  # N s
         v = miss * self.velocity_per_impulse * filter_
         return LocalError(x=2.0 * h / 3.0 * v, v=v, F=0.5 * (new.F - point.F) * filter_, impulse=impulse,
