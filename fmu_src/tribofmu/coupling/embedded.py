@@ -120,6 +120,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
     def prepare(self, system, scales):
         super().prepare(system, scales)
         self.history = ForceHistory()
+        self.state_rest = abs(system.friction_rest_state())  # [1] (see state_force_error)
 
     # -- the step --------------------------------------------------------------------------
     def planned_step(self, point: Point, stop_ns: int) -> int:
@@ -305,11 +306,13 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             f_predicted = point.f + history.f_slope * h
             f_miss = (new.f - f_predicted) * h / (h + history.h)
             return LocalError(x=0.5 * h * v, v=v, F=curvature * h * h / 8.0, impulse=impulse, f=f_miss)
-        # held (or ramped with no history): the force held at its end value misses -F' h^2 / 2
+        # held (or ramped with no history): the force held at its end value misses -F' h^2 / 2;
+        # f's miss filtered as the force's (f follows dv, whose error a stiff loop pulls back;
+        # unfiltered, tests/master/test_error_norm.py's rig was rejected at each held step)
         miss = -0.5 * (new.F - point.F) * h  # N s
         v = miss * self.velocity_per_impulse * filter_
         return LocalError(x=2.0 * h / 3.0 * v, v=v, F=0.5 * (new.F - point.F) * filter_, impulse=impulse,
-                          f=0.5 * (new.f - point.f))
+                          f=0.5 * (new.f - point.f) * filter_)
 
     def error_ratio(self, point: Point, new: Point, local: LocalError, h: float) -> float:
         """The step's error relative to what tol allows (<= 1: accept): its local errors in v
@@ -354,12 +357,13 @@ class EmbeddedCoupling(ErrorControlledCoupling):
     def state_force_error(self, error: float, point: Point, new: Point, local: LocalError, h: float) -> float:
         """error raised to a friction with internal state's terms: the force's own deviation,
         its curvature (ramped) or slope (held) against tol x the largest |F| so far (widened by
-        what the solve cannot resolve, :meth:`force_term_floor`), and the state's miss
-        against tol x the largest |f| (weighed by errors.state_weight)."""
+        what the solve cannot resolve, :meth:`force_term_floor`), and the state's miss against
+        tol x its magnitude, the largest |f| so far and at least its rest value (see
+        ErrorSettings.state_weight), weighed by errors.state_weight."""
         F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
         allowed = self.tol * F_scale + self.force_term_floor(point, new, h)
         error = max(error, abs(local.F) / allowed)
-        f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
+        f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f), self.state_rest) or 1.0
         return max(error, self.errors.state_weight * abs(local.f) / (self.tol * f_scale))
 
     def force_resolution(self, new: Point, h: float) -> float:
