@@ -1,11 +1,9 @@
 """The adaptive coupling with one implicit solve per accepted step: an embedded error estimate
 instead of step doubling.
 
-Step doubling (``benchmarks/doubling.py``, kept out of the package for comparison) solves one
-full step and two halves to get two accepted points: three implicit solves per two accepted
-steps, plus the rejected ones. Here each step is solved once, and its error is estimated from
-what the solve and the steps before it already know (as an embedded Runge-Kutta pair, or a
-predictor-corrector code with Milne's device, estimates its error without a second solve):
+Step doubling (``benchmarks/doubling.py``) solves three times per two accepted steps. Here
+each step is solved once, and its error is estimated from what the solve and the steps before
+it know (as an embedded Runge-Kutta pair, or Milne's device, does without a second solve):
 
 - a **ramped** step (the force ramps linearly over the step: the trapezoidal rule on the
   coupling force) errs by the force's curvature: the block felt the chord, the friction
@@ -49,8 +47,7 @@ from .system import Contact, CoupledSystem, Point
 # A cubic Hermite interpolant misses by up to h^4 / 384 of the function's fourth derivative
 # (the interpolation's error bound: a number of the method, not a tuning).
 HERMITE_ERROR_DIVISOR = 384.0
-# (the block-period cap under its former name, for the tests that read it)
-BLOCK_PERIOD_FRACTION = ERROR_SETTINGS.block_period_fraction
+BLOCK_PERIOD_FRACTION = ERROR_SETTINGS.block_period_fraction  # (its former name, which tests read)
 
 
 def hermite_miss(w2: float, a_start: float, a_end: float, h: float, v_allowed: float,
@@ -307,8 +304,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             f_miss = (new.f - f_predicted) * h / (h + history.h)
             return LocalError(x=0.5 * h * v, v=v, F=curvature * h * h / 8.0, impulse=impulse, f=f_miss)
         # held (or ramped with no history): the force held at its end value misses -F' h^2 / 2;
-        # f's miss filtered as the force's (f follows dv, whose error a stiff loop pulls back;
-        # unfiltered, tests/master/test_error_norm.py's rig was rejected at each held step)
+        # f's miss filtered as the force's: f follows dv, whose error a stiff loop pulls back
         miss = -0.5 * (new.F - point.F) * h  # N s
         v = miss * self.velocity_per_impulse * filter_
         return LocalError(x=2.0 * h / 3.0 * v, v=v, F=0.5 * (new.F - point.F) * filter_, impulse=impulse,
