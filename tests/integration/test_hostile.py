@@ -119,8 +119,10 @@ def test_second_run_into_the_same_out_is_refused_while_the_first_writes(tmp_path
 @pytest.mark.alone
 @pytest.mark.parametrize("delay", [0.15, 0.3, 0.45, 0.6])
 def test_interrupt_during_start_up_is_one_line_and_130(tmp_path, env, fmu_dir, delay):
+    # 80 periods: a run of a second or more (Fig. 2's own is one run of 0.15 s), so that every
+    # delay lands before its end
     proc = subprocess.Popen(command("simulate", "fig2_dry", "--fmu-dir", fmu_dir, "--out", tmp_path / "out",
-                                    "--no-plots"),
+                                    "--no-plots", "--set", "time.periods=80"),
                             cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(delay)
     proc.send_signal(signal.SIGINT)
