@@ -23,8 +23,7 @@ PACKAGE = ROOT / "fmu_src" / "tribofmu"
 
 # Direct feedthrough declared in ModelStructure/Outputs: output -> inputs it depends on.
 DEPENDENCIES = {
-    "Friction": {"F": {"dv", "n"}, "f": set(), "F_mean": set(), "melt_margin": set(),
-                 "f_rest": {"n", "T"}},
+    "Friction": {"F": {"dv", "n"}, "f": set(), "F_mean": set(), "melt_margin": set()},
     "BlockSpring": {"x": set(), "v": set(), "a": set(), "dv": {"V"}},
     "Drive": {"X": set(), "V": set(), "a": set()},
     "Thermal": {"T": set(), "Q": set(), "Q_lost": set()},

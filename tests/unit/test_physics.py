@@ -153,19 +153,6 @@ def test_the_melt_margin_changes_sign_where_the_elastic_term_switches_off():
     assert DryLaw().melt_margin(5.0) == 1.0 == FluidLaw().melt_margin(5.0)
 
 
-def test_the_rest_state_is_where_the_lubricant_settles_at_rest():
-    """f_rest: the equilibrium of eq. (21) at dv = 0 that f relaxes to from 0 (the layer at
-    rest), where the rate vanishes; it moves with n and T; laws without kinetics have none."""
-    law = BoundaryLaw()
-    for n, T in ((-1e6, 290.0), (-1e7, 500.0), (-1e5, 0.0)):
-        rest = law.rest_state(n, T)
-        assert 0.0 < rest < law.melt_threshold()
-        assert law.kinetics_rate(rest, 0.0, n, T) == pytest.approx(0.0, abs=1e-9 / law.lubricant.tau_f)
-        assert law.advance_f(0.0, 0.0, n, T, 1.0) == pytest.approx(rest, rel=1e-4)  # 1 s >> tau
-    assert law.rest_state(-1e6, 290.0) != law.rest_state(-1e6, 400.0)
-    assert DryLaw().rest_state(-1e6, 290.0) is None is FluidLaw().rest_state(-1e6, 290.0)
-
-
 def test_mixed_friction_is_the_stribeck_curve_with_a_static_limit():
     """F = [mu_c + (mu_s - mu_c) exp(-(|dv|/v_s)^delta)] L sgn(dv) + m dv; it holds up to
     mu_s L at dv = 0 and its mean over a linear dv path is the path's integral (quadrature)."""

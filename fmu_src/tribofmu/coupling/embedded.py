@@ -117,7 +117,6 @@ class EmbeddedCoupling(ErrorControlledCoupling):
     def prepare(self, system, scales):
         super().prepare(system, scales)
         self.history = ForceHistory()
-        self.state_rest = abs(system.friction_rest_state())  # [1] (see state_force_error)
 
     # -- the step --------------------------------------------------------------------------
     def planned_step(self, point: Point, stop_ns: int) -> int:
@@ -353,13 +352,12 @@ class EmbeddedCoupling(ErrorControlledCoupling):
     def state_force_error(self, error: float, point: Point, new: Point, local: LocalError, h: float) -> float:
         """error raised to a friction with internal state's terms: the force's own deviation,
         its curvature (ramped) or slope (held) against tol x the largest |F| so far (widened by
-        what the solve cannot resolve, :meth:`force_term_floor`), and the state's miss against
-        tol x its magnitude, the largest |f| so far and at least its rest value (see
-        ErrorSettings.state_weight), weighed by errors.state_weight."""
+        what the solve cannot resolve, :meth:`force_term_floor`), and the state's miss
+        against tol x the largest |f| (weighed by errors.state_weight)."""
         F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
         allowed = self.tol * F_scale + self.force_term_floor(point, new, h)
         error = max(error, abs(local.F) / allowed)
-        f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f), self.state_rest) or 1.0
+        f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
         return max(error, self.errors.state_weight * abs(local.f) / (self.tol * f_scale))
 
     def force_resolution(self, new: Point, h: float) -> float:

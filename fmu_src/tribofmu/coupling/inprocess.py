@@ -11,7 +11,7 @@ state), and saving is a plain copy of its variables.
 - :class:`BlockPart`: the block between two springs, as ``BlockSpring.fmu`` (inputs F [N],
   F_rate [N/s]; outputs x [m], v [m/s], a [m/s^2]).
 - :class:`FrictionPart`: the friction law, as ``Friction.fmu`` (inputs dv [m/s], n [Pa],
-  T [K]; outputs F [N], f [1], f_rest [1]; internal state the previous step's dv, which the lubricant
+  T [K]; outputs F [N], f [1]; internal state the previous step's dv, which the lubricant
   kinetics follow linearly over a step).
 - :class:`FollowedDrive`: the upper block as a host gives it, V [m/s] and its acceleration
   a [m/s^2] at the start of the host's step: V(s) = V0 + a s, X integrated (outputs X, V, a).
@@ -95,7 +95,7 @@ class FrictionPart(InProcessSlave):
     """The friction law at relative velocity dv [m/s], normal stress n [Pa], temperature
     T [K]; F [N] is evaluated on demand (direct feedthrough), f [1] is the state."""
 
-    variables = ("dv", "n", "T", "F", "f", "F_mean", "f_rest")
+    variables = ("dv", "n", "T", "F", "f", "F_mean")
     state = ("dv", "n", "T", "f", "F_mean", "dv_previous")
 
     def __init__(self, instance: str, law: FrictionLaw, f0: float, n: float, T: float,
@@ -109,11 +109,6 @@ class FrictionPart(InProcessSlave):
     @property
     def F(self) -> float:
         return self.law.force(self.dv, self.n, self.f)
-
-    @property
-    def f_rest(self) -> float:
-        """The state's rest value [1] under the present n, T (as Friction.fmu's output)."""
-        return self.law.rest_state(self.n, self.T) or 0.0
 
     def advance(self, t: float, h: float) -> None:
         self.f, self.F_mean = self.law.advance(self.f, self.dv, self.n, self.T, h, rtol=self.kinetics_tol,

@@ -110,17 +110,9 @@ class ErrorSettings:
     # 2.8e-3 -> 9.4e-4; fig2 and fig6, whose errors are the events' and the lubricant's,
     # barely move). (The run's global check, issue 27, calibrates the tol it passes.)
     error_weight: float = 0.2
-    # How the friction's state f off its predicted path weighs against tol x f's magnitude:
-    # 0.3 keeps the lubricant's melts and re-solidifications timed (fig6 gamma=-0.3: 4.4e-3
-    # nRMS(v) without this term, 1.2e-3 at 1.0, 9.5e-4 at 0.3 in 25 % fewer steps than at 1.0).
-    # f's magnitude is the largest |f| so far, and at least the value f rests at (dv = 0)
-    # under the start's n and T, as the friction reports it (f_rest; no constant of its own):
-    # from rest f relaxes from its start value f0 (0) to that, and measured against its own
-    # history, still ~0, the steps grew only in proportion to t (fig6 at gamma = -0.85,
-    # K = 2000, per-step 5e-5: 120 steps below 1e-6 T in the first 10 us, now 20 in 2.3 us).
-    # (Against its range to melting, f* = mu/mu_bar, 8 were left, but the looser first melt
-    # sent gamma = -0.3's check to per-step 1.4e-5, where the kinetics' own tolerance, the
-    # same in both runs, is a part of the error no pair of runs sees: reported 0.35x.)
+    # How the friction's state f off its predicted path weighs against tol x |f|: 0.3 keeps
+    # the lubricant's melts and re-solidifications timed (fig6 gamma=-0.3: 4.4e-3 nRMS(v)
+    # without this term, 1.2e-3 at 1.0, 9.5e-4 at 0.3 in 25 % fewer steps than at 1.0).
     state_weight: float = 0.3
     # The carried estimate takes the state's miss as an impulse: its share of the largest |f|
     # moves the force by that share of the largest |F|, times this factor. The coupling does

@@ -202,13 +202,6 @@ class CoupledSystem:
         :meth:`step_drive` stepped the load)."""
         return self._n
 
-    def friction_rest_state(self) -> float:
-        """The friction's state [1] at rest under the present n, T (its output f_rest); 0
-        where it reports none (or there is no friction)."""
-        if self.friction is None or "f_rest" not in self.friction.refs:
-            return 0.0
-        return self.friction.get_reals([self.friction.refs["f_rest"]])[0]
-
     # -- steps --------------------------------------------------------------------------
     def step_drive(self, t: float, h: float) -> tuple[float, float, float]:
         """Step the drive (and the load program) to t + h [s]; the friction's n becomes the

@@ -204,11 +204,6 @@ class FrictionLaw:
         threshold = self.melt_threshold()
         return 1.0 if threshold is None else threshold - f
 
-    def rest_state(self, n: float, T: float) -> float | None:
-        """The state f [1] the law's kinetics settle at with the surfaces at rest (dv = 0)
-        under n [Pa], T [K]: its magnitude before any shear moves it (None: no kinetics)."""
-        return None
-
     def kinetics_rate(self, f: float, dv: float, n: float, T: float) -> float:
         """df/dt [1/s] of the law's state (0 for a law without one)."""
         return 0.0

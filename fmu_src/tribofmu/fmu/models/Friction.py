@@ -29,11 +29,6 @@ class Friction(Fmi2Slave):
                      "elastic stress acts), <= 0 once molten; a sign change inside a step is a phase "
                      "change for a master to locate; 1 for laws without a lubricant",
                      getter=lambda: self.law().melt_margin(self.f))
-        self.declare("f_rest", 0.0, OUTPUT, "1",
-                     "boundary friction: the excess volume the lubricant settles at with the surfaces "
-                     "at rest (dv = 0) under the present n, T: its state's magnitude before shear moves "
-                     "it, for a master's error scale; 0 for laws without a lubricant state",
-                     depends_on=("n", "T"), getter=self.rest_state)
         self.declare("F_mean", 0.0, OUTPUT, "N",
                      "mean friction force over the last step, dv moving linearly from the previous "
                      "step's input to this one (a force peaking inside the step shows here)")
@@ -41,14 +36,6 @@ class Friction(Fmi2Slave):
     @parameter_cached
     def law(self) -> FrictionLaw:
         return friction_law(self)
-
-    def rest_state(self) -> float:
-        """f_rest: computed again only when the law, n or T changed (a root of the kinetics,
-        and outputs are computed after every step)."""
-        key = (self.law(), self.n, self.T)
-        if getattr(self, "_rest", (None,))[0] != key:
-            self._rest = (key, self.law().rest_state(self.n, self.T) or 0.0)
-        return self._rest[1]
 
     def changed(self, name):
         if name == "f0":

@@ -76,24 +76,6 @@ class BoundaryLaw(FrictionLaw):
         """df/dt [1/s] of the Landau-Khalatnikov equation (21)."""
         return self.rate_function(dv, n, T)(f)
 
-    def rest_state(self, n: float, T: float) -> float | None:
-        """The equilibrium of eq. (21) at dv = 0 that f relaxes to from 0 (the solid-like
-        layer at rest) under n [Pa], T [K]; None with melting switched off (f does not move)."""
-        if not self.effects.melting:
-            return None
-        rate = self.rate_function(0.0, n, T)
-        rate0 = rate(0.0)
-        if rate0 == 0.0:
-            return 0.0
-        # the cubic term turns the rate against the way it points at 0 within a finite f
-        direction = 1.0 if rate0 > 0.0 else -1.0
-        lo, hi = 0.0, direction
-        for _ in range(200):
-            if direction * rate(hi) <= 0.0:
-                return illinois(rate, min(lo, hi), max(lo, hi))
-            lo, hi = hi, 2.0 * hi
-        raise ArithmeticError(f"no equilibrium of eq. (21) at dv = 0 (n={n}, T={T})")
-
     def rate_function(self, dv: float, n: float, T: float):
         """df/dt [1/s] of eq. (21) as a function of f alone, for inputs held."""
         rate = self._rates(n, T)[0]
