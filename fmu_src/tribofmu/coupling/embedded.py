@@ -302,11 +302,12 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             f_predicted = point.f + history.f_slope * h
             f_miss = (new.f - f_predicted) * h / (h + history.h)
             return LocalError(x=0.5 * h * v, v=v, F=curvature * h * h / 8.0, impulse=impulse, f=f_miss)
-        # held (or ramped with no history): the force held at its end value misses -F' h^2 / 2
+        # held (or ramped with no history): the force held at its end value misses -F' h^2 / 2;
+        # f's miss filtered as the force's: f follows dv, whose error a stiff loop pulls back
         miss = -0.5 * (new.F - point.F) * h  # N s
         v = miss * self.velocity_per_impulse * filter_
         return LocalError(x=2.0 * h / 3.0 * v, v=v, F=0.5 * (new.F - point.F) * filter_, impulse=impulse,
-                          f=0.5 * (new.f - point.f))
+                          f=0.5 * (new.f - point.f) * filter_)
 
     def error_ratio(self, point: Point, new: Point, local: LocalError, h: float) -> float:
         """The step's error relative to what tol allows (<= 1: accept): its local errors in v
