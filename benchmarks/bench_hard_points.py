@@ -59,7 +59,7 @@ def main() -> int:
         result = runs[-1][2]
         print(f"{name:26s} workers {workers}: wall {statistics.median(r[0] for r in runs):6.2f} s, "
               f"cpu {statistics.median(r[1] for r in runs):6.2f} s, runs {len(result.stats['check']['runs'])}, "
-              f"ok {result.ok}, checked nRMS(v) {result.stats['estimated_error']['nrms_v']:.2g}")
+              f"ok {result.ok}, reported nRMS(v) {result.stats['estimated_error']['nrms_v']:.2g}")
     for workers in (1, 2):
         ratio = (statistics.median(r[0] for r in rows[("pseudoplastic gamma=-0.9", workers)])
                  / statistics.median(r[0] for r in rows[("newtonian scene", workers)]))
