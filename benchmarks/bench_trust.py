@@ -3,6 +3,7 @@ run that misses it say so?
 
     python benchmarks/bench_trust.py [--tols default,1e-3,1e-4] [--only SUBSTRING] [--out FILE.json]
     python benchmarks/bench_trust.py --one-run [--tols default] [--only SUBSTRING]
+    python benchmarks/bench_trust.py --extra [--tols ...]   (EXTRA_POINTS instead of POINTS)
 
 At Fig. 2's and Fig. 6's scenes and at parameter points no scene uses (dry, fluid, boundary and
 mixed friction across docs/model.md's ranges), each run of ``tribofmu.api.simulate`` (whole
@@ -66,6 +67,25 @@ POINTS = [
     ("mixed M=0.3 m=0 mu_c=0.3", "mixed_stribeck", {"block.M": 0.3, "friction.m": 0.0, "friction.mu_friction": 0.3}),
 ]
 
+# Points for --extra: more dry, fluid and mixed points no scene (and no list above) uses, where a
+# run's own estimate may vouch for it (issue 36's one-run answer)
+EXTRA_POINTS = [
+    ("y dry omega=8 M=0.2", "fig2_dry", {"drive.omega": 8.0, "block.M": 0.2}),
+    ("y dry K=500", "fig2_dry", {"block.K": 500.0}),
+    ("y dry n=-10 omega=30", "fig2_dry", {"conditions.n": -10.0, "drive.omega": 30.0}),
+    ("y dry mu=0.8", "fig2_dry", {"friction.mu_friction": 0.8}),
+    ("y newtonian m=5 omega=20", "fig5_newtonian", {"friction.m": 5.0, "drive.omega": 20.0}),
+    ("y newtonian m=100 M=0.5", "fig5_newtonian", {"friction.m": 100.0, "block.M": 0.5}),
+    ("y dilatant gamma=2 omega=20", "fig5_dilatant", {"friction.gamma": 2.0, "drive.omega": 20.0}),
+    ("y dilatant gamma=0.3 m=10", "fig5_dilatant", {"friction.gamma": 0.3, "friction.m": 10.0}),
+    ("y mixed v_s=0.005", "mixed_stribeck", {"friction.v_stribeck": 0.005}),
+    ("y mixed delta=3 omega=12", "mixed_stribeck", {"friction.stribeck_exponent": 3.0, "drive.omega": 12.0}),
+    ("y mixed mu_s=0.9 M=0.4", "mixed_stribeck", {"friction.mu_static": 0.9, "block.M": 0.4}),
+    ("y mixed m=10 K=1500", "mixed_stribeck", {"friction.m": 10.0, "block.K": 1500.0}),
+    ("y mixed v_s=0.05 delta=1.2", "mixed_stribeck", {"friction.v_stribeck": 0.05,
+                                                       "friction.stribeck_exponent": 1.2}),
+]
+
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -76,9 +96,14 @@ def main(argv=None) -> int:
     parser.add_argument("--table", default=None, metavar="ROWS.json[,ROWS.json]",
                         help="print the markdown summary of rows saved by --out (a point in a later file "
                              "replaces its row in an earlier one), run nothing")
+    parser.add_argument("--extra", action="store_true",
+                        help="the points of EXTRA_POINTS instead (dry, fluid and mixed points off the list)")
     parser.add_argument("--one-run", action="store_true",
                         help="each point's first run only: its propagated estimate against its true error")
     args = parser.parse_args(argv)
+    if args.extra:
+        global POINTS
+        POINTS = EXTRA_POINTS
     if args.one_run:
         return one_run([None if t == "default" else float(t) for t in args.tols.split(",")], args.only)
     if args.table:
