@@ -251,10 +251,10 @@ class CheckSequence:
         -1/3, 26 % for that ratio, where a miss costs a whole run), at the order the last two
         runs' own errors showed (ASSUMED_ORDER before there are two), at least CHECK_RATIO. The
         first plan is not capped: at ASSUMED_ORDER, the highest order runs that vouch show
-        (0.7-1), it under-jumps rather than over (mixed friction's first run lies 30x off tol:
-        capped at MAX_JUMP, five runs at tol 1e-4). A plan from an observed order is capped at
-        MAX_JUMP as a planned pair is: two estimates' ratio at loose tolerances is a guess (one
-        such plan jumped 1600x, to an error 60x below tol)."""
+        (0.7-1), it under-jumps rather than over (a first run 30x off tol took five runs capped
+        at MAX_JUMP: mixed friction at 1e-4, when it vouched). A plan from an observed order is
+        capped at MAX_JUMP as a planned pair is: two estimates' ratio at loose tolerances is a
+        guess (one such plan jumped 1600x, to an error 60x below tol)."""
         order, cap = ASSUMED_ORDER, math.inf
         if self.own_last is not None and self.own_last[0] > self.step_tol:
             previous_tol, previous = self.own_last

@@ -54,12 +54,17 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
       share enters through a weight, ErrorSettings.state_carry, not through a derivation);
     - a force with an unbounded slope at rest (``law.slope_bounded``: a shear-thinning fluid),
       where the linearisation fails as dv passes 0 (gamma = -0.7: 0.28-0.36x the true error);
+    - a force that falls as the slip grows (``law.slip_force_falls``: a Stribeck drop), where an
+      error grows as the exponential of a slope the carry takes from the steps' chords: mixed
+      friction at a loose tolerance read 0.22-0.45x its true error;
     - inputs n, T that change over the run (a Load or Thermal FMU): the chord of F against dv
       is then not the slope the carry needs, and the carry's damping has no sign."""
     if law.has_state:
         return f"{law.label} has an internal state (the lubricant's melting and re-solidifying)"
     if not law.slope_bounded:
         return f"the {law.label} force's slope is unbounded at rest"
+    if law.slip_force_falls:
+        return f"the {law.label} force falls as the slip grows (errors grow there)"
     if inputs_vary:
         return "the friction's inputs n, T change over the run (a Load or Thermal FMU)"
     return None

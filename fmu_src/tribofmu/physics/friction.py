@@ -173,6 +173,12 @@ class FrictionLaw:
         error's growth or decay cannot be linearised (coupling/estimate.py)."""
         return not self.has_power_law_term or self.gamma >= 0.0
 
+    @property
+    def slip_force_falls(self) -> bool:
+        """Whether the slip force falls somewhere as the slip grows (a negative slope, as a
+        Stribeck curve's from rest): an error grows there instead of decaying."""
+        return False
+
     # -- stick (laws with sticks = True) ------------------------------------------------
     def static_limit(self, n: float) -> float:
         """The largest force [N] the contact holds at dv = 0 under normal stress n [Pa]
