@@ -207,8 +207,9 @@ class CheckSettings:
     # carried error and the interpolants' miss) as squares, their signs unknown: in phase
     # they sum to sqrt 2 of their root-sum-square, and the next order's terms, at the step
     # sizes the controller takes (error ratio up to 1, not << 1), are of the same size: a
-    # factor sqrt 2 each. (Measured, not tuned: estimate / true 0.53-1.02 at 30 points where it
-    # vouches, tol 1e-4 and 1e-3; reported / true then 1.06-2.04.)
+    # factor sqrt 2 each. (Measured, not tuned: estimate / true 0.72-1.2 in 45 calls where it
+    # vouches, dry and fluid friction at tol 1e-2, 1e-3 and 1e-4, bench_trust.py and its --extra
+    # points, 2026-11-27; reported / true then 1.44-2.4.)
     one_run_margin: float = 2.0
     # No per-step tolerance below this: past it the steps reach the coupling's round-off.
     min_step_tol: float = 1e-9
