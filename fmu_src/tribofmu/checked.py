@@ -16,6 +16,11 @@ OBSERVED_ORDER_MAX), or else a new pair planned at the per-step tolerance the ch
 asks for. The sequence ends when a pair meets tol,
 or the time budget (``--max-wall``), MAX_RUNS or MIN_STEP_TOL is reached; then the result is
 kept but not ``ok``. Every run of the sequence counts in the reported ``wall_time``.
+
+One run where one is enough: where a run's own carried estimate vouches for it (its derivation
+holds for the scene: coupling/estimate.py ``carry_problem``), the run is reported alone with
+ONE_RUN_MARGIN times that estimate as its error when that meets tol, and otherwise the next run
+is planned from it (:meth:`CheckSequence._own_tightening`) and stands on its own estimate in turn.
 """
 from __future__ import annotations
 
@@ -351,7 +356,7 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
 def _finish(result, difference: float | None, sequence: CheckSequence, began: tuple, sink, spool: Spool | None,
             failed: bool = False):
     begin, cpu_begin, runs = began
-    records, tol, limit, order = sequence.records, sequence.tol, sequence.limit, sequence.order
+    records, tol, limit = sequence.records, sequence.tol, sequence.limit
     stats = result.stats
     own = stats.get("estimated_error", {})
     checked = difference is not None and math.isfinite(difference)
@@ -362,7 +367,7 @@ def _finish(result, difference: float | None, sequence: CheckSequence, began: tu
     # every run's CPU, the ones started ahead and stopped unused included
     stats["cpu_time"] = cpu_seconds() - cpu_begin
     stats["check"] = {"runs": [r.as_dict() for r in records], "check_ratio": CHECK_RATIO,
-                      "min_order": MIN_ORDER, "observed_order": order,
+                      "min_order": MIN_ORDER, "observed_order": sequence.order,
                       "workers": runs.workers, "runs_stopped_unused": runs.stopped}
     if failed:
         stats["tolerance_met"] = False
@@ -393,7 +398,7 @@ def _method(checked: bool, sequence: CheckSequence) -> str:
     if checked and sequence.own:
         return (f"own: the run's carried estimate of its error (coupling/estimate.py) times {ONE_RUN_MARGIN:g}; "
                 "it vouches for the run here (its derivation holds: the friction a function of dv alone "
-                "with a bounded slope), so the run was not repeated")
+                "with a bounded slope that is nowhere negative), so the run was not repeated")
     if not checked:
         return f"not checked: {sequence.limit} before the run could be repeated at a tighter tolerance"
     order = sequence.order
