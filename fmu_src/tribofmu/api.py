@@ -443,13 +443,13 @@ def inputs_vary(scenario: Scenario) -> bool:
     return bool({"Thermal", "Load"} & set(scenario.fmus))
 
 
-def own_estimate_problem(scenario: Scenario, inputs_vary: bool) -> str | None:
+def own_estimate_problem(scenario: Scenario, varying: bool) -> str | None:
     """Why a run's carried estimate cannot vouch for a run of scenario (None: it can); see
-    :func:`tribofmu.coupling.estimate.carry_problem`. inputs_vary: a Load or Thermal FMU
-    feeds the friction."""
+    :func:`tribofmu.coupling.estimate.carry_problem`. varying: a Load or Thermal FMU feeds
+    the friction (:func:`inputs_vary`)."""
     if "Friction" not in scenario.fmus:
         return None  # no friction: the block's own linear motion, which the carry follows exactly
-    return carry_problem(scenario.friction.law(), inputs_vary)
+    return carry_problem(scenario.friction.law(), varying)
 
 
 def build_system(scenario: Scenario, slaves: dict) -> CoupledSystem:

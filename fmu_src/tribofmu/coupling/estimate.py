@@ -48,7 +48,7 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
     """Why the carried estimate cannot vouch for a run of friction ``law`` (None: it can).
 
     The carry above is exact to first order where its derivation holds: the friction force a
-    function of dv alone with a bounded slope. It does not hold for
+    function of dv alone with a bounded slope that is nowhere negative. It does not hold for
     - a law with an internal state (the lubricant's f): its melting and re-solidifying are
       events whose timing errors jump the force, which no linear carry follows (the state's
       share enters through a weight, ErrorSettings.state_carry, not through a derivation);
