@@ -342,7 +342,7 @@ class ImplicitStep:
             side = -1.0 if previous == Contact.BACKWARD else 1.0
             probe = self.probes[side]
             event = solvers.stick_onset(self.point.dv, self.point.aX - self.point.a, probe.dv, probe.dv_slope,
-                                        self.h, RESOLUTION.stick_onset_xtol)
+                                        self.h, 1.0 / self.h_ns)  # (to 1 ns: the time grid)
         if event < 1.0 or previous != Contact.STUCK:
             self.stick_force()
         return event

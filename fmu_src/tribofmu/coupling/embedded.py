@@ -214,8 +214,10 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         w2 = self.estimate.w2
         if w2 <= 0.0:
             return math.inf
-        room_v = self.errors.interpolation_safety * HERMITE_ERROR_DIVISOR * self.tol * self.velocity_scale(point) / w2
-        room_x = self.errors.interpolation_safety * HERMITE_ERROR_DIVISOR * self.tol * self.position_scale(point) / w2
+        # (planned from the last step's jerk, not this one's: the controller's safety on the step,
+        # which is on the error to the bound's h^4)
+        room_v = self.controller.safety ** 4 * HERMITE_ERROR_DIVISOR * self.tol * self.velocity_scale(point) / w2
+        room_x = self.controller.safety ** 4 * HERMITE_ERROR_DIVISOR * self.tol * self.position_scale(point) / w2
         if not point.mode.slipping:
             breakaway = self.predicted_breakaway(point)
             if breakaway is None or breakaway > self.h_ns / NS:
@@ -243,7 +245,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         if not point.mode.stuck:
             return math.inf
         w2 = self.drive_w2()
-        room = self.errors.interpolation_safety * HERMITE_ERROR_DIVISOR * self.tol / (w2 * w2)
+        room = self.controller.safety ** 4 * HERMITE_ERROR_DIVISOR * self.tol / (w2 * w2)
         limits = [math.inf]
         if point.V != 0.0:
             limits.append((room * self.velocity_scale(point) / abs(point.V)) ** 0.25)

@@ -21,6 +21,7 @@ given. Standard library and physics/ only: this module ships in the FMUs.
 """
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 from ..physics.stepsize import StepSizeController
@@ -94,9 +95,6 @@ class ErrorSettings:
     # interpolation bound compares the step's ends, which alias beyond it (fig2's rig at
     # omega = 10: 6.4e-2 nRMS(v) without this cap).
     block_period_fraction: float = 0.125
-    # The planned step keeps its interpolation error to this fraction of tol (as the
-    # controller's safety: the jerk it is planned from is the last step's, not this one's).
-    interpolation_safety: float = 0.5
     # The breakaway's timing counts in full for a stuck step whose force could reach the
     # friction's bound within this many steps, less and less farther off (see
     # EmbeddedCoupling.breakaway_reach).
@@ -110,7 +108,9 @@ class ErrorSettings:
 
 # The step-size rule for communication steps (physics/stepsize.py), every value given here:
 # - safety 0.9, min_factor 0.1: the rule's (and scipy's rk.py's) usual values; a rejected
-#   step at an event is landed by the event logic, not by this;
+#   step at an event is landed by the event logic, not by this. The safety is also the step
+#   planned from the interpolation bound's (embedded.py interpolation_limit), for the same
+#   reason: the jerk it is planned from is the last step's, not this one's;
 # - max_factor 4: growth of 4 per accepted step (a slip phase after a transition);
 # - max_factor_after_reject 1: no growth right after a rejection (the step just failed at a
 #   larger size: growing again at once invites another);
@@ -185,25 +185,31 @@ MAX_ORDER = 1.0
 # Not tuning: resolution, limits, switches.
 # ============================================================================================
 
+# The relative round-off of one block step's answer (its x, v, F): a few dozen floating-point
+# operations, each up to an ulp, on terms up to ~100x the result (the spring's K x and the
+# friction force against their difference): 2^12 ulps. (At 2^8 ulps of the position scale the
+# stick ramp iterated on x's round-off: more FMU calls on fig. 2's rig with a Stribeck law,
+# benchmarks/fingerprint.py, 2026-11-27; 2^12 gives what 1e-12 gave, bit for bit.)
+ROUND_OFF = 4096 * sys.float_info.epsilon
+
+
 @dataclass(frozen=True)
 class Resolution:
-    """Values that only keep round-off, or the integer-nanosecond time grid, out of the method."""
+    """Values that only keep round-off out of the method. (The time grid's own resolution needs
+    no value: the stick onset inside a step is located to 1 ns, contact.py.)"""
 
     # The "zero" relative velocity, as a fraction of the scene's velocity scale: |dv| within it
     # counts as stuck. Far below any velocity error the error control resolves (the root
     # tolerance is 1e-3 of the per-step tolerance's share of |v|), far above v's round-off.
     zero_velocity: float = 1e-10
-    # The stick onset inside a step is located to this fraction of the step (1 ns in a 1 s
-    # step: below the integer-nanosecond time grid of any step the controller takes).
-    stick_onset_xtol: float = 1e-9
-    # The stick ramp keeps x on the drive to this fraction of the scene's position scale
-    # (round-off of x, ~1e-16 relative, times the few operations of one step).
-    stick_ramp_position_tol: float = 1e-12
-    # End forces this close (relative) are one force to the block's model: two real answers a
-    # few ulps apart differ by round-off, and an affine model through them extrapolates
-    # round-off (a Stribeck force at its floor, 6.0 and 6.000000000000001 N: a slip root
-    # where the block sticks).
-    same_force_rtol: float = 1e-12
+    # The stick ramp keeps x on the drive to this fraction of the scene's position scale: the
+    # round-off of one block step's x (ROUND_OFF).
+    stick_ramp_position_tol: float = ROUND_OFF
+    # End forces this close (relative) are one force to the block's model: two real answers
+    # that differ by round-off (ROUND_OFF: a block step's answer, from the same few dozen
+    # operations), through which an affine model would extrapolate round-off (a Stribeck
+    # force at its floor, 6.0 and 6.000000000000001 N: a slip root where the block sticks).
+    same_force_rtol: float = ROUND_OFF
     # A step's error is measured against the block's own motion: its largest |v| and |x| so
     # far, floored at this fraction of the scene's scales (from complete rest the motion is
     # round-off, and no step would pass).
