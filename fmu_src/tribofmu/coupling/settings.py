@@ -8,14 +8,16 @@ four kinds (tests/master/test_settings.py classifies every field and counts the 
   lubricant's sub-steps use with their own values) and :class:`CheckSettings` (the global error
   check of a run: tribofmu/checked.py, on the master only). ``CALIBRATED`` names those measured
   on one shipped scene rather than derived (and on which): what a rebuild should replace;
-- :class:`Resolution`: values that only keep round-off, or the integer-nanosecond time grid,
-  out of the method; they set no accuracy the user sees;
+- :class:`Resolution`: values that only keep round-off out of the method (the integer-
+  nanosecond time grid needs none: an event inside a step is located to 1 ns); they set no
+  accuracy the user sees;
 - :class:`Limits`: caps and floors that end a loop (an iteration, the step's shrinking, the
   check's runs); they set no accuracy where the method converges;
 - :class:`Switches`: what a comparison turns off (a test or a benchmark); the default is the method.
 
 Numbers the method derives (an order, an error formula's constant) stay with their derivation
-(``MAX_ORDER`` here; the cubic Hermite bound's 384 and the trapezoid's 1/12 where their formula is).
+(``MAX_ORDER`` and ``ROUND_OFF`` here; the cubic Hermite bound's 384 and the trapezoid's 1/12
+where their formula is).
 Fractions and tolerances are relative to the scene's scales or to the step unless a unit is
 given. Standard library and physics/ only: this module ships in the FMUs.
 """
@@ -175,9 +177,10 @@ class CheckSettings:
 # The highest order in the per-step tolerance at which a run's error is taken to fall, derived,
 # not tuned: the controller holds each step's error to its share of the per-step tolerance, and
 # a tighter tolerance takes more steps, so the run's error falls at most in proportion to it
-# (tol^(p/(p+1)) for a method of order p). The check credits an observed order at most this (two
-# runs' differences that fell faster are noise, not convergence), and plans its next run at it
-# (the error in proportion to the per-step tolerance: the plan under-jumps rather than over).
+# (tol^(p/(p+1)) for a method of order p). The check credits an observed order at most this
+# (faster falls between two tolerances, up to 1.5 on a light dry block, are not that rate: an
+# event landing differently, not convergence), and plans its next run at it (the error in
+# proportion to the per-step tolerance: the plan under-jumps rather than over).
 MAX_ORDER = 1.0
 
 
