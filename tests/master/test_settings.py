@@ -180,3 +180,22 @@ def test_a_stick_onset_is_located_to_one_nanosecond(monkeypatch):
     outcome = run(fig2_system(), EmbeddedCoupling(step=1e-4, tol=1e-3), 2 * math.pi / 30.0, drive_scales())
     assert outcome.ok, outcome.message
     assert len(asked) > 3 and all(t == pytest.approx(1e-9, rel=1e-9) for t in asked)
+
+
+def test_a_ramp_gain_of_zero_holds_the_force_everywhere():
+    """The first-order coupling for comparison needs no switch of its own (second_order, gone):
+    a loop gain is never negative, so max_ramp_gain = 0 holds the force over every step, where
+    the shipped value ramps it while the contact slips on the same way."""
+    import math
+
+    from fakes import drive_scales, fig2_system
+    from tribofmu.master.run import run
+
+    ramped = {}
+    for gain in (settings.SETTINGS.max_ramp_gain, 0.0):
+        algorithm = EmbeddedCoupling(step=1e-4, tol=1e-3)
+        algorithm.settings = dataclasses.replace(settings.SETTINGS, max_ramp_gain=gain)
+        outcome = run(fig2_system(), algorithm, 2 * math.pi / 30.0, drive_scales())
+        assert outcome.ok, outcome.message
+        ramped[gain] = sum(p.ramped for p in outcome.points)
+    assert ramped[settings.SETTINGS.max_ramp_gain] > 10 and ramped[0.0] == 0
