@@ -12,7 +12,7 @@ over r^p - 1 (r = CHECK_RATIO) at the slowest convergence order allowed for, MIN
 When that checked error is past tol, the next pair follows: the tighter run and its own
 partner when the checked error says that one or two more factors will do (the chain of three
 runs then shows the convergence order, and the third run's error is estimated at that order,
-OBSERVED_ORDER_MAX), or else a new pair planned at the per-step tolerance the checked error
+MAX_ORDER), or else a new pair planned at the per-step tolerance the checked error
 asks for. The sequence ends when a pair meets tol,
 or the time budget (``--max-wall``), MAX_RUNS or MIN_STEP_TOL is reached; then the result is
 kept but not ``ok``. Every run of the sequence counts in the reported ``wall_time``.
@@ -34,26 +34,23 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .coupling.settings import CHECK_SETTINGS
+from .coupling.settings import CHECK_SETTINGS, LIMITS, MAX_ORDER, RESOLUTION
 from .forked_runs import ForkedRuns, InlineRuns, check_workers, cpu_seconds
 from .progress import run_started
 from .run_folder import run_folder
 
-# The check's tuning, each value with its reason, is coupling/settings.py's CheckSettings; the
-# names below are what this module (and a test that sets one) reads.
+# The check's tuning, each value with its reason, is coupling/settings.py's CheckSettings (its
+# floor and limits Resolution's and Limits'); the names below are what this module (and a test
+# that sets one) reads.
 CHECK_RATIO = CHECK_SETTINGS.check_ratio
 MIN_ORDER = CHECK_SETTINGS.min_order
-OBSERVED_ORDER_MAX = CHECK_SETTINGS.observed_order_max
 ORDER_SAFETY = CHECK_SETTINGS.order_safety
 CHAIN_TIGHTENING_MAX = CHECK_SETTINGS.chain_tightening_max
-FIRST_STEP_TOL = CHECK_SETTINGS.first_step_tol
-ASSUMED_ORDER = CHECK_SETTINGS.assumed_order
-SAFETY = CHECK_SETTINGS.safety
 MAX_JUMP = CHECK_SETTINGS.max_jump
-MIN_STEP_TOL = CHECK_SETTINGS.min_step_tol
-MAX_RUNS = CHECK_SETTINGS.max_runs
-MIN_BUDGET = CHECK_SETTINGS.min_budget  # s
 ONE_RUN_MARGIN = CHECK_SETTINGS.one_run_margin
+MIN_STEP_TOL = RESOLUTION.min_step_tol
+MAX_RUNS = LIMITS.max_runs
+MIN_BUDGET = LIMITS.min_budget  # s
 
 
 def vouched_error(result) -> float | None:
@@ -70,7 +67,7 @@ def vouched_error(result) -> float | None:
 def checked_error(difference: float, previous: float | None = None) -> float:
     """The tighter run's error from its pair's difference on the window (see CHECK_RATIO);
     previous: the difference of the pair before it in the same chain (its looser run and
-    this pair's looser run), when there is one (see OBSERVED_ORDER_MAX)."""
+    this pair's looser run), when there is one (see MAX_ORDER)."""
     two_runs = difference / (CHECK_RATIO ** MIN_ORDER - 1.0)
     order = observed_order(difference, previous)
     if order is None:
@@ -80,18 +77,18 @@ def checked_error(difference: float, previous: float | None = None) -> float:
 
 def observed_order(difference: float, previous: float | None) -> float | None:
     """The convergence order two successive differences of one chain show, within
-    [MIN_ORDER, OBSERVED_ORDER_MAX]; None when there is no previous difference or the
+    [MIN_ORDER, MAX_ORDER]; None when there is no previous difference or the
     differences do not shrink (no convergence to credit)."""
     if previous is None or not 0.0 < difference < previous or not math.isfinite(previous):
         return None
     order = math.log(previous / difference) / math.log(CHECK_RATIO)
-    return min(max(order, MIN_ORDER), OBSERVED_ORDER_MAX)
+    return min(max(order, MIN_ORDER), MAX_ORDER)
 
 
 def wanted_tightening(error: float, tol: float) -> float:
     """The factor of per-step tolerance a run checked as ``error`` is expected to need to meet
-    tol (the error assumed to fall as the per-step tolerance to ASSUMED_ORDER)."""
-    return (error / (SAFETY * tol)) ** (1.0 / ASSUMED_ORDER)
+    tol (the error assumed to fall in proportion to the per-step tolerance: MAX_ORDER)."""
+    return error / tol
 
 
 def next_tightening(error: float, tol: float) -> float:
@@ -197,7 +194,7 @@ class CheckSequence:
         self.own_last = None  # (per-step tolerance, own error) of the last run that vouched for itself
         # the pair being formed is expected to meet tol (its plan says so): nothing runs ahead of it.
         # A first run that vouches for itself is: at a per-step tolerance of tol its true error
-        # lands at 0.05-0.25 tol (first_step_tol's measure), inside tol over the margin
+        # lands at 0.05-0.25 tol (checked_simulation), inside tol over the margin
         self.expected_to_meet = vouches
 
     def planned(self) -> int:
@@ -254,33 +251,33 @@ class CheckSequence:
         """How much tighter the run after one whose own error ``own`` missed tol is: planned to
         land one CHECK_RATIO below tol (a run's steps grow only as the per-step tolerance to the
         -1/3, 26 % for that ratio, where a miss costs a whole run), at the order the last two
-        runs' own errors showed (ASSUMED_ORDER before there are two), at least CHECK_RATIO. The
-        first plan is not capped: at ASSUMED_ORDER, the highest order runs that vouch show
+        runs' own errors showed (MAX_ORDER before there are two), at least CHECK_RATIO. The
+        first plan is not capped: at MAX_ORDER, the highest order runs that vouch show
         (0.7-1), it under-jumps rather than over (a first run 30x off tol took five runs capped
         at MAX_JUMP: mixed friction at 1e-4, when it vouched). A plan from an observed order is
         capped at MAX_JUMP as a planned pair is: two estimates' ratio at loose tolerances is a
         guess (one such plan jumped 1600x, to an error 60x below tol)."""
-        order, cap = ASSUMED_ORDER, math.inf
+        order, cap = MAX_ORDER, math.inf
         if self.own_last is not None and self.own_last[0] > self.step_tol:
             previous_tol, previous = self.own_last
             # (an error that did not fall: the slowest order allowed for, the longest jump)
             shown = math.log(previous / own) / math.log(previous_tol / self.step_tol) if own < previous else 0.0
-            order, cap = min(max(shown, MIN_ORDER), OBSERVED_ORDER_MAX), MAX_JUMP
-        wanted = (own * CHECK_RATIO / (SAFETY * self.tol)) ** (1.0 / order)
+            order, cap = min(max(shown, MIN_ORDER), MAX_ORDER), MAX_JUMP
+        wanted = (own * CHECK_RATIO / self.tol) ** (1.0 / order)
         return min(cap, max(CHECK_RATIO, wanted))
 
     def _expects_to_meet(self, result, error: float, factor: float) -> bool:
         """Whether the pair the next run forms or starts is expected to meet tol: a chain one
         factor from it, a pair planned to meet it, or, for the first run of a pair, what its own
         propagated estimate (``estimated_error``) says the pair's checked error will be (errors
-        falling as the per-step tolerance to ASSUMED_ORDER). Only what runs ahead follows from
+        falling in proportion to the per-step tolerance: MAX_ORDER). Only what runs ahead follows from
         this, never a result: a wrong guess costs wall time, not accuracy."""
         if not math.isnan(error):
             return factor != CHECK_RATIO or wanted_tightening(error, self.tol) <= CHECK_RATIO
         own = (result.stats.get("estimated_error") or {}).get("nrms_v")
         if own is None or not math.isfinite(own):
             return False
-        falls = 1.0 - CHECK_RATIO ** -ASSUMED_ORDER  # the pair's difference, as a share of this run's error
+        falls = 1.0 - CHECK_RATIO ** -MAX_ORDER  # the pair's difference, as a share of this run's error
         return own * falls / (CHECK_RATIO ** MIN_ORDER - 1.0) <= self.tol
 
     def kept(self) -> tuple:
@@ -294,7 +291,7 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
                        progress: Callable[[Any], None] | None = None, notice: Callable[[str], None] | None = None,
                        prepare: Callable[[], None] | None = None, vouches: bool = False):
     """Run ``run_once(step_tol=..., max_wall=..., sink=...)`` in check pairs from per-step
-    tolerance ``step_tol`` (default FIRST_STEP_TOL x tol) down, until the tighter run of a
+    tolerance ``step_tol`` (default tol itself) down, until the tighter run of a
     pair is checked to meet ``tol`` on the window, or the budget ``max_wall`` [s] (None:
     none), MAX_RUNS or MIN_STEP_TOL ends the sequence (:class:`CheckSequence`); returns the
     last checked run's result with its stats rewritten: ``tol`` the global tol, ``step_tol``
@@ -316,8 +313,10 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     # (runs that vouch for themselves are planned one at a time: nothing ever runs beside them)
     runs = (InlineRuns(run_once, make_spool) if count == 1 or vouches else
             ForkedRuns(run_once, make_spool, count, progress=progress, notice=notice, prepare=prepare))
-    sequence = CheckSequence(tol, max(step_tol if step_tol is not None else FIRST_STEP_TOL * tol, MIN_STEP_TOL),
-                             vouches)
+    # The first run's per-step tolerance is tol itself: the reported run's true nRMS(v) then
+    # lands at 0.05-0.25 tol (fig2, fig6 and an off-scene dry point; 0.026 at 0.5 tol: more
+    # accuracy than asked, paid in steps)
+    sequence = CheckSequence(tol, max(step_tol if step_tol is not None else tol, MIN_STEP_TOL), vouches)
     held: dict[int, Spool] = {}  # the spooled samples of the runs that may be reported
     try:
         while True:

@@ -338,7 +338,7 @@ def test_stepped_trials_follow_a_lubricant_in_fewer_calls():
         system = CoupledSystem(BlockPart("block", 0.7, 1300.0, 0.0, 0.0), FollowedDrive("drive", 0.0, V, 0.0),
                                FrictionPart("friction", law, 0.0, n, 290.0), {"n": n, "T": 290.0})
         algorithm = EmbeddedCoupling(tol=tol)
-        algorithm.settings = replace(algorithm.settings, stepped_trials=stepped)
+        algorithm.switches = replace(algorithm.switches, stepped_trials=stepped)
         algorithm.prepare(system, Scales(position=1e-6, velocity=V, period=0.1))
         points = [system.start_point()]
         while points[-1].t_ns < stop_ns:

@@ -65,7 +65,7 @@ def power_law(constant, order=1.0):
 def test_two_runs_when_the_first_pair_meets_tol_and_the_tighter_one_is_reported():
     runs = FakeRuns(power_law(0.3))  # error = 0.3 step_tol
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
-    first = checked.FIRST_STEP_TOL * 1e-3
+    first = 1e-3  # (the first run's per-step tolerance is tol itself)
     assert [c[0] for c in runs.calls] == [first, first / checked.CHECK_RATIO]
     assert result.ok and result.stats["tolerance_met"] and result.stats["ok"]
     reported = result.stats["estimated_error"]["nrms_v"]
@@ -112,10 +112,10 @@ def test_slow_convergence_is_not_underreported():
 
 def test_a_missed_event_in_the_looser_run_is_not_reported_as_met():
     # the looser run is qualitatively wrong (an event missed: error 0.6), the tighter right
-    runs = FakeRuns(lambda tol: 0.6 if tol >= checked.FIRST_STEP_TOL * 1e-3 else 1e-5)
+    runs = FakeRuns(lambda tol: 0.6 if tol >= 1e-3 else 1e-5)
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
     assert len(runs.calls) >= 3  # the 0.6 pair fails; a tighter pair agrees
-    assert result.stats["step_tol"] < checked.FIRST_STEP_TOL * 1e-3
+    assert result.stats["step_tol"] < 1e-3
     assert result.ok and result.stats["estimated_error"]["nrms_v"] < 1e-4
 
 
@@ -181,7 +181,7 @@ def test_a_chain_of_three_runs_reports_at_the_order_it_shows_and_never_above_the
     # one more run of the chain shows order 1, and its error is reported from it
     runs = FakeRuns(power_law(2.0))
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
-    first = checked.FIRST_STEP_TOL * 1e-3
+    first = 1e-3  # (the first run's per-step tolerance is tol itself)
     assert [c[0] for c in runs.calls] == [first, first / 2, first / 4]
     assert result.stats["check"]["observed_order"] == pytest.approx(1.0, rel=1e-3)
     true_error = checked.window_difference(result, FakeRuns(lambda step_tol: 0.0)(1.0))
@@ -193,7 +193,7 @@ def test_a_chain_of_three_runs_reports_at_the_order_it_shows_and_never_above_the
 def test_differences_that_do_not_shrink_are_not_credited_an_order():
     assert checked.observed_order(2e-4, 1e-4) is None and checked.observed_order(1e-4, None) is None
     assert checked.checked_error(1e-4, 1e-4) == checked.checked_error(1e-4)
-    assert checked.observed_order(1e-4, 1e-3) == checked.OBSERVED_ORDER_MAX  # 3.3 is not credited
+    assert checked.observed_order(1e-4, 1e-3) == checked.MAX_ORDER  # 3.3 is not credited
 
 
 # -- a run whose own carried estimate vouches for it (issue 36: one run where one is enough) --

@@ -18,7 +18,7 @@ from scipy.optimize import brentq
 from tribofmu.coupling.blocks import BlockAnswer, BlockResponse
 from tribofmu.coupling.contact import RETRY_HELD_STIFF, RETRY_HELD_TRANSITION, RetryHeld, slip_mode
 from tribofmu.coupling.inprocess import BlockPart
-from tribofmu.coupling.settings import SETTINGS
+from tribofmu.coupling.settings import LIMITS, RESOLUTION
 from tribofmu.coupling.solvers import secant_rounds, stick_onset
 from tribofmu.coupling.system import Contact
 from tribofmu.physics import FluidLaw
@@ -124,7 +124,7 @@ def test_stick_onset_needs_a_crossing():
     """stick_onset gives 1 (no event) where dv keeps its sign, or does not move; across 0 the
     root of the cubic Hermite interpolant (a straight line here: both slopes the secant's, so
     the root is where the line crosses)."""
-    dv0, h, xtol = 0.01, 1e-3, SETTINGS.stick_onset_xtol
+    dv0, h, xtol = 0.01, 1e-3, 1e-6  # (1 ns of the step: the time grid, as the coupling locates it)
     assert stick_onset(dv0, 0.0, 0.5 * dv0, 0.0, h, xtol) == 1.0
     assert stick_onset(dv0, 0.0, dv0, 0.0, h, xtol) == 1.0
     assert 0.0 < stick_onset(dv0, 0.0, -dv0, 0.0, h, xtol) < 1.0
@@ -493,7 +493,7 @@ def test_block_answers_an_ulp_apart_in_force_make_no_model():
     force is not extrapolated from their round-off (it is stepped for real), and no slope is
     measured from them; a third real answer that moves the block makes the model."""
     answer = block_answers(1.0, 0.0, 1e-3, 0.0, ramp=False)
-    response = BlockResponse(1_000_000, False, None, SETTINGS.same_force_rtol)
+    response = BlockResponse(1_000_000, False, None, RESOLUTION.same_force_rtol)
     response.samples += [answer(6.0), answer(6.000000000000001)]
     assert response.spanning() is None and response.measured_slope(False) is None
     assert response.model(7.3, 7.3, 0.0) is None  # (stepped for real, not extrapolated)
@@ -508,7 +508,7 @@ def test_block_answers_that_differ_by_round_off_in_v_make_no_slope():
     (m/s)/N, and the next step's modelled trials ran dv out to 1e206 m/s)."""
     h = 5e-6
     answer = block_answers(1.0, 3e-5, h, 0.0, ramp=True)
-    response = BlockResponse(5_000, True, None, SETTINGS.same_force_rtol)
+    response = BlockResponse(5_000, True, None, RESOLUTION.same_force_rtol)
     response.samples += [answer(2.5369349e-13), answer(2.5383656e-13)]
     assert response.samples[0].v == response.samples[1].v  # (round-off: the same v)
     assert response.spanning() is None and response.measured_slope(True) is None
@@ -532,7 +532,7 @@ def test_secant_rounds_stay_between_the_iterate_and_the_block_s_answer():
         return rounds[-1][1]
 
     secant_rounds(g_at, 0.011780137170126374, 0.5, 1.0, True, floor=1e-10, root_tol=1e-12,
-                  rounds=SETTINGS.max_settle_rounds)
+                  rounds=LIMITS.max_settle_rounds)
     assert len(rounds) >= 4
     for (dv, g), (following, _) in zip(rounds, rounds[1:]):
         assert min(dv, dv + g) <= following <= max(dv, dv + g)

@@ -58,7 +58,7 @@ def test_events_unlanded_would_be_late():
     omega, tol = 30.0, 1e-3
     scales = drive_scales(omega)
     algorithm = make_algorithm("adaptive", tol=tol)
-    algorithm.settings = replace(algorithm.settings, min_landing_fraction=2.0)
+    algorithm.settings = replace(algorithm.settings, event_margin=2.0)
     out = run(fig2_system(omega=omega), algorithm, 2 * scales.period, scales)
     located, exact = located_events(out.points), exact_events(2 * scales.period, omega)
     misses = [abs(t - t_exact) / scales.period for (kind, t), (_, t_exact) in zip(located, exact) if kind == "slip"]

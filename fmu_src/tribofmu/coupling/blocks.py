@@ -7,7 +7,7 @@ The block's answer to the force is affine in it (a linear block: a mass on sprin
 loop function's iterates differ only in the force: from two real steps under two forces of one
 family (held, or ramped from the step's start force) the block's answer to a third is their
 affine combination, without a step. The final force is always stepped for real and the model
-checked against it (``settings.model_miss_tolerance``): a block that is not affine is stepped
+checked against it (to the root tolerance): a block that is not affine is stepped
 for every iterate instead.
 
 A slip step's first real block step plus the block's slope d(v, x, a)/dF_end [per N] from the
@@ -32,7 +32,7 @@ from typing import NamedTuple
 # Below this |w2 h^2| the response integrals are summed as their Taylor series: the closed
 # forms (h - sin(w h)/w)/w2 cancel to a relative 6 eps/|w2 h^2| (1.3e-13 at 1e-2), and the
 # series through the z^4 term is off by z^5/10! there (3e-17): both far below the check of
-# every prediction against a real step (settings.model_miss_tolerance root tolerances).
+# every prediction against a real step (to the root tolerance).
 SERIES_BELOW = 1e-2
 
 

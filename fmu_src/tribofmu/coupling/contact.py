@@ -35,7 +35,7 @@ from . import solvers
 from .blocks import BlockAnswer, BlockModel, BlockPrediction, BlockResponse, BlockSlope, StickJacobian
 from .evaluations import BlockSide, FrictionSide
 from .interpolation import NS
-from .settings import SETTINGS, CouplingSettings
+from .settings import LIMITS, RESOLUTION, SETTINGS, CouplingSettings
 from .solvers import Probe
 from .system import Contact, CoupledSystem, Point, States
 
@@ -92,8 +92,8 @@ class StepSettings:
     "zero" relative velocity, ``position_scale`` [m] for the stick ramp's fit;
     ``stepped_trials``: a slip going on is sought with the friction stepped from its first
     trial (:meth:`ImplicitStep.stepped_slip`), for a law that has not stuck; ``tuning``: the
-    coupling's constants (max_ramp_gain above which a ramp would ring, max_iterations of any
-    iteration, the solvers' own); ``dv_slope_fit``: for the slip's predicted dv, d(dv)/dt's
+    coupling's tuning (max_ramp_gain above which a ramp would ring, the solvers' own);
+    ``dv_slope_fit``: for the slip's predicted dv, d(dv)/dt's
     course over the last steps and the last one's miss (blocks.ReuseCache.slope_fit)."""
 
     expected_gain: float
@@ -126,7 +126,7 @@ class ImplicitStep:
         # the block, its real answers under one family of forces and the affine model through them
         # (with the block's learned model, its answers are predicted and the last one stepped)
         prediction = BlockPrediction(block_model, point.x, point.v, self.h) if block_model is not None else None
-        response = BlockResponse(h_ns, ramp, block_slope, settings.tuning.same_force_rtol, prediction)
+        response = BlockResponse(h_ns, ramp, block_slope, RESOLUTION.same_force_rtol, prediction)
         self.block = BlockSide(system, [v for v in saved.handles.values() if v[0] is system.block], t, self.h,
                                self.V, point.F, ramp, response, self.report)
         # the last stick ramp's, where it was of this length (exact for a linear block)
@@ -140,8 +140,8 @@ class ImplicitStep:
     # -- evaluations ----------------------------------------------------------------------
     def block_real_at(self, F: float) -> bool:
         """The block really stepped under the end force F; False where its model had missed
-        (by more than settings.tuning.model_miss_tolerance root tolerances)."""
-        return self.block.real_at(F, self.settings.tuning.model_miss_tolerance * self.root_tol)
+        (by more than the root tolerance: the model must be as good as the root it finds)."""
+        return self.block.real_at(F, self.root_tol)
 
     def defers(self) -> bool:
         """The block's real step is left to the caller (asked to; its last answer predicted)."""
@@ -167,7 +167,7 @@ class ImplicitStep:
         if not predicted or self.previous != Contact.STUCK or event < 1.0:
             return True
         target = self.point.x + self.X - self.point.X
-        if abs(self.block.real.x - target) <= self.settings.tuning.stick_ramp_position_tol * self.settings.position_scale:
+        if abs(self.block.real.x - target) <= RESOLUTION.stick_ramp_position_tol * self.settings.position_scale:
             return True
         response.prediction, response.prediction_missed = None, True
         return False
@@ -285,7 +285,7 @@ class ImplicitStep:
         """:func:`~.solvers.secant_rounds` on G (:meth:`stepped_g`): (dv, the gain the secant
         measured, whether G(dv) is within the root tolerance there), the friction stepped to dv."""
         return solvers.secant_rounds(self.stepped_g, dv, gain, direction, keep_side, floor=self.delta,
-                                     root_tol=self.root_tol, rounds=self.settings.tuning.max_settle_rounds)
+                                     root_tol=self.root_tol, rounds=LIMITS.max_settle_rounds)
 
     def classify(self) -> tuple[Contact, tuple[float, float] | None, float] | RetryHeld:
         """The step's contact mode, its slip root (dv [m/s], loop gain) when slipping, and the
@@ -342,7 +342,7 @@ class ImplicitStep:
             side = -1.0 if previous == Contact.BACKWARD else 1.0
             probe = self.probes[side]
             event = solvers.stick_onset(self.point.dv, self.point.aX - self.point.a, probe.dv, probe.dv_slope,
-                                        self.h, self.settings.tuning.stick_onset_xtol)
+                                        self.h, 1.0 / self.h_ns)  # (to 1 ns: the time grid)
         if event < 1.0 or previous != Contact.STUCK:
             self.stick_force()
         return event
@@ -408,25 +408,25 @@ class ImplicitStep:
         self.block.response.seed_allowed = True  # slip is confirmed: the root's trials may model from one real answer
         settings = self.settings
         return solvers.slip_root(self.loop, lo, h_lo, direction, delta=self.delta, root_tol=self.root_tol,
-                                 expected_gain=settings.expected_gain, max_iterations=settings.tuning.max_iterations,
+                                 expected_gain=settings.expected_gain, max_iterations=LIMITS.max_iterations,
                                  aim_beyond=settings.tuning.root_aim_beyond, hi=hi, h_hi=h_hi)
 
     def stick_force(self) -> float:
         """:func:`~.solvers.stick_force` between the probes: the held force that keeps dv = 0."""
         return solvers.stick_force(self.block.under, self.probes[1.0], self.probes[-1.0], self.delta,
-                                   self.settings.tuning.max_iterations)
+                                   LIMITS.max_iterations)
 
     def stick_ramp(self) -> float:
         """:func:`~.solvers.stick_ramp` from the probes (stuck all through): the fraction of the
         step at which the ramp leaves the friction's bounds (1: stuck throughout)."""
         pos, neg = self.probes[1.0], self.probes[-1.0]
-        jacobian, tuning = self.stick_jacobian, self.settings.tuning
+        jacobian = self.stick_jacobian
         real = self.block.real
         start_at_pos = jacobian is not None and real is not None and real.F_end == pos.F
         outcome = solvers.stick_ramp(self.block.ramp_at, pos, neg, self.h, self.h_ns, self.point.x + self.X - self.point.X,
                                      jacobian, start_at_pos, delta=self.delta,
-                                     position_tol=tuning.stick_ramp_position_tol * self.settings.position_scale,
-                                     iterations=tuning.stick_ramp_iterations)
+                                     position_tol=RESOLUTION.stick_ramp_position_tol * self.settings.position_scale,
+                                     iterations=LIMITS.stick_ramp_iterations)
         if outcome.jacobian is not None:
             self.report.stick_jacobian = outcome.jacobian
         return outcome.event

@@ -12,12 +12,12 @@ from .base import Magnitudes
 from .estimate import GlobalErrorEstimate
 from .implicit import ImplicitCoupling, LoopState
 from .interpolation import NS, hermite
-from .settings import SETTINGS
+from .settings import LIMITS, RESOLUTION, SETTINGS
 from .system import CoupledSystem, Point, States
 
 # (the names the embedded estimate reads them by)
 GRAZING_ERROR = SETTINGS.grazing_error
-W2_POSITION_FLOOR = SETTINGS.w2_position_floor
+W2_POSITION_FLOOR = RESOLUTION.w2_position_floor
 
 
 @dataclass(frozen=True)
@@ -48,7 +48,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
         super().prepare(system, scales)
         self._held = None  # (point, system, the slaves' states there): see states_at
         g = self.step_granularity
-        self.min_ns = max(g, int(scales.period * self.settings.min_step_periods * NS) // g * g)
+        self.min_ns = max(g, int(scales.period * LIMITS.min_step_periods * NS) // g * g)
         self.max_ns = max(self.min_ns, int(scales.period * self.settings.max_step_periods * NS) // g * g)
         self.h_ns = min(max(self.step_ns // g * g, self.min_ns), self.max_ns)
         self.estimate = GlobalErrorEstimate()
@@ -72,10 +72,10 @@ class ErrorControlledCoupling(ImplicitCoupling):
 
     # -- scales: pure, from the accepted points' magnitudes and the scene's floor ------------
     def velocity_scale(self, *points: Point) -> float:
-        return max(self.magnitudes.v, *(abs(p.v) for p in points), self.settings.scale_floor * self.scales.velocity)
+        return max(self.magnitudes.v, *(abs(p.v) for p in points), RESOLUTION.scale_floor * self.scales.velocity)
 
     def position_scale(self, *points: Point) -> float:
-        return max(self.magnitudes.x, *(abs(p.x) for p in points), self.settings.scale_floor * self.scales.position)
+        return max(self.magnitudes.x, *(abs(p.x) for p in points), RESOLUTION.scale_floor * self.scales.position)
 
     def root_tolerance(self) -> float:
         return self.settings.root_tol_fraction * self.tol * self.velocity_scale()
@@ -106,7 +106,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
         the landing is worth a step of its own, roll back and make it the next try (True)."""
         g = self.step_granularity
         landing = int(h_ns * event) // g * g
-        if event < 1.0 and landing >= max(g * self.min_ns, self.settings.min_landing_fraction * h_ns):
+        if event < 1.0 and landing >= max(g * self.min_ns, self.settings.event_margin * h_ns):
             system.restore(start)
             self.counters.landed += 1
             self.h_ns = landing

@@ -41,7 +41,7 @@ from dataclasses import asdict, dataclass
 from .controlled import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
 from .estimate import chord_damping, stick_onset_x_error
 from .interpolation import NS
-from .settings import ERROR_SETTINGS
+from .settings import ERROR_SETTINGS, RESOLUTION
 from .system import Contact, CoupledSystem, Point
 
 # A cubic Hermite interpolant misses by up to h^4 / 384 of the function's fourth derivative
@@ -131,7 +131,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         breakaway = self.predicted_breakaway(point)
         if breakaway is not None:
             landing = int(breakaway * NS)
-            margin = self.errors.breakaway_margin
+            margin = self.settings.event_margin
             if margin * h_ns < landing < (1.0 - margin) * h_ns and landing >= self.min_ns:
                 h_ns = landing
         return h_ns
@@ -151,14 +151,14 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         on the drive there, new.F + M (aX - a), is past the friction's bound: the fraction of
         the step at which that force, linear from its value at the step's start (or from the
         stick onset inside the step), reached the bound; None when it stays within (or
-        leaves only in the step's last errors.breakaway_margin, where the next step breaks away)."""
+        leaves only in the step's last settings.event_margin, where the next step breaks away)."""
         bounds = self.stick_bounds
         if not new.mode.stuck or bounds is None or self.velocity_per_impulse <= 0.0:
             return None
         mass = 1.0 / self.velocity_per_impulse  # kg, as the block answers an impulse
         low, high = bounds
         end = new.F + (new.aX - new.a) * mass
-        slack = self.errors.missed_breakaway_rtol * max(abs(low), abs(high))
+        slack = RESOLUTION.missed_breakaway_rtol * max(abs(low), abs(high))
         if low - slack <= end <= high + slack:
             return None
         bound = high if end > high else low
@@ -169,7 +169,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         else:  # no start inside the bounds to interpolate from: halve the stuck part
             fraction = 0.5 * (onset + 1.0)
         fraction = min(max(fraction, onset), 1.0)
-        return fraction if fraction < 1.0 - self.errors.breakaway_margin else None
+        return fraction if fraction < 1.0 - self.settings.event_margin else None
 
     def advance(self, system: CoupledSystem, point: Point, stop_ns: int) -> list[Point]:
         h_ns = self.planned_step(point, stop_ns)
@@ -214,8 +214,10 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         w2 = self.estimate.w2
         if w2 <= 0.0:
             return math.inf
-        room_v = self.errors.interpolation_safety * HERMITE_ERROR_DIVISOR * self.tol * self.velocity_scale(point) / w2
-        room_x = self.errors.interpolation_safety * HERMITE_ERROR_DIVISOR * self.tol * self.position_scale(point) / w2
+        # (planned from the last step's jerk, not this one's: the controller's safety on the step,
+        # which is on the error to the bound's h^4)
+        room_v = self.controller.safety ** 4 * HERMITE_ERROR_DIVISOR * self.tol * self.velocity_scale(point) / w2
+        room_x = self.controller.safety ** 4 * HERMITE_ERROR_DIVISOR * self.tol * self.position_scale(point) / w2
         if not point.mode.slipping:
             breakaway = self.predicted_breakaway(point)
             if breakaway is None or breakaway > self.h_ns / NS:
@@ -243,7 +245,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         if not point.mode.stuck:
             return math.inf
         w2 = self.drive_w2()
-        room = self.errors.interpolation_safety * HERMITE_ERROR_DIVISOR * self.tol / (w2 * w2)
+        room = self.controller.safety ** 4 * HERMITE_ERROR_DIVISOR * self.tol / (w2 * w2)
         limits = [math.inf]
         if point.V != 0.0:
             limits.append((room * self.velocity_scale(point) / abs(point.V)) ** 0.25)
@@ -362,7 +364,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
 
     def force_resolution(self, new: Point, h: float) -> float:
         """The force [N] the slip solve of a step of h [s] ending at new cannot tell from its
-        root: it resolves dv to delta (settings.zero_velocity x the velocity scale, the root's
+        root: it resolves dv to delta (RESOLUTION.zero_velocity x the velocity scale, the root's
         bracket), and the friction answers a change of dv at its slope dF/d(dv) = g / (c h
         vpi) (g the loop gain, vpi the block's velocity per impulse, c the block's share of
         the end force: 1/2 ramped, 1 held). A solid lubricant creeping at |dv| ~ 1e-12 m/s
@@ -373,7 +375,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             return 0.0
         share = 0.5 if new.ramped else 1.0
         slope = self.expected_gain(h) / (share * h * self.velocity_per_impulse)
-        return slope * self.settings.zero_velocity * self.scales.velocity
+        return slope * RESOLUTION.zero_velocity * self.scales.velocity
 
     def curvature_known(self, point: Point, new: Point) -> bool:
         """Whether the ramped step from point to new has its force's curvature estimated from
@@ -430,7 +432,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
 
     def _carry_error(self, point: Point, new: Point, local: LocalError, h: float) -> None:
         """Carry the global error estimate over the accepted step (coupling/estimate.py)."""
-        damping = chord_damping(point, new, self.velocity_per_impulse, self.settings.zero_velocity * self.scales.velocity)
+        damping = chord_damping(point, new, self.velocity_per_impulse, RESOLUTION.zero_velocity * self.scales.velocity)
         if damping is None:  # (the loop gain: the slope's size, of the block's share of the end force)
             damping = self.loop_gain / self.loop_gain_step * (2.0 if new.ramped else 1.0)
         x_scale, v_scale = self.position_scale(point, new), self.velocity_scale(point, new)

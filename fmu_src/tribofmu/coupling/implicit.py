@@ -11,7 +11,7 @@ from .blocks import ReuseCache
 from .contact import RetryHeld, RetryUnpredicted, StepSettings, slip_mode, solve_step
 from .evaluations import KnownTrials
 from .interpolation import NS
-from .settings import SETTINGS
+from .settings import RESOLUTION, SETTINGS, SWITCHES
 from .system import Contact, CoupledSystem, Point, States
 
 
@@ -41,6 +41,7 @@ class ImplicitCoupling(CouplingAlgorithm):
 
     name = "implicit"
     settings = SETTINGS  # the tuning (coupling/settings.py); an instance may be given others
+    switches = SWITCHES  # (what a comparison turns off)
 
     carried = LoopState  # what it carries from step to step
     state_names = tuple(field.name for field in fields(LoopState))
@@ -99,8 +100,8 @@ class ImplicitCoupling(CouplingAlgorithm):
         defer: its real step at the answer is then left to :attr:`pending_commit`."""
         h = h_ns / NS
         tuning = self.settings
-        settings = StepSettings(self.expected_gain(h), self.root_tolerance(), tuning.zero_velocity * self.scales.velocity,
-                                self.scales.position, stepped_trials=tuning.stepped_trials and self.stick_bounds is None,
+        settings = StepSettings(self.expected_gain(h), self.root_tolerance(), RESOLUTION.zero_velocity * self.scales.velocity,
+                                self.scales.position, stepped_trials=self.switches.stepped_trials and self.stick_bounds is None,
                                 tuning=tuning)
         reuse = self.reuse
         settings = replace(settings, dv_slope_fit=reuse.slope_fit(point.t_ns, int(point.mode), point.aX - point.a))
@@ -182,7 +183,7 @@ class ImplicitCoupling(CouplingAlgorithm):
                 # same way, the block feels a ramp from the force at the step's start to the
                 # one at its end (trapezoidal coupling). Where the loop is stiff the ramp would
                 # ring, and at stick or reversal the force jumps: there the force is held.
-                ramp = (ramp_allowed and self.settings.second_order and Contact(point.mode).slipping
+                ramp = (ramp_allowed and Contact(point.mode).slipping
                         and self.expected_gain(h) < self.settings.max_ramp_gain)
                 defer = defer and not own
                 new = self._solve(system, point, saved, h_ns, drive, ramp, defer=defer)

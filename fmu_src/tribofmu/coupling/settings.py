@@ -1,93 +1,64 @@
-"""The coupling's and its check's tuning in one place, each value with why it has it:
+"""The coupling's and its check's constants in one place, each value with why it has it, in
+four kinds (tests/master/test_settings.py classifies every field and counts the tuning):
 
-- :class:`CouplingSettings`: the implicit step's solve (contact.py, blocks.py, solvers.py)
-  and its step control (implicit.py, controlled.py);
-- :class:`ErrorSettings`: the adaptive coupling's embedded error estimate and event
-  handling (embedded.py);
-- ``STEP_CONTROL``: the step-size rule's values for communication steps (the rule itself is
-  physics/stepsize.py's, which the lubricant's sub-steps use with their own values);
-- :class:`CheckSettings`: the global error check of a run (tribofmu/checked.py, which runs
-  on the master only).
+- **tuning**, the method's choices: :class:`CouplingSettings` (the implicit step's solve and
+  its step control: contact.py, solvers.py, implicit.py, controlled.py), :class:`ErrorSettings`
+  (the embedded error estimate and its events: embedded.py), ``STEP_CONTROL`` (the step-size
+  rule's values for communication steps; the rule is physics/stepsize.py's, which the
+  lubricant's sub-steps use with their own values) and :class:`CheckSettings` (the global error
+  check of a run: tribofmu/checked.py, on the master only). ``CALIBRATED`` names those measured
+  on one shipped scene rather than derived (and on which): what a rebuild should replace;
+- :class:`Resolution`: values that only keep round-off out of the method (the integer-
+  nanosecond time grid needs none: an event inside a step is located to 1 ns); they set no
+  accuracy the user sees;
+- :class:`Limits`: caps and floors that end a loop (an iteration, the step's shrinking, the
+  check's runs); they set no accuracy where the method converges;
+- :class:`Switches`: what a comparison turns off (a test or a benchmark); the default is the method.
 
+Numbers the method derives (an order, an error formula's constant) stay with their derivation
+(``MAX_ORDER`` and ``ROUND_OFF`` here; the cubic Hermite bound's 384 and the trapezoid's 1/12
+where their formula is).
 Fractions and tolerances are relative to the scene's scales or to the step unless a unit is
-given. ``CALIBRATED`` names the values measured on one shipped scene rather than derived
-(and on which), ``RESOLUTION`` those that only keep round-off or the time grid's resolution
-out of the method. Standard library and physics/ only: this module ships in the FMUs.
+given. Standard library and physics/ only: this module ships in the FMUs.
 """
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 from ..physics.stepsize import StepSizeController
 
 
+# ============================================================================================
+# TUNING: the method's choices. At most as many as tests/master/test_settings.py allows.
+# ============================================================================================
+
 @dataclass(frozen=True)
 class CouplingSettings:
-    # -- what counts as stuck, and how finely the step's solves resolve ----------------------
-    # The "zero" relative velocity, as a fraction of the scene's velocity scale: |dv| within it
-    # counts as stuck. Far below any velocity error the error control resolves (the root
-    # tolerance is 1e-3 of the per-step tolerance's share of |v|), far above v's round-off.
-    zero_velocity: float = 1e-10
+    """The implicit step's solve and its step control (tuning only)."""
+
     # The slip root is solved to this fraction of the step's error allowance: tighter buys
     # nothing the error control can see, and each iteration is a friction and a block step.
     root_tol_fraction: float = 1e-3
-    # Any iteration of one step's solve (bracket widening, Illinois, the stick force's secant)
-    # stops after this many evaluations: a monotone loop converges in a few dozen at most.
-    max_iterations: int = 60
-    # Friction steps one slip step may take to settle its root with the state integrated. A
-    # law without state needs one; the lubricant, whose f moves the force, two or three.
-    max_settle_rounds: int = 6
     # Aiming at the slip root with the last step's loop gain, the first iterate is placed this
     # fraction beyond the aim, so that it brackets the root when the gain is a little off.
     root_aim_beyond: float = 0.05
-    # The stick onset inside a step is located to this fraction of the step (1 ns in a 1 s
-    # step: below the integer-nanosecond time grid of any step the controller takes).
-    stick_onset_xtol: float = 1e-9
-    # The stick ramp's Newton iterations on (dv, x) with secant slopes: the block's answer is
-    # affine in (F0, rate), so two or three converge; more means the block is not linear.
-    stick_ramp_iterations: int = 8
-    # The stick ramp keeps x on the drive to this fraction of the scene's position scale
-    # (round-off of x, ~1e-16 relative, times the few operations of one step).
-    stick_ramp_position_tol: float = 1e-12
-
-    # -- the ramp (trapezoidal) or the held force (backward Euler) ---------------------------
     # The trapezoidal ramp damps an error mode by (1 - g)/(1 + g) per step at loop gain g,
-    # which rings toward -1 as g grows: above this gain the force is held instead. Measured
-    # on fig6 (stiff solid lubricant): 30 rather than 3 cut rejections 7x at equal error.
+    # which rings toward -1 as g grows: above this gain the force is held (backward Euler in
+    # the force) instead; where the force is smooth (slipping on the same way) and the gain is
+    # below it, it is ramped over the step: second order. (0 holds it everywhere, the first
+    # order coupling, for comparison: a loop gain is never negative.) Measured on fig6 (stiff
+    # solid lubricant): 30 rather than 3 cut rejections 7x at equal error.
     max_ramp_gain: float = 30.0
-    # Where the force is smooth (slipping on the same way) it is ramped over the step: second
-    # order. False holds it everywhere (backward Euler in the force), for comparison.
-    second_order: bool = True
-    # A slip going on is sought with the friction stepped from its first trial while the law
-    # has not stuck (contact.ImplicitStep.stepped_slip): on fig6 29 -> 23 FMU calls a step.
-    stepped_trials: bool = True
-
-    # -- the block's affine response, reused instead of stepped (blocks.BlockResponse) --------
-    # The final force is always stepped for real and the model checked against it: a block
-    # whose modelled answer misses the real one by more than this many root tolerances is not
-    # affine, and is stepped for every iterate from there.
-    model_miss_tolerance: float = 1.0
-    # End forces this close (relative) are one force to the block's model: two real answers a
-    # few ulps apart differ by round-off, and an affine model through them extrapolates
-    # round-off (a Stribeck force at its floor, 6.0 and 6.000000000000001 N: a slip root
-    # where the block sticks).
-    same_force_rtol: float = 1e-12
-
-    # -- the step control ---------------------------------------------------------------------
-    # A step's error is measured against the block's own motion: its largest |v| and |x| so
-    # far, floored at this fraction of the scene's scales (from complete rest the motion is
-    # round-off, and no step would pass).
-    scale_floor: float = 1e-6
-    # The smallest and largest step, as fractions of the scene's period: 1e-7 T resolves any
-    # event the kinetics can produce; T/20 keeps the drive's own cosine resolved.
-    min_step_periods: float = 1e-7
+    # The largest step, as a fraction of the scene's period: T/20 keeps the drive's own cosine
+    # resolved.
     max_step_periods: float = 1.0 / 20.0
-    # An event (a breakaway) this early in a step, as a fraction of it, is not landed on: the
-    # step is accepted with the event inside (its own error estimate judges it).
-    min_landing_fraction: float = 0.01
-    # w2 is learned only from points whose |x| is beyond this fraction of the largest |x| so
-    # far: nearer the spring's rest a = F/M - w2 x divides round-off by x.
-    w2_position_floor: float = 1e-3
+    # An event this close to a step's start or end, as a fraction of the step, is not worth a
+    # step of its own: a breakaway this early in a tried step is not landed on (the step is
+    # accepted with the event inside, its own error estimate judging it), one predicted this
+    # close to the planned step's start or end does not shorten it, and one missed in the
+    # step's last such fraction is left to the next step, which breaks away.
+    event_margin: float = 0.01
     # How much smaller than its allowance a grazing step's error is treated: > 1 rejects it
     # (dv dips past 0 between communication points: a stick or a reversal the step would pass
     # over).
@@ -100,7 +71,7 @@ class CouplingSettings:
 
 @dataclass(frozen=True)
 class ErrorSettings:
-    """The embedded error estimate's weights and its events' margins (coupling/embedded.py)."""
+    """The embedded error estimate's weights and its events' reach (coupling/embedded.py)."""
 
     # A step is accepted when its estimated local errors in v and x are within error_weight x
     # tol x the motion's scale. Step doubling accepted two halves on the difference of one
@@ -126,20 +97,10 @@ class ErrorSettings:
     # interpolation bound compares the step's ends, which alias beyond it (fig2's rig at
     # omega = 10: 6.4e-2 nRMS(v) without this cap).
     block_period_fraction: float = 0.125
-    # The planned step keeps its interpolation error to this fraction of tol (as the
-    # controller's safety: the jerk it is planned from is the last step's, not this one's).
-    interpolation_safety: float = 0.5
     # The breakaway's timing counts in full for a stuck step whose force could reach the
     # friction's bound within this many steps, less and less farther off (see
     # EmbeddedCoupling.breakaway_reach).
     breakaway_reach: float = 4.0
-    # A predicted breakaway closer than this fraction of the planned step to its start or end
-    # is not worth a step of its own (the landing handles the rare miss).
-    breakaway_margin: float = 0.01
-    # A stuck step's end force past the friction's bound by more than this fraction of the
-    # bound is a breakaway inside the step: below it, the end force's own round-off (the stick
-    # solve keeps dv within delta) would land steps for nothing.
-    missed_breakaway_rtol: float = 1e-6
     # A stuck step's successor keeps its length when the controller would grow it by less
     # than this factor (as RADAU5 keeps h within [1, 1.2] to reuse its Jacobian): the next
     # stick ramp then reuses this one's Jacobian, exact for a step of the same length
@@ -149,7 +110,9 @@ class ErrorSettings:
 
 # The step-size rule for communication steps (physics/stepsize.py), every value given here:
 # - safety 0.9, min_factor 0.1: the rule's (and scipy's rk.py's) usual values; a rejected
-#   step at an event is landed by the event logic, not by this;
+#   step at an event is landed by the event logic, not by this. The safety is also the step
+#   planned from the interpolation bound's (embedded.py interpolation_limit), for the same
+#   reason: the jerk it is planned from is the last step's, not this one's;
 # - max_factor 4: growth of 4 per accepted step (a slip phase after a transition);
 # - max_factor_after_reject 1: no growth right after a rejection (the step just failed at a
 #   larger size: growing again at once invites another);
@@ -180,26 +143,17 @@ class CheckSettings:
     min_order: float = 0.3
     # Three runs of one chain (each check_ratio tighter than the last) show the order itself:
     # the two differences shrink by r^p. The third run's error is then its difference over
-    # r^p - 1 at the observed order, credited at most observed_order_max (runs converge at
-    # 0.3-1.5 in the per-step tolerance), times order_safety, and never above the two-run
-    # estimate. With Roache's 1.25 for three grids, boundary friction at gamma = -0.3 (whose
-    # order drifts between tolerances) was reported at 0.47x its true error; at 2 it is 0.75x.
-    # Fig. 6 (order 0.8) failed its first pair at 2.0x tol and took a new pair, 4 runs; its
-    # third run's three-run estimate is 1.8x its true error and meets tol: 3 runs.
-    observed_order_max: float = 1.0
+    # r^p - 1 at the observed order, credited at most MAX_ORDER, times order_safety, and never
+    # above the two-run estimate. With Roache's 1.25 for three grids, boundary friction at
+    # gamma = -0.3 (whose order drifts between tolerances) was reported at 0.47x its true
+    # error; at 2 it is 0.75x. Fig. 6 (order 0.8) failed its first pair at 2.0x tol and took a
+    # new pair, 4 runs; its third run's three-run estimate is 1.8x its true error and meets
+    # tol: 3 runs.
     order_safety: float = 2.0
-    # The first run's per-step tolerance, as a multiple of the global tol asked for: the
-    # reported run's true nRMS(v) then lands at 0.05-0.25 tol on fig2, fig6 and an off-scene
-    # dry point (0.026 at 0.5: more accuracy than asked, paid in steps).
-    first_step_tol: float = 1.0
-    # How the next pair is planned: the error assumed to fall in proportion to the per-step
-    # tolerance (assumed_order), aiming at safety x tol. The checked error it starts from is
-    # already an upper estimate (2-4x the true one for orders 0.7-1), so the plan aims at tol
-    # itself: with the plan aiming at 0.3 tol from an order of 0.7, Fig. 6 jumped 16x and ran
-    # 4 runs down to 3.1e-5 (true error 4.5e-5, 86x LSODA) where per-step 1.25e-4 met tol.
-    assumed_order: float = 1.0
-    safety: float = 1.0
     # A planned pair starts at most this much tighter than the last run (a plan is a guess).
+    # (A plan aims at tol itself, at MAX_ORDER: the checked error it starts from is already an
+    # upper estimate, 2-4x the true one for orders 0.7-1; aiming at 0.3 tol from an order of
+    # 0.7, Fig. 6 jumped 16x and ran 4 runs down to 3.1e-5 where per-step 1.25e-4 met tol.)
     max_jump: float = 8.0
     # A run whose own carried estimate vouches for it (coupling/estimate.py carry_problem) is
     # reported alone, with this many times that estimate as its error, when that meets tol. The
@@ -211,12 +165,6 @@ class CheckSettings:
     # vouches, dry and fluid friction at tol 1e-2, 1e-3 and 1e-4, bench_trust.py and its --extra
     # points, 2026-11-27; reported / true then 1.44-2.4.)
     one_run_margin: float = 2.0
-    # No per-step tolerance below this: past it the steps reach the coupling's round-off.
-    min_step_tol: float = 1e-9
-    # At most this many runs in one sequence: a sequence always ends.
-    max_runs: int = 8
-    # A run whose budget [s] is this small is not started (it could not reach the window).
-    min_budget: float = 1e-3
 
     @property
     def chain_tightening_max(self) -> float:
@@ -226,13 +174,109 @@ class CheckSettings:
         return self.check_ratio ** 2
 
 
-# The settings every coupling runs with unless it is given others.
+# The highest order in the per-step tolerance at which a run's error is taken to fall, derived,
+# not tuned: the controller holds each step's error to its share of the per-step tolerance, and
+# a tighter tolerance takes more steps, so the run's error falls at most in proportion to it
+# (tol^(p/(p+1)) for a method of order p). The check credits an observed order at most this
+# (faster falls between two tolerances, up to 1.5 on a light dry block, are not that rate: an
+# event landing differently, not convergence), and plans its next run at it (the error in
+# proportion to the per-step tolerance: the plan under-jumps rather than over).
+MAX_ORDER = 1.0
+
+
+# ============================================================================================
+# Not tuning: resolution, limits, switches.
+# ============================================================================================
+
+# The relative round-off of one block step's answer (its x, v, F): a few dozen floating-point
+# operations, each up to an ulp, on terms up to ~100x the result (the spring's K x and the
+# friction force against their difference): 2^12 ulps. (At 2^8 ulps of the position scale the
+# stick ramp iterated on x's round-off: more FMU calls on fig. 2's rig with a Stribeck law,
+# benchmarks/fingerprint.py, 2026-11-27; 2^12 gives what 1e-12 gave, bit for bit.)
+ROUND_OFF = 4096 * sys.float_info.epsilon
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """Values that only keep round-off out of the method. (The time grid's own resolution needs
+    no value: the stick onset inside a step is located to 1 ns, contact.py.)"""
+
+    # The "zero" relative velocity, as a fraction of the scene's velocity scale: |dv| within it
+    # counts as stuck. Far below any velocity error the error control resolves (the root
+    # tolerance is 1e-3 of the per-step tolerance's share of |v|), far above v's round-off.
+    zero_velocity: float = 1e-10
+    # The stick ramp keeps x on the drive to this fraction of the scene's position scale: the
+    # round-off of one block step's x (ROUND_OFF).
+    stick_ramp_position_tol: float = ROUND_OFF
+    # End forces this close (relative) are one force to the block's model: two real answers
+    # that differ by round-off (ROUND_OFF: a block step's answer, from the same few dozen
+    # operations), through which an affine model would extrapolate round-off (a Stribeck
+    # force at its floor, 6.0 and 6.000000000000001 N: a slip root where the block sticks).
+    same_force_rtol: float = ROUND_OFF
+    # A step's error is measured against the block's own motion: its largest |v| and |x| so
+    # far, floored at this fraction of the scene's scales (from complete rest the motion is
+    # round-off, and no step would pass).
+    scale_floor: float = 1e-6
+    # w2 is learned only from points whose |x| is beyond this fraction of the largest |x| so
+    # far: nearer the spring's rest a = F/M - w2 x divides round-off by x.
+    w2_position_floor: float = 1e-3
+    # A stuck step's end force past the friction's bound by more than this fraction of the
+    # bound is a breakaway inside the step: below it, the end force's own round-off (the stick
+    # solve keeps dv within delta) would land steps for nothing.
+    missed_breakaway_rtol: float = 1e-6
+    # No per-step tolerance below this: past it the steps reach the coupling's round-off.
+    min_step_tol: float = 1e-9
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Caps and floors that end a loop; where the method converges they are not reached."""
+
+    # Any iteration of one step's solve (bracket widening, Illinois, the stick force's secant)
+    # stops after this many evaluations: a monotone loop converges in a few dozen at most.
+    max_iterations: int = 60
+    # Friction steps one slip step may take to settle its root with the state integrated. A
+    # law without state needs one; the lubricant, whose f moves the force, two or three.
+    max_settle_rounds: int = 6
+    # The stick ramp's Newton iterations on (dv, x) with secant slopes: the block's answer is
+    # affine in (F0, rate), so two or three converge; more means the block is not linear.
+    stick_ramp_iterations: int = 8
+    # The smallest step, as a fraction of the scene's period: it ends the rejections (a step
+    # this short is accepted whatever its error, and counted as forced); 1e-7 T resolves any
+    # event the kinetics can produce.
+    min_step_periods: float = 1e-7
+    # At most this many runs in one check sequence: a sequence always ends.
+    max_runs: int = 8
+    # A run whose budget [s] is this small is not started (it could not reach the window).
+    min_budget: float = 1e-3
+
+
+@dataclass(frozen=True)
+class Switches:
+    """What a comparison turns off; the defaults are the method."""
+
+    # A slip going on is sought with the friction stepped from its first trial while the law
+    # has not stuck (contact.ImplicitStep.stepped_slip): on fig6 29 -> 23 FMU calls a step.
+    # (tests/master/test_adaptive.py compares it with the trials at the friction's start state.)
+    stepped_trials: bool = True
+
+
+# The values every coupling runs with unless it is given others.
 SETTINGS = CouplingSettings()
 ERROR_SETTINGS = ErrorSettings()
 CHECK_SETTINGS = CheckSettings()
+RESOLUTION = Resolution()
+LIMITS = Limits()
+SWITCHES = Switches()
 
-# The values measured on one shipped scene (or its rig) rather than derived from the method,
-# and where (see the comments above): what a rebuild of the method should replace by a rule.
+# Which groups are which kind (tests/master/test_settings.py: every field of every group is
+# one of these, and the tuning is counted).
+TUNING_GROUPS = {"CouplingSettings": CouplingSettings, "ErrorSettings": ErrorSettings,
+                 "STEP_CONTROL": StepSizeController, "CheckSettings": CheckSettings}
+OTHER_GROUPS = {"Resolution": Resolution, "Limits": Limits, "Switches": Switches}
+
+# The tuning values measured on one shipped scene (or its rig) rather than derived from the
+# method, and where (see the comments above): what a rebuild of the method should replace by a rule.
 CALIBRATED = {
     "CouplingSettings.max_ramp_gain": "fig6_boundary",
     "ErrorSettings.state_carry": "fig6_boundary (its rig at gamma = 0, 0.3, 1)",
@@ -241,15 +285,4 @@ CALIBRATED = {
     "STEP_CONTROL.beta": "the shipped scenes and bench_floor's off-scene points (mixed_stribeck the worst)",
     "CheckSettings.min_order": "boundary friction at gamma = -0.3 (off-scene)",
     "CheckSettings.order_safety": "boundary friction at gamma = -0.3 and fig6_boundary",
-    "CheckSettings.first_step_tol": "fig2_dry, fig6_boundary and an off-scene dry point",
-    "CheckSettings.safety": "fig6_boundary",
 }
-
-# The values that only keep round-off, or the integer-nanosecond time grid, out of the method:
-# they set no accuracy the user sees.
-RESOLUTION = (
-    "CouplingSettings.zero_velocity", "CouplingSettings.stick_onset_xtol",
-    "CouplingSettings.stick_ramp_position_tol", "CouplingSettings.same_force_rtol",
-    "CouplingSettings.scale_floor", "CouplingSettings.w2_position_floor",
-    "ErrorSettings.missed_breakaway_rtol", "CheckSettings.min_step_tol", "CheckSettings.min_budget",
-)
