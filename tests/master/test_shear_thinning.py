@@ -62,3 +62,17 @@ def test_the_carried_estimate_follows_a_strongly_shear_thinning_run(gamma, m, om
     v_max = 2e-3 * omega
     assert true < 3.0 * tol * v_max
     assert 1 / 1.6 < estimated / true < 1.6
+
+
+def test_a_shear_thinning_fluid_vouches_for_its_run_but_a_stribeck_breakaway_does_not():
+    from tribofmu.coupling.estimate import carry_problem
+    from tribofmu.physics import laws
+
+    assert FluidLaw(gamma=-0.9).shear_thinning and not FluidLaw(gamma=-0.9).slope_bounded
+    assert carry_problem(FluidLaw(gamma=-0.9), False) is None
+    assert not FluidLaw(gamma=0.0).shear_thinning
+    # a Stribeck drop as steep as a square root at breakaway (delta = 0.5), the force not falling
+    rising = laws.MixedLaw(stribeck_exponent=0.5, mu_static=0.3, mu_friction=0.5)
+    assert not rising.shear_thinning and "unbounded" in carry_problem(rising, False)
+    # the lubricant's power law with its state: the state decides
+    assert "internal state" in carry_problem(laws.BoundaryLaw(gamma=-0.9), False)
