@@ -39,7 +39,7 @@ import math
 from dataclasses import asdict, dataclass
 
 from .controlled import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
-from .estimate import chord_damping, stick_onset_x_error
+from .estimate import chord_damping, dense_output_miss, slip_x_error, stick_onset_x_error
 from .interpolation import NS
 from .settings import ERROR_SETTINGS
 from .system import Contact, CoupledSystem, Point
@@ -60,26 +60,6 @@ def hermite_miss(w2: float, a_start: float, a_end: float, h: float, v_allowed: f
     v_miss = scale * abs(a_end - a_start) / h  # h^4 w2 |jerk| / 384, as the limits plan
     x_miss = scale * max(abs(a_start), abs(a_end))
     return max(v_miss / v_allowed, x_miss / x_allowed)
-
-
-def stiff_x_error(v: float, h: float, gain: float, ramped: bool) -> float:
-    """The slip step's local error in x [m] from its error in v [m/s] (already filtered by
-    1 / (1 + gain)) over a step of h [s] at loop gain g = gain.
-
-    The loop pulls the end velocity's error back (v = v0 / (1 + g), v0 the open loop's), but
-    not the position's: within the step the block felt the held force (or the ramp) where the
-    true force moved, and its velocity strays from the true one in between even where the ends
-    agree. With the friction's slope s and the block's velocity per impulse b (g = s b h held,
-    s b h / 2 ramped), the true force F0 + F' u (held) or with F'' u^2 / 2 (ramped), and the
-    end force where the loop puts it (the true one less s times the end's error), the double
-    integral of the force's miss gives, true less computed:
-    - held: x = -b F' h^3 (4 + g) / (12 (1 + g)) = v h (4 + g) / 6;
-    - ramped: x = -b F'' h^4 (3 + g) / (72 (1 + g)) = v h (3 + g) / 6.
-    At g = 0 these are the open loop's 2 h v / 3 and h v / 2; in a stiff loop the x error stays
-    b F' h^3 / 12 (held) while v's vanishes. (Filtered as v, a pseudoplastic fluid's quasi-stuck
-    held steps grew to the longest step: at gamma = -0.9 each added 1e-2 of the drive's
-    amplitude to x, which moved the next breakaway, 3e-2 nRMS(v) at per-step tol 1e-3.)"""
-    return v * h * ((3.0 if ramped else 4.0) + gain) / 6.0
 
 
 @dataclass(frozen=True)
@@ -322,53 +302,18 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             v = miss * self.velocity_per_impulse * filter_
             f_predicted = point.f + history.f_slope * h
             f_miss = (new.f - f_predicted) * h / (h + history.h)
-            x = stiff_x_error(v, h, gain, ramped=True)
-            reversal = self.hidden_reversal_x_error(point, new, h, gain)
-            return LocalError(x=reversal if abs(reversal) > abs(x) else x, v=v, F=curvature * h * h / 8.0,
-                              impulse=impulse, f=f_miss)
+            x = slip_x_error(point, new, v, h, gain, self.velocity_per_impulse, self.force_course(new), True)
+            return LocalError(x=x, v=v, F=curvature * h * h / 8.0, impulse=impulse, f=f_miss)
         # held (or ramped with no history): the force held at its end value misses -F' h^2 / 2;
         # f's miss filtered as the force's: f follows dv, whose error a stiff loop pulls back
         miss = -0.5 * (new.F - point.F) * h  # N s
         v = miss * self.velocity_per_impulse * filter_
-        x = stiff_x_error(v, h, gain, ramped=False)
-        reversal = self.hidden_reversal_x_error(point, new, h, gain)
-        return LocalError(x=reversal if abs(reversal) > abs(x) else x, v=v, F=0.5 * (new.F - point.F) * filter_,
-                          impulse=impulse, f=0.5 * (new.f - point.f) * filter_)
+        x = slip_x_error(point, new, v, h, gain, self.velocity_per_impulse, self.force_course(new), False)
+        return LocalError(x=x, v=v, F=0.5 * (new.F - point.F) * filter_, impulse=impulse,
+                          f=0.5 * (new.f - point.f) * filter_)
 
-    def hidden_reversal_x_error(self, point: Point, new: Point, h: float, gain: float) -> float:
-        """The x error [m] (true less computed) of a step of h [s] that slips the same way at
-        both ends but ends where the force that keeps the block on the drive, F_a = new.F + M
-        (aX - a), is one the friction cannot give in that direction: the relative velocity
-        reached 0 inside the step and the force reversed there (a shear-thinning fluid's force
-        all but jumps at dv = 0: an event the step passed over).
-
-        The event is located by the impulse: a stiff loop (gain g) pins the end's velocity, so
-        the force the block felt (held at F1 = new.F, or ramped from F0 = point.F) has the mean
-        of the true one, the force's smooth course F0 + s u (s its slope over the last step of
-        this slip) with a jump dF = F_a - F0 - s h at the reversal; the reversal is at the
-        fraction 1 - q of the step with q = (F1 - F0 - s h / 2) / dF held, (F1 - F0 - s h) /
-        (2 dF) ramped. The two forces' paths then move x apart by b dF h^2 q (1 - q) / 2 held,
-        b dF h^2 q (2 - 3 q) / 6 ramped (b the block's velocity per impulse), weighed by
-        g / (1 + g): how far the loop pins the end on the drive, where F_a is the true force.
-        (At gamma = -0.95, omega = 80, per-step tol 1e-2, reversals passed over inside 1.75
-        and 3.9 ms steps moved x by 4.1e-3 and 7.7e-3 of the drive's amplitude where the
-        steps' linear force read 1.1e-3 and 1.0e-3.)"""
-        b = self.velocity_per_impulse
-        if not (new.mode.slipping and point.mode == new.mode) or b <= 0.0:
-            return 0.0
-        needed = new.F + (new.aX - new.a) / b
-        history = self.history
-        slope = history.slope if history.h > 0.0 and history.mode == new.mode else 0.0  # N/s
-        # the jump beyond the force's smooth course (a force smooth in time, as a Newtonian
-        # fluid's through dv = 0, ends on it: without this its stiff steps at a crossing read
-        # the course itself as a jump, 1.9x its carried error at m = 200 N s/m)
-        jump = needed - point.F - slope * h
-        if needed * new.mode.direction >= 0.0 or jump == 0.0:
-            return 0.0
-        felt = new.F - point.F - (slope * h if new.ramped else 0.5 * slope * h)  # its mean's share beyond the course, x2 ramped
-        q = min(max(felt / (2.0 * jump if new.ramped else jump), 0.0), 1.0)
-        shape = q * (2.0 - 3.0 * q) / 6.0 if new.ramped else q * (1.0 - q) / 2.0
-        return -b * jump * h * h * shape * gain / (1.0 + gain)
+    def force_course(self, new: Point) -> float:  # N/s, over the last step that slipped as new does
+        return self.history.slope if self.history.h > 0.0 and self.history.mode == new.mode else 0.0
 
     def error_ratio(self, point: Point, new: Point, local: LocalError, h: float) -> float:
         """The step's error relative to what tol allows (<= 1: accept): its local errors in v
@@ -396,25 +341,11 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             # (only for a law that has stuck: with a jump at dv = 0 a dip is a stick the step
             # would pass over; a law without one, as a fluid's, slips through 0 continuously,
             # and a stiff one's creeping dv dipped in every held step: 90 % rejected)
-            if self.stick_bounds is not None and grazes(point, new, h, self.tol * v_scale
-                                                        + self.dense_output_miss(point, new, h)):
+            # (less the dense output's own miss: a stiff held step's dip is its end slope's)
+            margin = self.tol * v_scale + dense_output_miss(point, new, h, self.expected_gain(h), self.velocity_per_impulse)
+            if self.stick_bounds is not None and grazes(point, new, h, margin):
                 error = max(error, GRAZING_ERROR)
         return error
-
-    def dense_output_miss(self, point: Point, new: Point, h: float) -> float:
-        """How far [m/s] the cubic Hermite interpolant of dv over a held slip step of h [s] can
-        stray through its end slope alone: a stiff loop (gain g) pins the end's velocity and
-        holds the step's mean force, so the block's end acceleration misses the true one by
-        about the force's change over the step, b |F1 - F0| (b its velocity per impulse; the
-        true end force lies as far beyond the mean as the start force below it), weighed by
-        g / (1 + g); an end slope off by m moves the interpolant by up to 4/27 m h (the
-        Hermite basis h11's extreme). A dip that deep is the interpolant's, not a stick passed
-        over (a shear-thinning fluid at gamma = -0.9 creeping at |dv| ~ 1e-8 m/s: 227 of its
-        396 rejected steps at per-step tol 1.3e-4). A ramped step's end force is the true one."""
-        if new.ramped or self.velocity_per_impulse <= 0.0:
-            return 0.0
-        gain = self.expected_gain(h)
-        return 4.0 / 27.0 * h * abs(new.F - point.F) * self.velocity_per_impulse * gain / (1.0 + gain)
 
     def breakaway_timing_error(self, point: Point, new: Point, local: LocalError, h: float,
                                v_allowed: float) -> float:
@@ -507,10 +438,9 @@ class EmbeddedCoupling(ErrorControlledCoupling):
 
     def _carry_error(self, point: Point, new: Point, local: LocalError, h: float) -> None:
         """Carry the global error estimate over the accepted step (coupling/estimate.py)."""
-        # (a point's dv is the block's real answer, which may miss the dv its force was found at
-        # by the model's tolerance: a chord over less is the solve's resolution, not the slope.
-        # A pseudoplastic fluid creeping at |dv| ~ 1e-9 m/s read chords of either sign there, and
-        # its carry grew 1e4x in a step: gamma = -0.9, 0.56 estimated against 1.3e-3 true)
+        # (a point's dv is the block's real answer, off the dv its force was found at by up to
+        # the model's tolerance: a chord over less is that, not the slope; a fluid creeping at
+        # |dv| ~ 1e-9 m/s read chords of either sign: gamma = -0.9, 0.56 estimated, 1.3e-3 true)
         resolution = max(self.settings.zero_velocity * self.scales.velocity,
                          self.settings.model_miss_tolerance * self.root_tolerance())
         damping = chord_damping(point, new, self.velocity_per_impulse, resolution)
