@@ -84,6 +84,15 @@ EXTRA_POINTS = [
     ("y mixed m=10 K=1500", "mixed_stribeck", {"friction.m": 10.0, "block.K": 1500.0}),
     ("y mixed v_s=0.05 delta=1.2", "mixed_stribeck", {"friction.v_stribeck": 0.05,
                                                        "friction.stribeck_exponent": 1.2}),
+    # shear-thinning fluids (an unbounded force slope at rest) across gamma, frequencies, masses
+    ("y pseudoplastic gamma=-0.3", "fig5_pseudoplastic", {"friction.gamma": -0.3}),
+    ("y pseudoplastic gamma=-0.5 omega=20", "fig5_pseudoplastic", {"friction.gamma": -0.5, "drive.omega": 20.0}),
+    ("y pseudoplastic gamma=-0.7 M=0.2", "fig5_pseudoplastic", {"friction.gamma": -0.7, "block.M": 0.2}),
+    ("y pseudoplastic gamma=-0.9", "fig5_pseudoplastic", {"friction.gamma": -0.9}),
+    ("y pseudoplastic gamma=-0.95 omega=80 m=10", "fig5_pseudoplastic",
+     {"friction.gamma": -0.95, "drive.omega": 80.0, "friction.m": 10.0}),
+    ("y pseudoplastic gamma=-0.8 M=1.5 K=2000", "fig5_pseudoplastic",
+     {"friction.gamma": -0.8, "block.M": 1.5, "block.K": 2000.0}),
 ]
 
 

@@ -79,8 +79,8 @@ NOT_TUNING = {
     "coupling/settings.py": {"STEP_CONTROL",  # a tuning group (TUNING_GROUPS), counted above
                              "MAX_ORDER",  # derived (its comment): an error-per-step run's order
                              "ROUND_OFF"},  # a block step's round-off, which Resolution's fields are
-    "coupling/interpolation.py": {"NS", "SAMPLES_PER_PERIOD"},  # a unit; the output grid, not the coupling's
-    "coupling/embedded.py": {"HERMITE_ERROR_DIVISOR"},  # the cubic Hermite error bound's 384
+    # a unit; the output grid, not the coupling's; the cubic Hermite error bound's 384
+    "coupling/interpolation.py": {"NS", "SAMPLES_PER_PERIOD", "HERMITE_ERROR_DIVISOR"},
     "coupling/blocks.py": {"SERIES_BELOW"},  # where a closed form's round-off passes its Taylor series'
     "coupling/estimate.py": {"EXP_LIMIT"},  # exp() overflows a float past it
     "coupling/quadrature.py": {"GAUSS_NODES", "GAUSS_WEIGHTS"},  # the three-point Gauss rule

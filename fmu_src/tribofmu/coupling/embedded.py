@@ -39,27 +39,12 @@ import math
 from dataclasses import asdict, dataclass
 
 from .controlled import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
-from .estimate import chord_damping, stick_onset_x_error
-from .interpolation import NS
+from .estimate import chord_damping, dense_output_miss, slip_x_error, stick_onset_x_error
+from .interpolation import HERMITE_ERROR_DIVISOR, NS, hermite_miss
 from .settings import ERROR_SETTINGS, RESOLUTION
 from .system import Contact, CoupledSystem, Point
 
-# A cubic Hermite interpolant misses by up to h^4 / 384 of the function's fourth derivative
-# (the interpolation's error bound: a number of the method, not a tuning).
-HERMITE_ERROR_DIVISOR = 384.0
 BLOCK_PERIOD_FRACTION = ERROR_SETTINGS.block_period_fraction  # (its former name, which tests read)
-
-
-def hermite_miss(w2: float, a_start: float, a_end: float, h: float, v_allowed: float,
-                 x_allowed: float) -> float:
-    """How far the cubic Hermite interpolants of v (slopes a) and x (slopes v) over a step of
-    h [s] may miss, relative to what is allowed in v [m/s] and x [m], for a motion whose
-    acceleration a (a_start to a_end [m/s^2]) answers its position at w2 [1/s^2]: h^4/384 of
-    the fourth derivative, d4v/dt4 ~ w2 (a_end - a_start)/h and d4x/dt4 ~ w2 a."""
-    scale = h ** 4 / HERMITE_ERROR_DIVISOR * w2
-    v_miss = scale * abs(a_end - a_start) / h  # h^4 w2 |jerk| / 384, as the limits plan
-    x_miss = scale * max(abs(a_start), abs(a_end))
-    return max(v_miss / v_allowed, x_miss / x_allowed)
 
 
 @dataclass(frozen=True)
@@ -293,7 +278,8 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             # let onsets early in a step pass: fig2's rig at omega = 30, 4e-4 -> 2.6e-2 nRMS(v).)
             dv_impulse = -0.5 * (new.F - point.F) * h * self.velocity_per_impulse
             return LocalError(x=dv_impulse * 2.0 * h / 3.0, F=0.5 * (new.F - point.F), impulse=impulse)
-        filter_ = 1.0 / (1.0 + self.expected_gain(h))  # a stiff loop pulls an error back
+        gain = self.expected_gain(h)
+        filter_ = 1.0 / (1.0 + gain)  # a stiff loop pulls an error back
         history = self.history
         if self.curvature_known(point, new):
             predicted = point.F + history.slope * h
@@ -303,13 +289,18 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             v = miss * self.velocity_per_impulse * filter_
             f_predicted = point.f + history.f_slope * h
             f_miss = (new.f - f_predicted) * h / (h + history.h)
-            return LocalError(x=0.5 * h * v, v=v, F=curvature * h * h / 8.0, impulse=impulse, f=f_miss)
+            x = slip_x_error(point, new, v, h, gain, self.velocity_per_impulse, self.force_course(new), True)
+            return LocalError(x=x, v=v, F=curvature * h * h / 8.0, impulse=impulse, f=f_miss)
         # held (or ramped with no history): the force held at its end value misses -F' h^2 / 2;
         # f's miss filtered as the force's: f follows dv, whose error a stiff loop pulls back
         miss = -0.5 * (new.F - point.F) * h  # N s
         v = miss * self.velocity_per_impulse * filter_
-        return LocalError(x=2.0 * h / 3.0 * v, v=v, F=0.5 * (new.F - point.F) * filter_, impulse=impulse,
+        x = slip_x_error(point, new, v, h, gain, self.velocity_per_impulse, self.force_course(new), False)
+        return LocalError(x=x, v=v, F=0.5 * (new.F - point.F) * filter_, impulse=impulse,
                           f=0.5 * (new.f - point.f) * filter_)
+
+    def force_course(self, new: Point) -> float:  # N/s, over the last step that slipped as new does
+        return self.history.slope if self.history.h > 0.0 and self.history.mode == new.mode else 0.0
 
     def error_ratio(self, point: Point, new: Point, local: LocalError, h: float) -> float:
         """The step's error relative to what tol allows (<= 1: accept): its local errors in v
@@ -337,7 +328,9 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             # (only for a law that has stuck: with a jump at dv = 0 a dip is a stick the step
             # would pass over; a law without one, as a fluid's, slips through 0 continuously,
             # and a stiff one's creeping dv dipped in every held step: 90 % rejected)
-            if self.stick_bounds is not None and grazes(point, new, h, self.tol * v_scale):
+            # (less the dense output's own miss: a stiff held step's dip is its end slope's)
+            margin = self.tol * v_scale + dense_output_miss(point, new, h, self.expected_gain(h), self.velocity_per_impulse)
+            if self.stick_bounds is not None and grazes(point, new, h, margin):
                 error = max(error, GRAZING_ERROR)
         return error
 
@@ -432,7 +425,12 @@ class EmbeddedCoupling(ErrorControlledCoupling):
 
     def _carry_error(self, point: Point, new: Point, local: LocalError, h: float) -> None:
         """Carry the global error estimate over the accepted step (coupling/estimate.py)."""
-        damping = chord_damping(point, new, self.velocity_per_impulse, RESOLUTION.zero_velocity * self.scales.velocity)
+        # (a point's dv is the block's real answer, off the dv its force was found at by up to
+        # the root's tolerance, which the block's model is held to: a chord over less is that,
+        # not the slope; a fluid creeping at |dv| ~ 1e-9 m/s read chords of either sign:
+        # gamma = -0.9, 0.56 estimated, 1.3e-3 true)
+        resolution = max(RESOLUTION.zero_velocity * self.scales.velocity, self.root_tolerance())
+        damping = chord_damping(point, new, self.velocity_per_impulse, resolution)
         if damping is None:  # (the loop gain: the slope's size, of the block's share of the end force)
             damping = self.loop_gain / self.loop_gain_step * (2.0 if new.ramped else 1.0)
         x_scale, v_scale = self.position_scale(point, new), self.velocity_scale(point, new)

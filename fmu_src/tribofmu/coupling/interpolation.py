@@ -18,6 +18,23 @@ NS = 1_000_000_000  # nanoseconds per second
 SAMPLES_PER_PERIOD = 1000
 
 
+# A cubic Hermite interpolant misses by up to h^4 / 384 of the function's fourth derivative
+# (the interpolation's error bound: a number of the method, not a tuning).
+HERMITE_ERROR_DIVISOR = 384.0
+
+
+def hermite_miss(w2: float, a_start: float, a_end: float, h: float, v_allowed: float,
+                 x_allowed: float) -> float:
+    """How far the cubic Hermite interpolants of v (slopes a) and x (slopes v) over a step of
+    h [s] may miss, relative to what is allowed in v [m/s] and x [m], for a motion whose
+    acceleration a (a_start to a_end [m/s^2]) answers its position at w2 [1/s^2]: h^4/384 of
+    the fourth derivative, d4v/dt4 ~ w2 (a_end - a_start)/h and d4x/dt4 ~ w2 a."""
+    scale = h ** 4 / HERMITE_ERROR_DIVISOR * w2
+    v_miss = scale * abs(a_end - a_start) / h  # h^4 w2 |jerk| / 384, as the limits plan
+    x_miss = scale * max(abs(a_start), abs(a_end))
+    return max(v_miss / v_allowed, x_miss / x_allowed)
+
+
 def velocity_slopes(start, end) -> tuple[float, float]:
     """dv/dt [m/s^2] at both ends of the step start -> end, as results are interpolated:
     over a step that ends stuck, v follows V, so the slope is the drive's acceleration."""

@@ -174,6 +174,13 @@ class FrictionLaw:
         return not self.has_power_law_term or self.gamma >= 0.0
 
     @property
+    def shear_thinning(self) -> bool:
+        """Whether the power-law term thins with shear (-1 < gamma < 0): a force continuous
+        through dv = 0 whose slope is infinite there (it all but jumps as gamma -> -1), the
+        only unbounded slope a law without its own :attr:`slope_bounded` can have."""
+        return self.has_power_law_term and self.gamma < 0.0
+
+    @property
     def slip_force_falls(self) -> bool:
         """Whether the slip force falls somewhere as the slip grows (a negative slope, as a
         Stribeck curve's from rest): an error grows there instead of decaying."""
