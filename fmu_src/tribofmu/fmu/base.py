@@ -185,7 +185,7 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
                               Status.error, CALL_STATUS_CATEGORY)
                     return
                 # in range is checked when initialization ends (parameters) or at the step
-            else:
+            elif self._bad:
                 self._bad.pop(name, None)
             setattr(self, name, value)
             if is_parameter:

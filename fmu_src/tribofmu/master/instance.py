@@ -123,6 +123,42 @@ def extract(path: Path) -> Path:
         return folder
 
 
+# A call's status above this one (fmi2Warning, fmi3Warning) is a failure.
+WARNING = 1
+
+
+def hot_path_functions(dll, fmi_version: int) -> tuple[dict[str, str], dict[str, Any]]:
+    """The FMI functions a coupling step calls, under version-neutral names (set and get
+    reals, doStep, get, set and free the FMU state): their FMI names, and each as a ctypes
+    function of ``dll`` (a new function object, so nothing else's ``argtypes`` are changed)
+    with its C signature from the FMI headers (the types are fmpy's)."""
+    from ctypes import POINTER, c_int, c_size_t
+
+    if fmi_version == 3:
+        from fmpy.fmi3 import fmi3Boolean as boolean, fmi3Float64 as real, fmi3FMUState as state
+        from fmpy.fmi3 import fmi3Instance as instance, fmi3ValueReference as vr
+        names = ("fmi3SetFloat64", "fmi3GetFloat64", "fmi3DoStep", "fmi3GetFMUState", "fmi3SetFMUState",
+                 "fmi3FreeFMUState")
+        values = [instance, POINTER(vr), c_size_t, POINTER(real), c_size_t]  # + nValues
+        step = [instance, real, real, boolean, POINTER(boolean), POINTER(boolean), POINTER(boolean),
+                POINTER(real)]
+    else:
+        from fmpy.fmi2 import fmi2Boolean as boolean, fmi2Component as instance, fmi2FMUstate as state
+        from fmpy.fmi2 import fmi2Real as real, fmi2ValueReference as vr
+        names = ("fmi2SetReal", "fmi2GetReal", "fmi2DoStep", "fmi2GetFMUstate", "fmi2SetFMUstate",
+                 "fmi2FreeFMUstate")
+        values = [instance, POINTER(vr), c_size_t, POINTER(real)]
+        step = [instance, real, real, boolean]
+    argtypes = (values, values, step, [instance, POINTER(state)], [instance, state], [instance, POINTER(state)])
+    keys = ("set", "get", "step", "save", "restore", "free")
+    functions = {}
+    for key, name, types in zip(keys, names, argtypes):
+        function = dll[name]  # (item access: a new object; attribute access would share fmpy's)
+        function.argtypes, function.restype = types, c_int
+        functions[key] = function
+    return dict(zip(keys, names)), functions
+
+
 class FMUInstance:
     """One instance of an FMU file (FMI 2.0 or 3.0 co-simulation), driven through fmpy.
 
@@ -137,7 +173,7 @@ class FMUInstance:
         if not path.is_file():
             raise FMUFileError(f"{instance}: FMU file not found: {path} (run 'tribofmu build' first)")
         self.instance = instance
-        self.calls = 0  # every FMI call made, setup and hot path alike
+        self._setup_calls = 0  # the FMI calls made outside the hot path (``calls`` adds the rest)
         # the hot path's calls by kind (CALL_KINDS: get/set reals, doStep, get/set/free FMU
         # state); the rest of ``calls`` is setup and teardown
         self.calls_by_kind = dict.fromkeys(CALL_KINDS, 0)
@@ -226,27 +262,27 @@ class FMUInstance:
         return fmi3LogMessageCallback(log)
 
     def _bind_hot_path(self):
-        """The calls a coupling step makes thousands of times: fmpy's public per-function
-        methods (``fmi2SetReal(component, vr, n, values)`` and the like, in every fmpy since
-        0.3.20), with the value-reference and value arrays built once per set of references.
+        """The calls a coupling step makes thousands of times (set and get reals, doStep, get,
+        set and free the FMU state), bound once: each a ctypes function of the FMU's library
+        with its C signature (:func:`hot_path_functions`), called with the value-reference and
+        value arrays built once per set of references, its status checked here (above
+        Warning: :class:`FMUCallError`).
 
-        fmpy's convenience calls (``setReal``, ``getReal``, ``doStep``) build those arrays on
-        every call. Its private ``_functions`` (the bare ctypes functions) save the Python
-        wrapper around each call: 0.2-0.4 us of 3.0-3.5 us a call, under 1 % of a whole fig6
-        or fig2 call's CPU time (``benchmarks/bench_slave_calls.py``, its docstring has the
-        numbers and dates), too little for a private name that exists only from fmpy 0.3.26
-        on (this package asks for 0.3.20).
+        fmpy's public per-function methods (``fmi2GetReal(component, vr, n, values)``, which
+        this called before) wrap the same C call in two Python calls and a status check of
+        their own; fmpy stays what loads the library and makes the instance.
         """
-        from fmpy.fmi1 import FMICallException
+        import ctypes
 
-        self._call_failed = FMICallException  # what these methods raise on a status above Warning
         self._component = self._fmu.component
         self._buffers: dict[tuple[int, ...], tuple[Any, int, Any]] = {}
+        # the operations under version-neutral names (set/get reals, do step, get/set/free state)
+        self._names, functions = hot_path_functions(self._fmu.dll, self.fmi_version)
+        self._set_c, self._get_c, self._step_c, self._save_c, self._restore_c, self._free_c = (
+            functions[key] for key in ("set", "get", "step", "save", "restore", "free"))
         if self.fmi_version == 3:
             from fmpy.fmi3 import fmi3Boolean, fmi3Float64, fmi3FMUState, fmi3ValueReference
 
-            names = ("fmi3SetFloat64", "fmi3GetFloat64", "fmi3DoStep", "fmi3GetFMUState",
-                     "fmi3SetFMUState", "fmi3FreeFMUState")
             self._state_type = fmi3FMUState
             self._real, self._vr = fmi3Float64, fmi3ValueReference
             # doStep's outputs; eventHandlingNeeded and earlyReturn stay false (not requested)
@@ -255,32 +291,32 @@ class FMUInstance:
         else:
             from fmpy.fmi2 import fmi2FMUstate, fmi2Real, fmi2ValueReference
 
-            names = ("fmi2SetReal", "fmi2GetReal", "fmi2DoStep", "fmi2GetFMUstate",
-                     "fmi2SetFMUstate", "fmi2FreeFMUstate")
             self._state_type = fmi2FMUstate
             self._real, self._vr = fmi2Real, fmi2ValueReference
-        # the operations under version-neutral names (set/get reals, do step, get/set/free state)
-        self._names = dict(zip(("set", "get", "step", "save", "restore", "free"), names))
-        self._c = {key: getattr(self._fmu, name) for key, name in self._names.items()}
 
     def _buffer(self, refs) -> tuple[Any, int, Any]:
-        key = tuple(refs)
+        key = refs if type(refs) is tuple else tuple(refs)
         buf = self._buffers.get(key)
         if buf is None:
             n = len(key)
             buf = self._buffers[key] = ((self._vr * n)(*key), n, (self._real * n)())
         return buf
 
-    def _failed(self, key: str, exc, mark: int) -> FMUCallError:
-        """The error of a hot-path call fmpy raised on (status above Warning), with the
-        messages the FMU logged during the call."""
-        return FMUCallError(self.instance, self._names[key], exc.status, self.messages[mark:])
+    def _failed(self, key: str, status: int, mark: int) -> FMUCallError:
+        """The error of a hot-path call whose status is above Warning, with the messages the
+        FMU logged during the call."""
+        return FMUCallError(self.instance, self._names[key], status, self.messages[mark:])
+
+    @property
+    def calls(self) -> int:
+        """Every FMI call made, setup and hot path alike."""
+        return self._setup_calls + sum(self.calls_by_kind.values())
 
     def call(self, function: str, *args, **kwargs):
         """Call an fmpy FMU2Slave/FMU3Slave method; a bad status raises :class:`FMUCallError`."""
         from fmpy.fmi1 import FMICallException
 
-        self.calls += 1
+        self._setup_calls += 1
         mark = len(self.messages)
         try:
             return getattr(self._fmu, function)(*args, **kwargs)
@@ -307,46 +343,38 @@ class FMUInstance:
         for kind, (refs, vals) in groups.items():
             self.call(f"set{kind}", refs, vals)
 
-    def set_reals(self, refs: list[int], values: list[float]) -> None:
+    def set_reals(self, refs: Sequence[int], values: Sequence[float]) -> None:
         """fmi2SetReal / fmi3SetFloat64."""
-        self.calls += 1
         self.calls_by_kind["set"] += 1
         vr, n, buf = self._buffer(refs)
         buf[:] = values
-        args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)  # FMI 3: + nValues
         mark = len(self.messages)  # before the call: its messages explain a bad status
-        try:
-            self._c["set"](self._component, *args)
-        except self._call_failed as exc:
-            raise self._failed("set", exc, mark) from None
+        status = self._set_c(self._component, vr, n, buf, n) if self.fmi_version == 3 else \
+            self._set_c(self._component, vr, n, buf)  # FMI 3: + nValues
+        if status > WARNING:
+            raise self._failed("set", status, mark)
 
-    def get_reals(self, refs: list[int]) -> list[float]:
+    def get_reals(self, refs: Sequence[int]) -> list[float]:
         """fmi2GetReal / fmi3GetFloat64."""
-        self.calls += 1
         self.calls_by_kind["get"] += 1
         vr, n, buf = self._buffer(refs)
-        args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)
         mark = len(self.messages)
-        try:
-            self._c["get"](self._component, *args)
-        except self._call_failed as exc:
-            raise self._failed("get", exc, mark) from None
+        status = self._get_c(self._component, vr, n, buf, n) if self.fmi_version == 3 else \
+            self._get_c(self._component, vr, n, buf)
+        if status > WARNING:
+            raise self._failed("get", status, mark)
         return buf[:]
 
     def do_step(self, t: float, h: float) -> None:
         """One communication step from t by h [s]. The master may restore an earlier state
         afterwards: FMI 3.0 gets noSetFMUStatePriorToCurrentPoint = false (the FMI 2.0 call
         keeps passing true, which pythonfmu ignores)."""
-        self.calls += 1
         self.calls_by_kind["doStep"] += 1
         mark = len(self.messages)
-        try:
-            if self.fmi_version == 3:
-                self._c["step"](self._component, t, h, False, *self._step_refs)
-            else:
-                self._c["step"](self._component, t, h, 1)
-        except self._call_failed as exc:
-            raise self._failed("step", exc, mark) from None
+        status = self._step_c(self._component, t, h, False, *self._step_refs) if self.fmi_version == 3 else \
+            self._step_c(self._component, t, h, 1)
+        if status > WARNING:
+            raise self._failed("step", status, mark)
 
     def save(self):
         state = self._state_type()
@@ -363,31 +391,25 @@ class FMUInstance:
 
     def _get_state(self, state) -> None:
         """FMI's get FMU state into ``state`` (a new one where it holds NULL)."""
-        self.calls += 1
         self.calls_by_kind["save"] += 1
         mark = len(self.messages)
-        try:
-            self._c["save"](self._component, ctypes.byref(state))
-        except self._call_failed as exc:
-            raise self._failed("save", exc, mark) from None
+        status = self._save_c(self._component, ctypes.byref(state))
+        if status > WARNING:
+            raise self._failed("save", status, mark)
 
     def restore(self, state) -> None:
-        self.calls += 1
         self.calls_by_kind["restore"] += 1
         mark = len(self.messages)
-        try:
-            self._c["restore"](self._component, state)
-        except self._call_failed as exc:
-            raise self._failed("restore", exc, mark) from None
+        status = self._restore_c(self._component, state)
+        if status > WARNING:
+            raise self._failed("restore", status, mark)
 
     def free_state(self, state) -> None:
-        self.calls += 1
         self.calls_by_kind["free"] += 1
         mark = len(self.messages)
-        try:
-            self._c["free"](self._component, ctypes.byref(state))
-        except self._call_failed as exc:
-            raise self._failed("free", exc, mark) from None
+        status = self._free_c(self._component, ctypes.byref(state))
+        if status > WARNING:
+            raise self._failed("free", status, mark)
 
     def close(self) -> None:
         """Terminate and free the instance (errors here lose nothing: ignore them). The
