@@ -57,18 +57,16 @@ class Contact(IntEnum):
     FORWARD = 1  # slipping with dv > 0
     UNKNOWN = 2  # the start, before any step has classified the contact
 
-    @property
-    def slipping(self) -> bool:
-        return self in (Contact.FORWARD, Contact.BACKWARD)
+    slipping: bool  # FORWARD or BACKWARD
+    stuck: bool  # STUCK
+    direction: float  # the sign of dv while slipping (+1.0 forward, -1.0 backward), 0.0 otherwise
 
-    @property
-    def stuck(self) -> bool:
-        return self is Contact.STUCK
-
-    @property
-    def direction(self) -> float:
-        """The sign of dv while slipping (+1.0 forward, -1.0 backward), 0.0 otherwise."""
-        return 1.0 if self is Contact.FORWARD else (-1.0 if self is Contact.BACKWARD else 0.0)
+    def __init__(self, value: int):
+        # each member's answers, made once: a coupling step asks them dozens of times (a
+        # property, a Python call each, was 1 % of a fig2 run)
+        self.slipping = value in (1, -1)
+        self.stuck = value == 0
+        self.direction = float(value) if self.slipping else 0.0
 
 
 @dataclass
