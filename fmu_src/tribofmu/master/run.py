@@ -11,6 +11,7 @@ projected past ``limits.notice_after`` says up front what it will cost.
 from __future__ import annotations
 
 import math
+from math import isfinite
 import time as _time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -256,7 +257,7 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
         while current.t_ns < stop_ns:
             new = algorithm.advance(system, current, stop_ns)
             for p in new:
-                if not all(np.isfinite((p.x, p.v, p.F, p.f))):
+                if not (isfinite(p.x) and isfinite(p.v) and isfinite(p.F) and isfinite(p.f)):
                     raise FloatingPointError(f"non-finite state at t = {p.t_ns / NS:.9g} s: "
                                              f"x={p.x}, v={p.v}, F={p.F}, f={p.f}")
                 recorder.add(p)
