@@ -2,9 +2,8 @@
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, OUTPUT
-from tribofmu.fmu.parameters import declare_parameter
+from tribofmu.fmu.parameters import declare_parameter, declared
 from tribofmu.physics.drive import DriveParams, drive
-from tribofmu.physics.parameters import declared
 
 
 class Drive(Fmi2Slave):
