@@ -227,17 +227,7 @@ class FMUInstance:
             self._unzipped = extract(path, digest)
         except Exception as exc:
             raise FMUFileError(f"{instance}: cannot unzip {path}: {exc}") from None
-        self._made_for = (self.fmi_version, str(self._unzipped), md.guid, md.coSimulation.modelIdentifier, instance)
-        with _extract_lock:
-            idle = _idle_slaves.get(self._made_for)
-            self._fmu, self._hot = idle.pop() if idle else (None, None)
-        if self._fmu is None:
-            if self.fmi_version == 3:
-                from fmpy.fmi3 import FMU3Slave as FMUSlave
-            else:
-                from fmpy.fmi2 import FMU2Slave as FMUSlave
-            self._fmu = FMUSlave(guid=md.guid, unzipDirectory=str(self._unzipped),
-                                 modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance)
+        self._take_fmpy_slave(md)
         self._closed = False
         resources = str(Path(self._unzipped, "resources"))
         try:
@@ -267,6 +257,22 @@ class FMUInstance:
             self.set(parameters)
         self.call("exitInitializationMode")
         self._bind_hot_path()
+
+    def _take_fmpy_slave(self, md) -> None:
+        """fmpy's object for this instance (``_fmu``, with its hot-path functions ``_hot`` where
+        made): one an instance of the same FMU left when it was closed, else a new one."""
+        self._made_for = (self.fmi_version, str(self._unzipped), md.guid, md.coSimulation.modelIdentifier,
+                          self.instance)
+        with _extract_lock:
+            idle = _idle_slaves.get(self._made_for)
+            self._fmu, self._hot = idle.pop() if idle else (None, None)
+        if self._fmu is None:
+            if self.fmi_version == 3:
+                from fmpy.fmi3 import FMU3Slave as FMUSlave
+            else:
+                from fmpy.fmi2 import FMU2Slave as FMUSlave
+            self._fmu = FMUSlave(guid=md.guid, unzipDirectory=str(self._unzipped),
+                                 modelIdentifier=md.coSimulation.modelIdentifier, instanceName=self.instance)
 
     def _make_callbacks(self):
         from fmpy import calloc, free
