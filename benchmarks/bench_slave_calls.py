@@ -7,25 +7,27 @@ The calls a coupling step repeats thousands of times (set two reals, do a step, 
 get, set and free the FMU state) on one BlockSpring instance, with value-reference and value
 arrays built once:
 
-- ``functions``: the ctypes functions in fmpy's private ``_functions`` dict (fmpy >= 0.3.26;
-  what :class:`tribofmu.master.instance.FMUInstance` called before it took the public methods);
+- ``functions``: the ctypes functions of the FMU's library called directly (here from fmpy's
+  private ``_functions`` dict, fmpy >= 0.3.26; :class:`tribofmu.master.instance.FMUInstance`
+  makes its own, with their C signatures, ``hot_path_functions``, and checks the status itself);
 - ``fmpy-low``: fmpy's public per-function methods, ``fmi2SetReal(component, vr, n, values)``
   and the like (fmpy >= 0.3.20: each checks the status and raises on an error), what
-  :class:`~tribofmu.master.instance.FMUInstance` calls;
+  :class:`~tribofmu.master.instance.FMUInstance` called before 2026-11-27;
 - ``fmpy``: fmpy's public convenience calls ``setReal(vr, values)``, ``getReal``, ``doStep``,
   ``getFMUstate`` (FMI 3.0: ``setFloat64`` ...), which build the ctypes arrays on every call.
 
 With ``--scene``: the scene's default call (``tribofmu.api.simulate``) in this process, its
-instances' hot path bound to ``functions`` or to ``fmpy-low`` in turn (``functions`` ignores
-the calls' statuses: a speed comparison only, on a scene that runs clean; both print their
-steps and error, which must agree), the CPU time's minimum over the repeats.
+instances' hot path bound to ``functions`` (FMUInstance's own) or to ``fmpy-low`` in turn (both
+check the calls' statuses), the CPU time's minimum over the repeats; both print their steps and
+error, which must agree.
 
 Measured 2026-11-26 23:29 UTC, fmpy 0.3.32, load average 10-11 on 2 cores (us a call, FMI 2.0 /
 3.0): ``functions`` 3.02 / 3.35-3.45, ``fmpy-low`` 3.33-3.39 / 3.57-3.73, ``fmpy`` 3.66 / 4.05-4.18.
 On whole default calls (``--scene``, 23:30-23:32 UTC, load 12), ``fmpy-low`` against
 ``functions``: fig6_boundary 3.386 s against 3.373 s (min of 3), fig2_dry 0.313 s against
 0.317 s (min of 5), the same steps and errors: below 1 %, within the noise of a busy machine.
-The master keeps fmpy's public methods.
+The master then kept fmpy's public methods; since 2026-11-27 it calls the functions itself
+(the FMUInstance layer around each call also got leaner: together about 0.8 us a call).
 
 Prints microseconds of CPU time per call (the FMU runs in this process: its Python is in this
 process's CPU time, which a busy machine disturbs far less than the wall clock), the median of
@@ -114,13 +116,14 @@ def whole_calls(scene: str, repeats: int) -> None:
     from tribofmu.api import simulate
     from tribofmu.master.instance import FMUInstance
 
-    public = FMUInstance._bind_hot_path
+    own = FMUInstance._bind_hot_path  # the library's functions with their C signatures
 
-    def private(self):
-        public(self)
-        self._c = {key: self._fmu._functions[name] for key, name in self._names.items()}
+    def public(self):  # fmpy's per-function methods (they return the status, raising above Warning)
+        own(self)
+        for key, name in self._names.items():
+            setattr(self, f"_{key}_c", getattr(self._fmu, name))
 
-    ways = {"functions": private, "fmpy-low": public}
+    ways = {"functions": own, "fmpy-low": public}
     cpu: dict[str, list[float]] = {name: [] for name in ways}
     outcome = {}
     simulate(scene)  # imports, FMUs built or found, libraries loaded
@@ -131,7 +134,7 @@ def whole_calls(scene: str, repeats: int) -> None:
             stats = simulate(scene).stats
             cpu[name].append(time.process_time() - begin)
             outcome[name] = (stats["communication_steps"], stats["estimated_error"]["nrms_v"])
-    FMUInstance._bind_hot_path = public
+    FMUInstance._bind_hot_path = own
     print(f"{scene}: default call, CPU time, min of {repeats} (load average {os.getloadavg()[0]:.1f})")
     first = min(cpu["functions"])
     for name, times in cpu.items():

@@ -49,6 +49,9 @@ MAX_WORKERS = 2
 # how often a waiting parent reads its children's pipes and a deferred Ctrl-C [s]: a tenth of
 # the progress bar's redraw interval, so the bar and a stop feel immediate
 POLL_S = 0.02
+# how often once the wanted run closed its pipe (it is exiting) until it is reaped [s]: its
+# result is ready, and a whole POLL_S would be added to the call's wall time
+EXIT_POLL_S = 0.001
 # a child tells its progress at most this often [s] (the bar redraws every 0.2 s)
 PROGRESS_EVERY_S = 0.1
 # one message's bytes: a pipe write below PIPE_BUF (4096 on Linux, 512 by POSIX) is atomic
@@ -220,7 +223,9 @@ class ForkedRuns:
         """Wait up to POLL_S for messages; read them, reap children that ended, and honour a
         deferred Ctrl-C (the progress bar's)."""
         pipes = [c.pipe for c in self.children if c.pipe >= 0]
-        readable = select.select(pipes, [], [], POLL_S)[0] if pipes else time.sleep(POLL_S) or []
+        # (the wanted run's pipe at its end: the child is exiting, to be reaped within moments)
+        wait = POLL_S if wanted.pipe >= 0 else EXIT_POLL_S
+        readable = select.select(pipes, [], [], wait)[0] if pipes else time.sleep(wait) or []
         for child in list(self.children):
             if child.pipe in readable:
                 self._read(child, wanted)

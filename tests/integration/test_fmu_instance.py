@@ -1,7 +1,8 @@
 """The master's hot path (:class:`tribofmu.master.instance.FMUInstance`: set and get reals, do a
-step, restore a state) goes through fmpy's public per-function methods: a refused call still
-arrives as one :class:`FMUCallError` naming the instance, the FMI function, the status and the
-FMU's own messages, FMI 2.0 and 3.0.
+step, restore a state) calls the FMU library's functions itself: a refused call still arrives as
+one :class:`FMUCallError` naming the instance, the FMI function, the status and the FMU's own
+messages, FMI 2.0 and 3.0. A closed instance's fmpy object makes the next instance of the same
+FMU, never one still open.
 
 Integration tier: the FMUs are built from the working tree (``fmu_dir``, ``fmu3_dir``).
 """
@@ -53,3 +54,21 @@ def test_each_hot_path_call_that_is_refused_names_its_function_status_and_reason
     block.free_state(good)
     assert block.calls_by_kind == {**block.calls_by_kind, "get": 1, "set": 1, "doStep": 2, "save": 1,
                                    "restore": 1, "free": 1}
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_a_closed_instance_makes_the_next_and_closing_it_again_leaves_that_one_alone(fmi, fmu_dir, fmu3_dir):
+    path = (fmu3_dir if fmi == 3 else fmu_dir) / "BlockSpring.fmu"
+    first = FMUInstance(path, instance="block", parameters={"M": 0.6})
+    first.close()
+    second = FMUInstance(path, instance="block", parameters={"M": 0.6})  # made by first's fmpy object
+    third = FMUInstance(path, instance="block", parameters={"M": 0.6})  # second is open: a new one
+    try:
+        first.close()  # again: must not terminate or free the instance its object made since
+        for slave in (second, third):
+            slave.set_reals([slave.refs["F"]], [1.0])
+            slave.do_step(0.0, 1e-3)
+            assert slave.get_reals([slave.refs["v"]])[0] > 0.0  # pushed by F = 1 N
+    finally:
+        second.close()
+        third.close()

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Any, Protocol
+from typing import Any, Protocol, Sequence
 
 from .quadrature import step_dissipation  # the energy audit's own quadrature
 
@@ -41,8 +41,8 @@ class SlaveLike(Protocol):
     calls_by_kind: dict[str, int]  # optional: CALL_KINDS -> count (test fakes may lack it)
     refs: dict[str, int]
 
-    def set_reals(self, refs: list[int], values: list[float]) -> None: ...
-    def get_reals(self, refs: list[int]) -> list[float]: ...
+    def set_reals(self, refs: Sequence[int], values: Sequence[float]) -> None: ...
+    def get_reals(self, refs: Sequence[int]) -> list[float]: ...
     def do_step(self, t: float, h: float) -> None: ...
     def save(self) -> Any: ...
     def restore(self, state: Any) -> None: ...
@@ -57,18 +57,16 @@ class Contact(IntEnum):
     FORWARD = 1  # slipping with dv > 0
     UNKNOWN = 2  # the start, before any step has classified the contact
 
-    @property
-    def slipping(self) -> bool:
-        return self in (Contact.FORWARD, Contact.BACKWARD)
+    slipping: bool  # FORWARD or BACKWARD
+    stuck: bool  # STUCK
+    direction: float  # the sign of dv while slipping (+1.0 forward, -1.0 backward), 0.0 otherwise
 
-    @property
-    def stuck(self) -> bool:
-        return self is Contact.STUCK
-
-    @property
-    def direction(self) -> float:
-        """The sign of dv while slipping (+1.0 forward, -1.0 backward), 0.0 otherwise."""
-        return 1.0 if self is Contact.FORWARD else (-1.0 if self is Contact.BACKWARD else 0.0)
+    def __init__(self, value: int):
+        # each member's answers, made once: a coupling step asks them dozens of times (a
+        # property, a Python call each, was 1 % of a fig2 run)
+        self.slipping = value in (1, -1)
+        self.stuck = value == 0
+        self.direction = float(value) if self.slipping else 0.0
 
 
 @dataclass
@@ -136,11 +134,13 @@ class CoupledSystem:
         self.block, self.drive, self.friction = block, drive, friction
         self.load, self.thermal = load, thermal
         self.slaves = [s for s in (drive, load, block, friction, thermal) if s is not None]
+        # (each call's value references a tuple, built once: a slave may key what it prepared
+        # for them on it)
         b = block.refs
-        self._block_in = [b["F"], b["F_rate"]]
-        self._block_out = [b["x"], b["v"], b["a"]]
+        self._block_in = (b["F"], b["F_rate"])
+        self._block_out = (b["x"], b["v"], b["a"])
         if drive is not None:
-            self._drive_out = [drive.refs[k] for k in ("X", "V", "a")]
+            self._drive_out = tuple(drive.refs[k] for k in ("X", "V", "a"))
         if friction is not None:
             self._wire_friction(conditions or {})
         if load is not None:
@@ -152,29 +152,30 @@ class CoupledSystem:
         """The friction's references, and its constant inputs (those no load or thermal slave feeds)."""
         friction = self.friction
         fr = friction.refs
-        self._dv = [fr["dv"]]
+        self._dv = (fr["dv"],)
         # F, f, and the mean force over the step where the friction reports it (no output read twice)
-        self._friction_out = [fr["F"], fr["f"]] + ([fr["F_mean"]] if "F_mean" in fr else [])
+        self._friction_force = (fr["F"], fr["f"])
+        self._friction_out = self._friction_force + ((fr["F_mean"],) if "F_mean" in fr else ())
         fed = {"n"} if self.load is not None else set()
         fed |= {"T"} if self.thermal is not None else set()
         held = {k: v for k, v in conditions.items() if k not in fed}
         if held:
             friction.set_reals([fr[k] for k in held], list(held.values()))
-        self._friction_n, self._friction_T = [fr["n"]], [fr["T"]]
+        self._friction_n, self._friction_T = (fr["n"],), (fr["T"],)
         self._n = friction.get_reals(self._friction_n)[0]
         self._T = friction.get_reals(self._friction_T)[0]
 
     def _wire_load(self) -> None:
         """The load's n feeds the friction's n from the start."""
-        self._load_n = [self.load.refs["n"]]
+        self._load_n = (self.load.refs["n"],)
         self._n = self.load.get_reals(self._load_n)[0]
         self.friction.set_reals(self._friction_n, [self._n])
 
     def _wire_thermal(self) -> None:
         """The thermal slave's T feeds the friction's T from the start."""
         thermal = self.thermal
-        self._thermal_P = [thermal.refs["P"]]
-        self._thermal_out = [thermal.refs["T"], thermal.refs["Q"]]
+        self._thermal_P = (thermal.refs["P"],)
+        self._thermal_out = (thermal.refs["T"], thermal.refs["Q"])
         self._T, self._Q = thermal.get_reals(self._thermal_out)
         self.friction.set_reals(self._friction_T, [self._T])
 
@@ -194,7 +195,7 @@ class CoupledSystem:
         if self.friction is None:
             return 0.0, 0.0
         self.friction.set_reals(self._dv, [dv])
-        return tuple(self.friction.get_reals(self._friction_out[:2]))
+        return tuple(self.friction.get_reals(self._friction_force))
 
     @property
     def friction_n(self) -> float:

@@ -185,7 +185,7 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
                               Status.error, CALL_STATUS_CATEGORY)
                     return
                 # in range is checked when initialization ends (parameters) or at the step
-            else:
+            elif self._bad:
                 self._bad.pop(name, None)
             setattr(self, name, value)
             if is_parameter:
@@ -306,15 +306,16 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
                                   f"{_PREFIX}ExitInitializationMode, before {_PREFIX}Terminate)")
             self._log(f"{_PREFIX}DoStep: {why}; step refused", Status.error, CALL_STATUS_CATEGORY)
             return self._refused(misuse=True)
-        self._forget_outputs()
+        self._output_values.clear()  # (_forget_outputs, inline: the hot path of a master)
         saved = None
         misuse = True
         try:
             problems = self._step_problems(current_time, step_size)
             if not problems:
                 # Only what a step can change: parameters and inputs change through setters.
-                saved = {name: getattr(self, name) for name in self._dynamic_names()}
-                saved.update({name: copy.copy(getattr(self, name)) for name in self.internal_state_names})
+                saved = {name: getattr(self, name) for name in self._dynamic_state_names or self._dynamic_names()}
+                if self.internal_state_names:
+                    saved.update({name: copy.copy(getattr(self, name)) for name in self.internal_state_names})
                 problems, misuse = self._step(current_time, step_size)
         except Exception as exc:
             misuse = False
@@ -340,7 +341,8 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         return False
 
     def _step_problems(self, current_time: float, step_size: float) -> list[str]:
-        problems = self.problems()
+        # (no refused value and a parameter set found good: no problems() to copy, every step)
+        problems = self.problems() if self._bad or self._model_problems != [] else []
         if not (math.isfinite(step_size) and step_size > 0):
             problems.append(f"communication step size h must be > 0 and finite, got {step_size}")
         elif not (math.isfinite(current_time) and math.isfinite(current_time + step_size)):
@@ -361,7 +363,7 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         # is computed here; what is computed is kept for the host's reads of this state.
         bad = []
         computed = self._output_values
-        for name, getter in self._real_outputs():
+        for name, getter in self._real_output_getters or self._real_outputs():
             try:
                 value = getter() if getter is not None else getattr(self, name)
             except Exception as exc:

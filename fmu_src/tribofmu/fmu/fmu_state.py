@@ -7,8 +7,9 @@ from __future__ import annotations
 import copy
 import functools
 import json
+import operator
 import uuid
-from typing import Any
+from typing import Any, Callable
 
 from .fmi import (_STATE, INITIALIZATION, INSTANTIATED, STEP, TERMINATED, Boolean, Causality, Integer,
                   Real)
@@ -79,8 +80,9 @@ class FMUStateMixin:
     def _get_fmu_state(self) -> OwnState:
         names = self._variable_names()
         internal_names = self.internal_state_names
-        return OwnState(self._parameter_values(), names, tuple([getattr(self, name) for name in names]),
-                        internal_names, tuple([copy.copy(getattr(self, name)) for name in internal_names]),
+        return OwnState(self._parameter_values(), names, self._variable_values(self),
+                        internal_names, tuple([copy.copy(getattr(self, name)) for name in internal_names])
+                        if internal_names else (),
                         dict(self._bad) if self._bad else _NO_PROBLEMS, self._initialized,
                         self._parameter_token, self._model_id, self._mode, self._error)
 
@@ -185,11 +187,17 @@ class FMUStateMixin:
         setters."""
         return {name: getattr(self, name) for name in self._parameter_names}
 
+    _variable_state_names: list[str] | None = None
+    _variable_values: Callable[[Any], tuple] | None = None
+
     def _variable_names(self) -> list[str]:
-        """The scalars of a state other than the parameters (inputs, stored outputs, time)."""
-        names = getattr(self, "_variable_state_names", None)
+        """The scalars of a state other than the parameters (inputs, stored outputs, time);
+        ``_variable_values(self)`` reads them, in this order, as a tuple."""
+        names = self._variable_state_names
         if names is None:
             names = self._variable_state_names = [n for n in self._scalar_names() if n not in self._parameter_set]
+            read = operator.attrgetter(*names)  # (one name: the value itself, not a tuple of one)
+            self._variable_values = read if len(names) > 1 else (lambda model: (read(model),))
         return names
 
     def _scalar_names(self) -> list[str]:

@@ -9,12 +9,21 @@ one FMU) declares both sets with the same calls, so the pair cannot drift from t
 """
 from __future__ import annotations
 
+import functools
+
 from tribofmu.fmu.base import INPUT, OUTPUT, PARAMETER, positive
 from tribofmu.fmu.fmu_state import parameter_cached  # noqa: F401 (the models import it from here)
 from tribofmu.physics.block import BlockParams
 from tribofmu.physics.friction import START_F, Conditions, Effects, FrictionLaw, LubricantConstants
 from tribofmu.physics.laws import LAWS, law_fields, law_parameters, make_law, regime_problem
-from tribofmu.physics.parameters import Parameter, declared
+from tribofmu.physics.parameters import Parameter, declared as declared_by
+
+
+@functools.lru_cache(maxsize=None)
+def declared(cls: type) -> tuple[Parameter, ...]:
+    """The parameters a dataclass declares (:func:`tribofmu.physics.parameters.declared`), made
+    once per class: every instantiation of an FMU declares them (frozen: nothing changes them)."""
+    return declared_by(cls)
 
 
 def declare_parameter(slave, p: Parameter, checked: bool = True) -> None:
@@ -49,9 +58,8 @@ def declare_friction_parameters(slave) -> None:
         f"{law.code} = {law.name}" for law in LAWS.values()), check=regime_problem)
     # Every law's parameters: those every law carries are checked on their own, those a law
     # adds by that law (model_problems), so a scene of one law is not refused for another's.
-    shared = {p.name for p in (*declared(FrictionLaw), *_LUBRICANT)}
-    for p in law_parameters():
-        declare_parameter(slave, p, checked=p.name in shared)
+    for p in _FRICTION_PARAMETERS:
+        declare_parameter(slave, p, checked=p.name in _SHARED)
     declare_parameter(slave, START_F)
     # 1e-5 is twenty times below the master's default step tolerance on the force; tighter
     # only costs sub-steps (measured on fig6: the same nRMS(v) at 1e-5 and 1e-6)
@@ -63,6 +71,8 @@ def declare_friction_parameters(slave) -> None:
 # lubricant's and the switches', read from the FMU's parameters.
 _LAW = law_fields()
 _LUBRICANT, _EFFECTS = declared(LubricantConstants), declared(Effects)
+_FRICTION_PARAMETERS = law_parameters()
+_SHARED = {p.name for p in (*declared(FrictionLaw), *_LUBRICANT)}
 
 
 def friction_law(slave) -> FrictionLaw:

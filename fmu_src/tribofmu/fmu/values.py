@@ -13,16 +13,12 @@ from .fmi import (_PREFIX, _TYPE_NAMES, FMI_VERSION, INSTANTIATED, STEP, TERMINA
 class ValueAccessMixin:
     """Get and set by value reference, for every FMI type the models declare."""
 
+    # value reference -> setter of each Real input, getter of each Real variable: made on
+    # first use in step mode (every variable is declared by then)
+    _real_input_setter_cache: dict | None = None
+    _real_getter_cache: dict | None = None
+
     def _set(self, kind: type, vrs, values) -> None:
-        if kind is Real and self._mode == STEP:
-            # the hot path of a master (inputs between steps): a Real input passes every check
-            # of _may_not_set in step mode, so its setter (which still checks the value) is
-            # called straight away; anything else takes the checked path below
-            setters = self._real_input_setters()
-            if all(vr in setters for vr in vrs):
-                for vr, value in zip(vrs, values):
-                    setters[vr](value)
-                return
         call = f"Set{_TYPE_NAMES[kind]}"
         for vr, value in zip(vrs, values):
             var = self.vars.get(vr)
@@ -49,7 +45,7 @@ class ValueAccessMixin:
 
     def _real_input_setters(self) -> dict[int, Callable[[Any], None]]:
         """Value reference -> setter of every Real input (variables are declared once)."""
-        setters = getattr(self, "_real_input_setter_cache", None)
+        setters = self._real_input_setter_cache
         if setters is None:
             setters = self._real_input_setter_cache = {
                 vr: var.setter for vr, var in self.vars.items()
@@ -58,18 +54,13 @@ class ValueAccessMixin:
 
     def _real_getters(self) -> dict[int, Callable[[], Any]]:
         """Value reference -> getter of every Real variable."""
-        getters = getattr(self, "_real_getter_cache", None)
+        getters = self._real_getter_cache
         if getters is None:
             getters = self._real_getter_cache = {vr: var.getter for vr, var in self.vars.items()
                                                  if isinstance(var, Real)}
         return getters
 
     def _get(self, kind: type, vrs, cast: Callable[[Any], Any], missing: Any) -> list:
-        if kind is Real and self._mode == STEP:
-            # the hot path: known Real variables read in step mode need none of the checks below
-            getters = self._real_getters()
-            if all(vr in getters for vr in vrs):
-                return [float(getters[vr]()) for vr in vrs]
         call = f"Get{_TYPE_NAMES[kind]}"
         if self._mode == INSTANTIATED and not self._describing:
             self._refuse(call, f"not allowed before {_PREFIX}EnterInitializationMode; "
@@ -90,12 +81,46 @@ class ValueAccessMixin:
 
 def _accessors(kind: type, cast: Callable[[Any], Any], missing: Any):
     """The getter and setter of one FMI type, by value reference."""
+    if kind is Real:
+        return _get_reals, _set_reals
+
     def get(self, vrs):
         return self._get(kind, vrs, cast, missing)
 
     def set(self, vrs, values):
         self._set(kind, vrs, values)
     return get, set
+
+
+def _get_reals(self, vrs) -> list:
+    if self._mode == STEP:
+        # the hot path of a master: known Real variables read in step mode need none of the
+        # checks of _get
+        getters = self._real_getter_cache or self._real_getters()
+        try:
+            chosen = [getters[vr] for vr in vrs]
+        except KeyError:  # not all Real variables: _get refuses the others by name
+            pass
+        else:
+            return [float(getter()) for getter in chosen]
+    return self._get(Real, vrs, float, math.nan)
+
+
+def _set_reals(self, vrs, values) -> None:
+    if self._mode == STEP:
+        # the hot path of a master (inputs between steps): a Real input passes every check
+        # of _may_not_set in step mode, so its setter (which still checks the value) is
+        # called straight away; anything else takes the checked path of _set
+        setters = self._real_input_setter_cache or self._real_input_setters()
+        try:
+            chosen = [setters[vr] for vr in vrs]
+        except KeyError:  # not all Real inputs
+            pass
+        else:
+            for setter, value in zip(chosen, values):
+                setter(value)
+            return
+    self._set(Real, vrs, values)
 
 
 # The typed calls by the suffix of pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) method:

@@ -103,11 +103,42 @@ def release_pythonfmu_guard_at_exit(dll) -> None:
     atexit.register(release)
 
 
-def extract(path: Path) -> Path:
-    """The unzipped copy of an FMU file for this process (unzipped once per content)."""
+def content_digest(path: Path) -> str:
+    """What names an FMU file's content in this process (what is unzipped or read once per content)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+
+
+_descriptions: dict[str, Any] = {}  # content digest -> fmpy's model description (under _extract_lock)
+
+
+def model_description(path: Path, digest: str | None = None):
+    """fmpy's model description of an FMU file, read (and validated) once per content in this
+    process: 1.4 ms a file, every run's instances (2026-11-27)."""
     import fmpy
 
-    digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+    digest = digest or content_digest(path)
+    with _extract_lock:
+        md = _descriptions.get(digest)
+    if md is None:
+        md = fmpy.read_model_description(str(path))
+        with _extract_lock:
+            _descriptions[digest] = md
+    return md
+
+
+# fmpy's objects of the instances this process freed, by what they were made for (FMI version,
+# unzipped folder, guid, model identifier, instance name), with the hot path's functions made
+# for them: the next instance of the same FMU takes one (fmpy loads the library's functions
+# with their signatures when it makes one: 1 ms, every run's instances; 2026-11-27).
+_idle_slaves: dict[tuple, list] = {}  # under _extract_lock
+
+
+def extract(path: Path, digest: str | None = None) -> Path:
+    """The unzipped copy of an FMU file for this process (unzipped once per content; digest:
+    :func:`content_digest` of the file, when the caller has it)."""
+    import fmpy
+
+    digest = digest or content_digest(path)
     root = extraction_root()
     with _extract_lock:
         folder = _extracted.get(digest)
@@ -123,6 +154,42 @@ def extract(path: Path) -> Path:
         return folder
 
 
+# A call's status above this one (fmi2Warning, fmi3Warning) is a failure.
+WARNING = 1
+
+
+def hot_path_functions(dll, fmi_version: int) -> tuple[dict[str, str], dict[str, Any]]:
+    """The FMI functions a coupling step calls, under version-neutral names (set and get
+    reals, doStep, get, set and free the FMU state): their FMI names, and each as a ctypes
+    function of ``dll`` (a new function object, so nothing else's ``argtypes`` are changed)
+    with its C signature from the FMI headers (the types are fmpy's)."""
+    from ctypes import POINTER, c_int, c_size_t
+
+    if fmi_version == 3:
+        from fmpy.fmi3 import fmi3Boolean as boolean, fmi3Float64 as real, fmi3FMUState as state
+        from fmpy.fmi3 import fmi3Instance as instance, fmi3ValueReference as vr
+        names = ("fmi3SetFloat64", "fmi3GetFloat64", "fmi3DoStep", "fmi3GetFMUState", "fmi3SetFMUState",
+                 "fmi3FreeFMUState")
+        values = [instance, POINTER(vr), c_size_t, POINTER(real), c_size_t]  # + nValues
+        step = [instance, real, real, boolean, POINTER(boolean), POINTER(boolean), POINTER(boolean),
+                POINTER(real)]
+    else:
+        from fmpy.fmi2 import fmi2Boolean as boolean, fmi2Component as instance, fmi2FMUstate as state
+        from fmpy.fmi2 import fmi2Real as real, fmi2ValueReference as vr
+        names = ("fmi2SetReal", "fmi2GetReal", "fmi2DoStep", "fmi2GetFMUstate", "fmi2SetFMUstate",
+                 "fmi2FreeFMUstate")
+        values = [instance, POINTER(vr), c_size_t, POINTER(real)]
+        step = [instance, real, real, boolean]
+    argtypes = (values, values, step, [instance, POINTER(state)], [instance, state], [instance, POINTER(state)])
+    keys = ("set", "get", "step", "save", "restore", "free")
+    functions = {}
+    for key, name, types in zip(keys, names, argtypes):
+        function = dll[name]  # (item access: a new object; attribute access would share fmpy's)
+        function.argtypes, function.restype = types, c_int
+        functions[key] = function
+    return dict(zip(keys, names)), functions
+
+
 class FMUInstance:
     """One instance of an FMU file (FMI 2.0 or 3.0 co-simulation), driven through fmpy.
 
@@ -131,19 +198,18 @@ class FMUInstance:
 
     def __init__(self, path: str | Path, instance: str, parameters: dict[str, Any] | None = None,
                  start_time: float = 0.0):
-        import fmpy
-
         path = Path(path)
         if not path.is_file():
             raise FMUFileError(f"{instance}: FMU file not found: {path} (run 'tribofmu build' first)")
         self.instance = instance
-        self.calls = 0  # every FMI call made, setup and hot path alike
+        self._setup_calls = 0  # the FMI calls made outside the hot path (``calls`` adds the rest)
         # the hot path's calls by kind (CALL_KINDS: get/set reals, doStep, get/set/free FMU
         # state); the rest of ``calls`` is setup and teardown
         self.calls_by_kind = dict.fromkeys(CALL_KINDS, 0)
         self.messages: list[str] = []
         try:
-            md = fmpy.read_model_description(str(path))
+            digest = content_digest(path)
+            md = model_description(path, digest)
         except Exception as exc:  # a corrupt archive has many failure modes in fmpy
             raise FMUFileError(f"{instance}: cannot read {path}: {exc}") from None
         self.variables = {v.name: v for v in md.modelVariables}
@@ -158,15 +224,11 @@ class FMUInstance:
                                 f"built by another tribofmu version? rebuild it (tribofmu build --out {path.parent})")
         self._prefix = f"fmi{self.fmi_version}"
         try:
-            self._unzipped = extract(path)
+            self._unzipped = extract(path, digest)
         except Exception as exc:
             raise FMUFileError(f"{instance}: cannot unzip {path}: {exc}") from None
-        if self.fmi_version == 3:
-            from fmpy.fmi3 import FMU3Slave as FMUSlave
-        else:
-            from fmpy.fmi2 import FMU2Slave as FMUSlave
-        self._fmu = FMUSlave(guid=md.guid, unzipDirectory=str(self._unzipped),
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance)
+        self._take_fmpy_slave(md)
+        self._closed = False
         resources = str(Path(self._unzipped, "resources"))
         try:
             if self.fmi_version == 3:
@@ -195,6 +257,22 @@ class FMUInstance:
             self.set(parameters)
         self.call("exitInitializationMode")
         self._bind_hot_path()
+
+    def _take_fmpy_slave(self, md) -> None:
+        """fmpy's object for this instance (``_fmu``, with its hot-path functions ``_hot`` where
+        made): one an instance of the same FMU left when it was closed, else a new one."""
+        self._made_for = (self.fmi_version, str(self._unzipped), md.guid, md.coSimulation.modelIdentifier,
+                          self.instance)
+        with _extract_lock:
+            idle = _idle_slaves.get(self._made_for)
+            self._fmu, self._hot = idle.pop() if idle else (None, None)
+        if self._fmu is None:
+            if self.fmi_version == 3:
+                from fmpy.fmi3 import FMU3Slave as FMUSlave
+            else:
+                from fmpy.fmi2 import FMU2Slave as FMUSlave
+            self._fmu = FMUSlave(guid=md.guid, unzipDirectory=str(self._unzipped),
+                                 modelIdentifier=md.coSimulation.modelIdentifier, instanceName=self.instance)
 
     def _make_callbacks(self):
         from fmpy import calloc, free
@@ -226,27 +304,29 @@ class FMUInstance:
         return fmi3LogMessageCallback(log)
 
     def _bind_hot_path(self):
-        """The calls a coupling step makes thousands of times: fmpy's public per-function
-        methods (``fmi2SetReal(component, vr, n, values)`` and the like, in every fmpy since
-        0.3.20), with the value-reference and value arrays built once per set of references.
+        """The calls a coupling step makes thousands of times (set and get reals, doStep, get,
+        set and free the FMU state), bound once: each a ctypes function of the FMU's library
+        with its C signature (:func:`hot_path_functions`), called with the value-reference and
+        value arrays built once per set of references, its status checked here (above
+        Warning: :class:`FMUCallError`).
 
-        fmpy's convenience calls (``setReal``, ``getReal``, ``doStep``) build those arrays on
-        every call. Its private ``_functions`` (the bare ctypes functions) save the Python
-        wrapper around each call: 0.2-0.4 us of 3.0-3.5 us a call, under 1 % of a whole fig6
-        or fig2 call's CPU time (``benchmarks/bench_slave_calls.py``, its docstring has the
-        numbers and dates), too little for a private name that exists only from fmpy 0.3.26
-        on (this package asks for 0.3.20).
+        fmpy's public per-function methods (``fmi2GetReal(component, vr, n, values)``, which
+        this called before) wrap the same C call in two Python calls and a status check of
+        their own; fmpy stays what loads the library and makes the instance.
         """
-        from fmpy.fmi1 import FMICallException
+        import ctypes
 
-        self._call_failed = FMICallException  # what these methods raise on a status above Warning
         self._component = self._fmu.component
         self._buffers: dict[tuple[int, ...], tuple[Any, int, Any]] = {}
+        # the operations under version-neutral names (set/get reals, do step, get/set/free state)
+        if self._hot is None:
+            self._hot = hot_path_functions(self._fmu.dll, self.fmi_version)
+        self._names, functions = self._hot
+        self._set_c, self._get_c, self._step_c, self._save_c, self._restore_c, self._free_c = (
+            functions[key] for key in ("set", "get", "step", "save", "restore", "free"))
         if self.fmi_version == 3:
             from fmpy.fmi3 import fmi3Boolean, fmi3Float64, fmi3FMUState, fmi3ValueReference
 
-            names = ("fmi3SetFloat64", "fmi3GetFloat64", "fmi3DoStep", "fmi3GetFMUState",
-                     "fmi3SetFMUState", "fmi3FreeFMUState")
             self._state_type = fmi3FMUState
             self._real, self._vr = fmi3Float64, fmi3ValueReference
             # doStep's outputs; eventHandlingNeeded and earlyReturn stay false (not requested)
@@ -255,32 +335,32 @@ class FMUInstance:
         else:
             from fmpy.fmi2 import fmi2FMUstate, fmi2Real, fmi2ValueReference
 
-            names = ("fmi2SetReal", "fmi2GetReal", "fmi2DoStep", "fmi2GetFMUstate",
-                     "fmi2SetFMUstate", "fmi2FreeFMUstate")
             self._state_type = fmi2FMUstate
             self._real, self._vr = fmi2Real, fmi2ValueReference
-        # the operations under version-neutral names (set/get reals, do step, get/set/free state)
-        self._names = dict(zip(("set", "get", "step", "save", "restore", "free"), names))
-        self._c = {key: getattr(self._fmu, name) for key, name in self._names.items()}
 
     def _buffer(self, refs) -> tuple[Any, int, Any]:
-        key = tuple(refs)
+        key = refs if type(refs) is tuple else tuple(refs)
         buf = self._buffers.get(key)
         if buf is None:
             n = len(key)
             buf = self._buffers[key] = ((self._vr * n)(*key), n, (self._real * n)())
         return buf
 
-    def _failed(self, key: str, exc, mark: int) -> FMUCallError:
-        """The error of a hot-path call fmpy raised on (status above Warning), with the
-        messages the FMU logged during the call."""
-        return FMUCallError(self.instance, self._names[key], exc.status, self.messages[mark:])
+    def _failed(self, key: str, status: int, mark: int) -> FMUCallError:
+        """The error of a hot-path call whose status is above Warning, with the messages the
+        FMU logged during the call."""
+        return FMUCallError(self.instance, self._names[key], status, self.messages[mark:])
+
+    @property
+    def calls(self) -> int:
+        """Every FMI call made, setup and hot path alike."""
+        return self._setup_calls + sum(self.calls_by_kind.values())
 
     def call(self, function: str, *args, **kwargs):
         """Call an fmpy FMU2Slave/FMU3Slave method; a bad status raises :class:`FMUCallError`."""
         from fmpy.fmi1 import FMICallException
 
-        self.calls += 1
+        self._setup_calls += 1
         mark = len(self.messages)
         try:
             return getattr(self._fmu, function)(*args, **kwargs)
@@ -307,46 +387,38 @@ class FMUInstance:
         for kind, (refs, vals) in groups.items():
             self.call(f"set{kind}", refs, vals)
 
-    def set_reals(self, refs: list[int], values: list[float]) -> None:
+    def set_reals(self, refs: Sequence[int], values: Sequence[float]) -> None:
         """fmi2SetReal / fmi3SetFloat64."""
-        self.calls += 1
         self.calls_by_kind["set"] += 1
         vr, n, buf = self._buffer(refs)
         buf[:] = values
-        args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)  # FMI 3: + nValues
         mark = len(self.messages)  # before the call: its messages explain a bad status
-        try:
-            self._c["set"](self._component, *args)
-        except self._call_failed as exc:
-            raise self._failed("set", exc, mark) from None
+        status = self._set_c(self._component, vr, n, buf, n) if self.fmi_version == 3 else \
+            self._set_c(self._component, vr, n, buf)  # FMI 3: + nValues
+        if status > WARNING:
+            raise self._failed("set", status, mark)
 
-    def get_reals(self, refs: list[int]) -> list[float]:
+    def get_reals(self, refs: Sequence[int]) -> list[float]:
         """fmi2GetReal / fmi3GetFloat64."""
-        self.calls += 1
         self.calls_by_kind["get"] += 1
         vr, n, buf = self._buffer(refs)
-        args = (vr, n, buf, n) if self.fmi_version == 3 else (vr, n, buf)
         mark = len(self.messages)
-        try:
-            self._c["get"](self._component, *args)
-        except self._call_failed as exc:
-            raise self._failed("get", exc, mark) from None
+        status = self._get_c(self._component, vr, n, buf, n) if self.fmi_version == 3 else \
+            self._get_c(self._component, vr, n, buf)
+        if status > WARNING:
+            raise self._failed("get", status, mark)
         return buf[:]
 
     def do_step(self, t: float, h: float) -> None:
         """One communication step from t by h [s]. The master may restore an earlier state
         afterwards: FMI 3.0 gets noSetFMUStatePriorToCurrentPoint = false (the FMI 2.0 call
         keeps passing true, which pythonfmu ignores)."""
-        self.calls += 1
         self.calls_by_kind["doStep"] += 1
         mark = len(self.messages)
-        try:
-            if self.fmi_version == 3:
-                self._c["step"](self._component, t, h, False, *self._step_refs)
-            else:
-                self._c["step"](self._component, t, h, 1)
-        except self._call_failed as exc:
-            raise self._failed("step", exc, mark) from None
+        status = self._step_c(self._component, t, h, False, *self._step_refs) if self.fmi_version == 3 else \
+            self._step_c(self._component, t, h, 1)
+        if status > WARNING:
+            raise self._failed("step", status, mark)
 
     def save(self):
         state = self._state_type()
@@ -363,31 +435,25 @@ class FMUInstance:
 
     def _get_state(self, state) -> None:
         """FMI's get FMU state into ``state`` (a new one where it holds NULL)."""
-        self.calls += 1
         self.calls_by_kind["save"] += 1
         mark = len(self.messages)
-        try:
-            self._c["save"](self._component, ctypes.byref(state))
-        except self._call_failed as exc:
-            raise self._failed("save", exc, mark) from None
+        status = self._save_c(self._component, ctypes.byref(state))
+        if status > WARNING:
+            raise self._failed("save", status, mark)
 
     def restore(self, state) -> None:
-        self.calls += 1
         self.calls_by_kind["restore"] += 1
         mark = len(self.messages)
-        try:
-            self._c["restore"](self._component, state)
-        except self._call_failed as exc:
-            raise self._failed("restore", exc, mark) from None
+        status = self._restore_c(self._component, state)
+        if status > WARNING:
+            raise self._failed("restore", status, mark)
 
     def free_state(self, state) -> None:
-        self.calls += 1
         self.calls_by_kind["free"] += 1
         mark = len(self.messages)
-        try:
-            self._c["free"](self._component, ctypes.byref(state))
-        except self._call_failed as exc:
-            raise self._failed("free", exc, mark) from None
+        status = self._free_c(self._component, ctypes.byref(state))
+        if status > WARNING:
+            raise self._failed("free", status, mark)
 
     def close(self) -> None:
         """Terminate and free the instance (errors here lose nothing: ignore them). The
@@ -397,8 +463,13 @@ class FMUInstance:
         ``freeInstance`` would also unload it), so the next instance of the same file does
         not load it again. pythonfmu's binary is never unloaded anyway (glibc keeps a library
         with STB_GNU_UNIQUE symbols); what it does wrong at exit is handled by the native
-        loader and by :func:`release_pythonfmu_guard_at_exit`.
+        loader and by :func:`release_pythonfmu_guard_at_exit`. fmpy's object, its library
+        loaded, is kept for the next instance of the same FMU (``_idle_slaves``). A second
+        close does nothing (that object may make another instance by then).
         """
+        if self._closed:
+            return
+        self._closed = True
         try:
             self._fmu.terminate()
         except Exception:
@@ -406,4 +477,6 @@ class FMUInstance:
         try:  # fmi2FreeInstance / fmi3FreeInstance without fmpy's freeLibrary
             getattr(self._fmu, f"{self._prefix}FreeInstance")(self._fmu.component)
         except Exception:
-            pass
+            return  # not freed: not for another instance either
+        with _extract_lock:
+            _idle_slaves.setdefault(self._made_for, []).append((self._fmu, self._hot))

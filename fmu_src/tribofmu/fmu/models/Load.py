@@ -6,9 +6,8 @@ Programs (parameter ``program``): 0 constant n0; 1 ramp from n0 at t_start to n1
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, OUTPUT
-from tribofmu.fmu.parameters import declare_parameter, parameter_cached
+from tribofmu.fmu.parameters import declare_parameter, declared, parameter_cached
 from tribofmu.physics.load import LoadProgram
-from tribofmu.physics.parameters import declared
 
 
 class Load(Fmi2Slave):

@@ -10,8 +10,7 @@ far, for energy bookkeeping.
 # The model class derives from the name Fmi2Slave (the FMI 3.0 build renames it Fmi3Slave,
 # the text pythonfmu3 looks for); everything FMI-specific comes from base.
 from tribofmu.fmu.base import TriboModel as Fmi2Slave, DefaultExperiment, INPUT, OUTPUT
-from tribofmu.fmu.parameters import declare_parameter, parameter_cached
-from tribofmu.physics.parameters import declared
+from tribofmu.fmu.parameters import declare_parameter, declared, parameter_cached
 from tribofmu.physics.thermal import START_T, ThermalParams, advance_thermal
 
 
