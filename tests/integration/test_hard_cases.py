@@ -126,11 +126,12 @@ def test_very_stiff_spring_default_tolerance(fmu_dir, K):
      1e-4, 0.01, {}),
     # huge m: the blocks creep with |dv| ~ 1e-6 |V|, below what a tolerance on v resolves, so
     # held steps leave slivers where the interpolated dv and the held force differ in sign;
-    # at tol 2e-5 they sum to under 1e-3 of the dissipation (checked below), not by count.
-    # (A single run of the one-solve coupling left 0.13x; the checked sequence's tighter runs
-    # meet it.)
+    # they must sum to under 1e-3 of the dissipation (checked below), not by count. They fall
+    # in proportion to the run's tolerance: since its own estimate vouches (one run, no
+    # tighter run of a check reported), 1.5e-3 at tol 2e-5, 6.7e-4 at 1e-5, 3.0e-4 at 5e-6
+    # (2026-11-27); with the checked sequence, tol 2e-5 met it through the tighter runs.
     (["friction.gamma=-0.6666666666666666", "friction.m=1e3", "time.periods=3.1",
-      "time.window=[2.0,3.0]"], 3e-2, None, {"tol": 2e-5}),
+      "time.window=[2.0,3.0]"], 3e-2, None, {"tol": 1e-5}),
 ], ids=["gamma-2/3-m1e-3", "gamma-2/3-m1e3"])
 def test_shear_thinning_extremes(fmu_dir, ov, residual_rel, negative_frac, kw):
     """Tiny m: the block barely moves (1e-4 of the drive); huge m: it nearly follows the

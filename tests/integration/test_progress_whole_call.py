@@ -18,8 +18,9 @@ def test_a_checked_call_shows_one_bar_that_never_runs_backwards(fmu_dir):
     from tribofmu import api
     from tribofmu.progress import RunBar
 
-    # a shear-thinning fluid: its runs cannot vouch for themselves, the call makes several
-    scenario = api.load(scene("fig5_pseudoplastic"), {"time.periods": 2.0, "time.window": [1.0, 2.0]})
+    # dry friction under a load program (a Load FMU changes n): its runs cannot vouch for
+    # themselves, the call makes several
+    scenario = api.load(scene("dry_load_oscillation"), {"time.periods": 2.0, "time.window": [1.0, 2.0]})
     shown, runs = [], []
     stream = TTY()
 
