@@ -148,3 +148,22 @@ def test_a_stribeck_runs_estimate_follows_its_true_error(overrides, tol):
     audit = WindowError(window)
     audit.add(out.points)
     assert 0.6 * true <= audit.nrms() <= 2.0 * true, (audit.nrms(), true)
+
+
+def test_the_pending_ramp_travels_with_a_state_snapshot():
+    """A run resumed from a snapshot (an FMU's set-state, a JSON copy) centres its next ramp
+    as the run it was taken from does: the last ramp is part of the estimate's state."""
+    import json
+
+    first, second, _ = ramps(1e-3, 1e-3, 1e-3)
+    estimate = GlobalErrorEstimate()
+    estimate.ex, estimate.ev, estimate.w2 = 1e-7, 2e-5, 1e4
+    estimate.recentre(first)
+    copy = GlobalErrorEstimate()
+    copy.restore(json.loads(json.dumps(estimate.export())))
+    estimate.recentre(second)
+    copy.recentre(second)
+    assert (copy.ex, copy.ev, copy.ramp) == (estimate.ex, estimate.ev, estimate.ramp)
+    old = GlobalErrorEstimate()
+    old.restore([1e-7, 2e-5, 1e4])  # a snapshot from before the ramp was carried
+    assert old.ramp is None and old.w2 == 1e4

@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import cmath
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 from .interpolation import NS, velocity_slopes
 
@@ -96,12 +96,21 @@ class GlobalErrorEstimate:
     def __init__(self):
         self.ex = self.ev = 0.0
         self.w2 = 0.0  # 1/s^2, 2K/M as last measured (0: not yet)
-        # the last accepted step's force ramp, whose curvature the next ramp centres (recentre);
-        # not exported with the state: a run resumed from one charges its next ramp uncentred
+        # the last accepted step's force ramp, whose charge the next ramp centres (recentre)
         self.ramp: RampStep | None = None
         # the carry reached the motion's own size somewhere: past its linearisation, it says only
         # that the run is far off, not how far (it cannot vouch for the run)
         self.saturated = False
+
+    def export(self) -> list:
+        """What a state snapshot carries of it (JSON-ready): ex, ev, w2 and the last ramp."""
+        return [self.ex, self.ev, self.w2, asdict(self.ramp) if self.ramp is not None else None]
+
+    def restore(self, values: list) -> None:
+        """Back to what :meth:`export` gave (or its first three, from a snapshot without a ramp)."""
+        self.ex, self.ev, self.w2 = values[:3]
+        ramp = values[3] if len(values) > 3 else None
+        self.ramp = RampStep(**ramp) if ramp is not None else None
 
     def observe(self, x: float, a: float, F: float, velocity_per_impulse: float, x_floor: float) -> None:
         """Learn w2 from a point: a = F/M - w2 x, with 1/M the block's velocity per unit impulse
