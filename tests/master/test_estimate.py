@@ -90,14 +90,15 @@ def carry_problem_of(law, inputs_vary=False):
 def test_the_carry_vouches_only_for_a_force_of_dv_alone_with_a_bounded_slope(law, vouches):
     """(A shear-thinning fluid's slope is unbounded at rest but integrable across dv = 0: its
     carry follows it, tests/master/test_shear_thinning.py; a Stribeck curve's unbounded slope at
-    breakaway is not.)"""
+    breakaway is not, its drop with a bounded slope is: tests/master/test_stribeck_estimate.py.)"""
     from tribofmu.physics import laws
 
     assert (carry_problem_of(law) is None) == vouches
     assert carry_problem_of(law, inputs_vary=True) is not None  # a Load or Thermal FMU moves n, T
     assert carry_problem_of(laws.DryLaw()) is None
     assert "internal state" in carry_problem_of(laws.BoundaryLaw())
-    assert "falls" in carry_problem_of(laws.MixedLaw(stribeck_exponent=1.0))  # the Stribeck drop
+    assert carry_problem_of(laws.MixedLaw(stribeck_exponent=1.0)) is None  # a Stribeck drop: followed
+    assert carry_problem_of(laws.MixedLaw(stribeck_exponent=3.0, mu_static=0.9)) is None
     assert "unbounded" in carry_problem_of(laws.MixedLaw(stribeck_exponent=0.5))
     assert carry_problem_of(laws.MixedLaw(stribeck_exponent=0.5, mu_static=0.5, mu_friction=0.5)) is None
 

@@ -58,7 +58,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
 
     def export_state(self) -> dict:
         state = super().export_state()
-        state["estimate"] = [self.estimate.ex, self.estimate.ev, self.estimate.w2]
+        state["estimate"] = self.estimate.export()
         state["magnitudes"] = asdict(self.magnitudes)
         return state
 
@@ -67,7 +67,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
         if missing:
             raise ValueError(f"{self.name} state lacks {', '.join(sorted(missing))}")
         super().import_state(state)
-        self.estimate.ex, self.estimate.ev, self.estimate.w2 = state["estimate"]
+        self.estimate.restore(state["estimate"])
         self.magnitudes = Magnitudes(**state["magnitudes"])
 
     # -- scales: pure, from the accepted points' magnitudes and the scene's floor ------------

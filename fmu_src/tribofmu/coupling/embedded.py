@@ -39,7 +39,8 @@ import math
 from dataclasses import asdict, dataclass
 
 from .controlled import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
-from .estimate import chord_damping, dense_output_miss, slip_x_error, stick_onset_x_error
+from .estimate import (chord_damping, dense_output_miss, force_curvature, ramp_step, slip_x_error,
+                       stick_onset_x_error, unstable_loop_factor)
 from .interpolation import HERMITE_ERROR_DIVISOR, NS, hermite_miss
 from .settings import ERROR_SETTINGS, RESOLUTION
 from .system import Contact, CoupledSystem, Point
@@ -282,9 +283,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         filter_ = 1.0 / (1.0 + gain)  # a stiff loop pulls an error back
         history = self.history
         if self.curvature_known(point, new):
-            predicted = point.F + history.slope * h
-            # F'' = 2 (F - F_predicted) / (h (h + h_prev)); the chord misses -F'' h^3 / 12
-            curvature = 2.0 * (new.F - predicted) / (h * (h + history.h))
+            curvature = force_curvature(point, new, h, history.slope, history.h)  # the chord misses -F'' h^3 / 12
             miss = -curvature * h ** 3 / 12.0  # N s
             v = miss * self.velocity_per_impulse * filter_
             f_predicted = point.f + history.f_slope * h
@@ -434,15 +433,18 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         if damping is None:  # (the loop gain: the slope's size, of the block's share of the end force)
             damping = self.loop_gain / self.loop_gain_step * (2.0 if new.ramped else 1.0)
         x_scale, v_scale = self.position_scale(point, new), self.velocity_scale(point, new)
-        stuck = new.mode.stuck
         self.estimate.observe(new.x, new.a, new.F, self.velocity_per_impulse, W2_POSITION_FLOOR * x_scale)
         state = 0.0
-        if self.magnitudes.f > 0.0 and not stuck:
+        if not (stuck := new.mode.stuck) and self.magnitudes.f > 0.0:
             # the friction's state off its path moves the force by about its share of the
             # largest force per share of the largest state: an impulse over the step
             state = self.errors.state_carry * local.f / self.magnitudes.f * self.magnitudes.F * h * self.velocity_per_impulse
+        gain = self.expected_gain(h)
+        loop = unstable_loop_factor(damping, h, new.ramped, gain)  # (1 but on a Stribeck drop)
+        ramp = ramp_step(point, new, h, self.history.slope, self.history.h, local.v * loop, gain)
+        self.estimate.recentre(ramp if self.curvature_known(point, new) else None)  # (then centre the last ramp)
         x = stick_onset_x_error(point, new, h, self.velocity_per_impulse, self.estimate.w2) \
-            if stuck and point.mode.slipping else local.x
-        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, local.v + local.impulse + state,
+            if stuck and point.mode.slipping else local.x * loop
+        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, local.v * loop + local.impulse + state,
                                                  stuck, x_scale, v_scale, stuck_through=stuck and point.mode.stuck)
         new.est_error = abs(local.v)

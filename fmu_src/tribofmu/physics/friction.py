@@ -180,12 +180,6 @@ class FrictionLaw:
         only unbounded slope a law without its own :attr:`slope_bounded` can have."""
         return self.has_power_law_term and self.gamma < 0.0
 
-    @property
-    def slip_force_falls(self) -> bool:
-        """Whether the slip force falls somewhere as the slip grows (a negative slope, as a
-        Stribeck curve's from rest): an error grows there instead of decaying."""
-        return False
-
     # -- stick (laws with sticks = True) ------------------------------------------------
     def static_limit(self, n: float) -> float:
         """The largest force [N] the contact holds at dv = 0 under normal stress n [Pa]

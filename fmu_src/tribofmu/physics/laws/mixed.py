@@ -106,11 +106,6 @@ class MixedLaw(FrictionLaw):
         is bounded as s -> 0 only for delta >= 1 (or no Stribeck drop)."""
         return self.stribeck_exponent >= 1.0 or self.mu_static == self.mu_friction
 
-    @property
-    def slip_force_falls(self) -> bool:
-        """The Stribeck drop: the force falls as the slip grows from rest (mu_s > mu_c)."""
-        return self.mu_static > self.mu_friction
-
     def _coefficient_integral(self, speed: float) -> float:
         """The integral of mu(s) ds from 0 to speed [m/s], exact (an incomplete gamma function)."""
         a = 1.0 / self.stribeck_exponent
