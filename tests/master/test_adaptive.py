@@ -282,12 +282,13 @@ def test_no_stuck_point_holds_a_block_that_needed_more_than_the_friction_can_giv
 def test_a_step_that_breaks_away_at_its_start_is_held_to_the_interpolation_bound():
     """A stuck step that slips at its end broke away at its start and slips all through:
     its samples are interpolated like any slip step's, so it is planned and checked as one
-    (at most BLOCK_PERIOD_FRACTION of the block's period, within the interpolation bound).
+    (at most ErrorSettings.block_period_fraction of the block's period, within the interpolation bound).
     Before, it was neither: 0.19 of the block's period on Fig. 2's rig at omega = 3 rad/s,
     and its samples missed by 0.35 % of max|v|."""
     import math
 
-    from tribofmu.coupling.embedded import BLOCK_PERIOD_FRACTION, EmbeddedCoupling
+    from tribofmu.coupling.embedded import EmbeddedCoupling
+    from tribofmu.coupling.settings import ERROR_SETTINGS
     from tribofmu.master.run import run
 
     omega = 3.0
@@ -298,7 +299,7 @@ def test_a_step_that_breaks_away_at_its_start_is_held_to_the_interpolation_bound
     block_period = 2 * math.pi / math.sqrt(2 * system.block.K / system.block.M)
     lengths = [(b.t_ns - a.t_ns) * 1e-9 / block_period for a, b in zip(outcome.points, outcome.points[1:])
                if a.mode.stuck and b.mode.slipping]
-    assert len(lengths) > 10 and max(lengths) <= BLOCK_PERIOD_FRACTION
+    assert len(lengths) > 10 and max(lengths) <= ERROR_SETTINGS.block_period_fraction
 
 
 def test_a_stick_from_rest_far_from_the_bound_is_not_held_to_the_breakaway_timing():

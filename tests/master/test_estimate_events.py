@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from tribofmu.coupling.algorithms import AdaptiveCoupling
-from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError, chord_damping, stick_onset_x_error
+from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError, chord_damping
+from tribofmu.coupling.local_errors import stick_onset_x_error
 from tribofmu.coupling.interpolation import NS, sample
 from tribofmu.coupling.system import Contact, Point
 from tribofmu.physics import MixedLaw

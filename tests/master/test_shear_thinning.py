@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tribofmu.coupling.algorithms import AdaptiveCoupling
-from tribofmu.coupling.estimate import stiff_x_error
+from tribofmu.coupling.local_errors import stiff_x_error
 from tribofmu.master import run
 from tribofmu.physics import FluidLaw
 

@@ -5,8 +5,9 @@ from types import SimpleNamespace
 
 import pytest
 
-from tribofmu.coupling.estimate import (GlobalErrorEstimate, RampStep, centred_ramp_miss, force_curvature,
-                                        ramp_step, unstable_loop_factor)
+from tribofmu.coupling.estimate import GlobalErrorEstimate
+from tribofmu.coupling.local_errors import (RampStep, centred_ramp_miss, force_curvature, ramp_step,
+                                            unstable_loop_factor)
 from tribofmu.coupling.system import Contact
 
 NS = 1_000_000_000

@@ -39,13 +39,12 @@ import math
 from dataclasses import asdict, dataclass
 
 from .controlled import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
-from .estimate import (chord_damping, dense_output_miss, force_curvature, ramp_step, slip_x_error,
-                       stick_onset_x_error, unstable_loop_factor)
+from .estimate import chord_damping
 from .interpolation import HERMITE_ERROR_DIVISOR, NS, hermite_miss
+from .local_errors import (dense_output_miss, force_curvature, ramp_step, slip_x_error, stick_onset_x_error,
+                           unstable_loop_factor)
 from .settings import ERROR_SETTINGS, RESOLUTION
 from .system import Contact, CoupledSystem, Point
-
-BLOCK_PERIOD_FRACTION = ERROR_SETTINGS.block_period_fraction  # (its former name, which tests read)
 
 
 @dataclass(frozen=True)
