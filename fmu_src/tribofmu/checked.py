@@ -397,8 +397,7 @@ def _method(checked: bool, sequence: CheckSequence) -> str:
     if checked and sequence.own:
         return (f"own: the run's carried estimate of its error (coupling/estimate.py) times {ONE_RUN_MARGIN:g}; "
                 "it vouches for the run here (its derivation holds: the friction a function of dv alone "
-                "whose slope is nowhere negative, and bounded or a shear-thinning fluid's), so the run was not "
-                "repeated")
+                "whose slope is bounded, or a shear-thinning fluid's), so the run was not repeated")
     if not checked:
         return f"not checked: {sequence.limit} before the run could be repeated at a tighter tolerance"
     order = sequence.order
