@@ -7,9 +7,10 @@ every run of its check is in this process) with a profile hook (``sys.setprofile
 for each outermost ``EmbeddedCoupling.advance`` call: one call is one step tried, accepted or
 not. Per call it collects the distinct Python functions the master runs, counted by file and
 qualified name, and prints the median, the 90th percentile and the maximum over all calls, with
-the files they lie in. Functions run inside an FMU (whatever an ``fmpy`` function calls: the
-FMU's own Python, which pythonfmu runs in this interpreter) are counted apart, as are fmpy's own
-functions (the FMI crossing). C functions are not counted (the profile reports them, but they
+the files they lie in. Functions run inside an FMU (its own Python, which pythonfmu runs in this
+interpreter from the folder the FMU was unpacked to, and whatever that calls) are counted apart,
+as are fmpy's own functions (the FMI crossing; the master calls the hot FMI functions through
+its own ctypes signatures, so a step reaches few of them). C functions are not counted (the profile reports them, but they
 are no code of ours).
 
 ``--radau`` prints the same count for one ``scipy.integrate.Radau.step`` on a stiff linear
@@ -37,25 +38,28 @@ class AdvanceProfile:
         self.master: list[set[tuple[str, str]]] = []
         self.fmu: list[set[tuple[str, str]]] = []
         self.crossing: list[set[tuple[str, str]]] = []
-        self._fmpy_depth = 0
+        self._fmu_depth = 0
 
     def _hook(self, frame, event, arg) -> None:
         if event not in ("call", "return"):
             return
         code = frame.f_code
-        in_fmpy = "/fmpy/" in code.co_filename
+        # an FMU's own Python runs from where it was unpacked (its resources/); the master may
+        # reach it through fmpy or through its own ctypes calls of the FMU's library
+        inside = "/fmpy/" in code.co_filename or "/resources/" in code.co_filename
         if event == "return":
-            if in_fmpy:
-                self._fmpy_depth -= 1
+            if inside:
+                self._fmu_depth -= 1
             return
         key = (code.co_filename, getattr(code, "co_qualname", code.co_name))
-        if in_fmpy:
-            self._fmpy_depth += 1
+        if "/fmpy/" in code.co_filename:
             self.crossing[-1].add(key)
-        elif self._fmpy_depth > 0:
+        elif inside or self._fmu_depth > 0:
             self.fmu[-1].add(key)
         else:
             self.master[-1].add(key)
+        if inside:
+            self._fmu_depth += 1
 
     def wrap(self, cls) -> None:
         original = cls.advance
@@ -68,7 +72,7 @@ class AdvanceProfile:
             profile.master.append(set())
             profile.fmu.append(set())
             profile.crossing.append(set())
-            profile._fmpy_depth = 0
+            profile._fmu_depth = 0
             depth[0] += 1
             sys.setprofile(profile._hook)
             try:
