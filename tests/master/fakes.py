@@ -299,3 +299,38 @@ def exact_dry_segments(t_end, M=0.6, K=7000.0, A=2e-3, omega=30.0, bound=MU_L):
             else:
                 sign = 1 if need > 0 else -1
     return X, segments
+
+
+def mixed_rig_estimate(overrides: dict, tol: float) -> tuple[float, float]:
+    """Mixed (Stribeck) friction on fig. 2's rig (:func:`fig2_system`, mu_c 0.4, m 5, S 1;
+    mu_s, v_s, delta and omega from overrides, keyed as the mixed_stribeck scene's) run by the
+    adaptive coupling at per-step tol over 4 periods: the run's own estimate of its nRMS(v)
+    over the last 1.5 periods, and its true nRMS(v) there against the independent reference
+    (studies.reference on the mixed_stribeck scene with the same values)."""
+    import numpy as np
+
+    from tribofmu.coupling.algorithms import AdaptiveCoupling
+    from tribofmu.coupling.estimate import WindowError
+    from tribofmu.coupling.interpolation import sample
+    from tribofmu.master import run
+    from tribofmu.physics import MixedLaw
+    from tribofmu.scene.library import resolve_scene
+    from tribofmu.scene.scenario import load_scenario
+    from tribofmu.studies.reference import reference_solution
+
+    law = MixedLaw(mu_friction=0.4, mu_static=overrides.get("friction.mu_static", 0.6),
+                   v_stribeck=overrides.get("friction.v_stribeck", 0.01),
+                   stribeck_exponent=overrides.get("friction.stribeck_exponent", 2.0), m=5.0, S=1.0)
+    omega, periods = overrides.get("drive.omega", 30.0), 4
+    scales = drive_scales(omega)
+    out = run(fig2_system(law, omega=omega), AdaptiveCoupling(tol=tol), periods * scales.period, scales)
+    window = ((periods - 1.5) * scales.period, periods * scales.period)
+    scenario = load_scenario(resolve_scene("mixed_stribeck"),
+                             {**overrides, "time.periods": periods, "time.window": [periods - 1.5, periods]})
+    grid = np.linspace(*window, 3001)
+    reference = reference_solution(scenario, t_eval=grid)
+    assert reference.ok
+    true = _math.sqrt(np.mean((sample(out.points, grid)["v"] - reference.v) ** 2)) / np.abs(reference.v).max()
+    audit = WindowError(window)
+    audit.add(out.points)
+    return audit.nrms(), true

@@ -6,14 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from tribofmu.coupling.algorithms import AdaptiveCoupling
 from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError, chord_damping
 from tribofmu.coupling.local_errors import stick_onset_x_error
 from tribofmu.coupling.interpolation import NS, sample
 from tribofmu.coupling.system import Contact, Point
 from tribofmu.physics import MixedLaw
 
-from fakes import drive_scales, fig2_system
+from fakes import mixed_rig_estimate
 
 
 # -- the interpolants' own miss ---------------------------------------------------------------
@@ -146,24 +145,5 @@ def test_the_estimate_of_a_mixed_friction_run_is_within_its_band(overrides):
     """Mixed (Stribeck) friction on fig. 2's rig (fakes), against the independent reference
     (studies.reference, the mixed_stribeck scene with the same values): the run's own
     estimate of its nRMS(v) over its last 1.5 periods is within [0.5, 10] of the true one."""
-    from tribofmu.master import run
-    from tribofmu.scene.library import resolve_scene
-    from tribofmu.scene.scenario import load_scenario
-    from tribofmu.studies.reference import reference_solution
-
-    law = MixedLaw(mu_friction=0.4, mu_static=overrides.get("friction.mu_static", 0.6),
-                   v_stribeck=overrides.get("friction.v_stribeck", 0.01),
-                   stribeck_exponent=overrides.get("friction.stribeck_exponent", 2.0), m=5.0, S=1.0)
-    omega, periods = overrides.get("drive.omega", 30.0), 4
-    scales = drive_scales(omega)
-    out = run(fig2_system(law, omega=omega), AdaptiveCoupling(tol=1e-3), periods * scales.period, scales)
-    window = ((periods - 1.5) * scales.period, periods * scales.period)
-    scenario = load_scenario(resolve_scene("mixed_stribeck"),
-                             {**overrides, "time.periods": periods, "time.window": [periods - 1.5, periods]})
-    grid = np.linspace(*window, 3001)
-    reference = reference_solution(scenario, t_eval=grid)
-    assert reference.ok
-    true = math.sqrt(np.mean((sample(out.points, grid)["v"] - reference.v) ** 2)) / np.abs(reference.v).max()
-    audit = WindowError(window)
-    audit.add(out.points)
-    assert 0.5 * true <= audit.nrms() <= 10 * true, (audit.nrms(), true)
+    estimate, true = mixed_rig_estimate(overrides, tol=1e-3)
+    assert 0.5 * true <= estimate <= 10 * true, (estimate, true)

@@ -121,34 +121,10 @@ def test_a_stribeck_runs_estimate_follows_its_true_error(overrides, tol):
     (fakes) at a loose per-step tol, against the independent reference (the mixed_stribeck
     scene with the same values): the run's own estimate of its nRMS(v) over its last 1.5
     periods is within [0.6, 2] of the true one, as a run that vouches for itself must be."""
-    import numpy as np
+    from fakes import mixed_rig_estimate
 
-    from tribofmu.coupling.algorithms import AdaptiveCoupling
-    from tribofmu.coupling.estimate import WindowError
-    from tribofmu.coupling.interpolation import sample
-    from tribofmu.master import run
-    from tribofmu.physics import MixedLaw
-    from tribofmu.scene.library import resolve_scene
-    from tribofmu.scene.scenario import load_scenario
-    from tribofmu.studies.reference import reference_solution
-
-    from fakes import drive_scales, fig2_system
-
-    law = MixedLaw(mu_friction=0.4, mu_static=0.6, v_stribeck=overrides.get("friction.v_stribeck", 0.01),
-                   stribeck_exponent=overrides.get("friction.stribeck_exponent", 2.0), m=5.0, S=1.0)
-    omega, periods = overrides.get("drive.omega", 30.0), 4
-    scales = drive_scales(omega)
-    out = run(fig2_system(law, omega=omega), AdaptiveCoupling(tol=tol), periods * scales.period, scales)
-    window = ((periods - 1.5) * scales.period, periods * scales.period)
-    scenario = load_scenario(resolve_scene("mixed_stribeck"),
-                             {**overrides, "time.periods": periods, "time.window": [periods - 1.5, periods]})
-    grid = np.linspace(*window, 3001)
-    reference = reference_solution(scenario, t_eval=grid)
-    assert reference.ok
-    true = math.sqrt(np.mean((sample(out.points, grid)["v"] - reference.v) ** 2)) / np.abs(reference.v).max()
-    audit = WindowError(window)
-    audit.add(out.points)
-    assert 0.6 * true <= audit.nrms() <= 2.0 * true, (audit.nrms(), true)
+    estimate, true = mixed_rig_estimate(overrides, tol)
+    assert 0.6 * true <= estimate <= 2.0 * true, (estimate, true)
 
 
 def test_the_pending_ramp_travels_with_a_state_snapshot():
