@@ -327,8 +327,8 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             # would pass over; a law without one, as a fluid's, slips through 0 continuously,
             # and a stiff one's creeping dv dipped in every held step: 90 % rejected)
             # (less the dense output's own miss: a stiff held step's dip is its end slope's)
-            margin = self.tol * v_scale + dense_output_miss(point, new, h, self.expected_gain(h), self.velocity_per_impulse)
-            if self.stick_bounds is not None and grazes(point, new, h, margin):
+            if self.stick_bounds is not None and grazes(point, new, h, self.tol * v_scale + dense_output_miss(
+                    point, new, h, self.expected_gain(h), self.velocity_per_impulse)):
                 error = max(error, GRAZING_ERROR)
         return error
 
