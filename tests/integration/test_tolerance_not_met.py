@@ -30,13 +30,18 @@ def test_a_tolerance_not_met_keeps_the_results_says_so_and_exits_3(tmp_path, fmu
     assert (out / "result.csv").is_file()  # kept: the user decides
 
 
-def test_a_met_tolerance_is_ok_and_reports_the_checked_error(tmp_path, fmu_dir, capsys):
+def _simulated_ok(scene: str, tmp_path, fmu_dir, capsys):
+    """`tribofmu simulate SCENE` over one period, quiet: what it printed (it exited 0) and its
+    stats.json."""
     out = tmp_path / "o"
-    captured = main("simulate", "dry_load_oscillation", *SHORT, "--fmu-dir", fmu_dir, "--out", out, "--no-plots", "-q",
-                    capsys=capsys)
+    captured = main("simulate", scene, *SHORT, "--fmu-dir", fmu_dir, "--out", out, "--no-plots", "-q", capsys=capsys)
     assert captured.returncode == 0, captured.stderr
+    return captured, json.loads((out / "stats.json").read_text())
+
+
+def test_a_met_tolerance_is_ok_and_reports_the_checked_error(tmp_path, fmu_dir, capsys):
+    captured, stats = _simulated_ok("dry_load_oscillation", tmp_path, fmu_dir, capsys)
     assert "checked nRMS(v)" in captured.stdout and "(tol 0.001)" in captured.stdout
-    stats = json.loads((out / "stats.json").read_text())
     assert stats["ok"] and stats["tolerance_met"] and stats["estimated_error"]["nrms_v"] <= 1e-3
     assert len(stats["check"]["runs"]) >= 2 and stats["step_tol"] == stats["check"]["runs"][-1]["step_tol"]
     assert stats["wall_time"] >= sum(r["wall_time"] for r in stats["check"]["runs"])
@@ -47,12 +52,8 @@ def test_a_met_tolerance_is_ok_and_reports_the_checked_error(tmp_path, fmu_dir, 
 
 
 def test_a_run_whose_own_estimate_vouches_is_reported_alone_and_says_so(tmp_path, fmu_dir, capsys):
-    out = tmp_path / "o"
-    captured = main("simulate", "fig2_dry", *SHORT, "--fmu-dir", fmu_dir, "--out", out, "--no-plots", "-q",
-                    capsys=capsys)
-    assert captured.returncode == 0, captured.stderr
+    captured, stats = _simulated_ok("fig2_dry", tmp_path, fmu_dir, capsys)
     assert "estimated nRMS(v)" in captured.stdout and "one run: its own estimate vouches" in captured.stdout
-    stats = json.loads((out / "stats.json").read_text())
     error = stats["estimated_error"]
     assert stats["ok"] and len(stats["check"]["runs"]) == 1 and error["vouches"]
     assert error["nrms_v"] == checked.ONE_RUN_MARGIN * error["propagated"] <= 1e-3
