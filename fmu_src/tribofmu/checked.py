@@ -395,9 +395,12 @@ def _finish(result, difference: float | None, sequence: CheckSequence, began: tu
 def _method(checked: bool, sequence: CheckSequence) -> str:
     """How the reported error was made, for stats.json."""
     if checked and sequence.own:
+        runs = len(sequence.records)
+        before = ("" if runs == 1 else f"; it is run {runs} of {runs}, each after the first planned from the "
+                  "estimate of the one before, which had missed tol")
         return (f"own: the run's carried estimate of its error (coupling/estimate.py) times {ONE_RUN_MARGIN:g}; "
                 "it vouches for the run here (its derivation holds: the friction a function of dv alone "
-                "whose slope is bounded, or a shear-thinning fluid's), so the run was not repeated")
+                f"whose slope is bounded, or a shear-thinning fluid's), so the run was not repeated{before}")
     if not checked:
         return f"not checked: {sequence.limit} before the run could be repeated at a tighter tolerance"
     order = sequence.order

@@ -82,9 +82,12 @@ def cmd_simulate(args) -> int:
     estimate = result.stats["estimated_error"]["nrms_v"]
     method = result.stats["estimated_error"].get("method", "")
     checked, own = method.startswith("checked"), method.startswith("own")  # own: one run vouched for itself
+    runs = len(result.stats.get("check", {}).get("runs", ())) or 1
+    vouched = ("one run: its own estimate vouches" if runs == 1 else
+               f"{runs} runs: the last one's own estimate vouches")
     accuracy = (f", {'checked' if checked else 'estimated'} nRMS(v) {estimate:.2g}"
                 + (f" (tol {result.stats['tol']:g})" if checked else
-                   f" (tol {result.stats['tol']:g}, one run: its own estimate vouches)" if own else "")
+                   f" (tol {result.stats['tol']:g}, {vouched})" if own else "")
                 ) if estimate is not None else ""
     print(f"{scenario.name}: {result.message}; {result.stats['communication_steps']} steps, "
           f"{result.stats['wall_time']:.2f} s{accuracy} -> {out}/")

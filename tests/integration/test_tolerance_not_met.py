@@ -57,3 +57,17 @@ def test_a_run_whose_own_estimate_vouches_is_reported_alone_and_says_so(tmp_path
     error = stats["estimated_error"]
     assert stats["ok"] and len(stats["check"]["runs"]) == 1 and error["vouches"]
     assert error["nrms_v"] == checked.ONE_RUN_MARGIN * error["propagated"] <= 1e-3
+
+
+def test_a_call_whose_last_run_vouches_after_others_says_how_many_runs(tmp_path, fmu_dir, capsys):
+    """Mixed friction over one period: its first run's doubled estimate misses tol, the next
+    run, planned from it, vouches for itself. The line and stats.json say that the reported run
+    is the last of several (it said "one run" before)."""
+    captured, stats = _simulated_ok("mixed_stribeck", tmp_path, fmu_dir, capsys)
+    runs = len(stats["check"]["runs"])
+    assert runs >= 2 and stats["estimated_error"]["vouches"] and stats["ok"]
+    assert f"{runs} runs: the last one's own estimate vouches" in captured.stdout
+    assert "one run" not in captured.stdout
+    assert stats["estimated_error"]["method"].endswith(
+        f"it is run {runs} of {runs}, each after the first planned from the estimate of the one before, "
+        "which had missed tol")
