@@ -9,21 +9,12 @@ one FMU) declares both sets with the same calls, so the pair cannot drift from t
 """
 from __future__ import annotations
 
-import functools
-
 from tribofmu.fmu.base import INPUT, OUTPUT, PARAMETER, positive
 from tribofmu.fmu.fmu_state import parameter_cached  # noqa: F401 (the models import it from here)
 from tribofmu.physics.block import BlockParams
 from tribofmu.physics.friction import START_F, Conditions, Effects, FrictionLaw, LubricantConstants
 from tribofmu.physics.laws import LAWS, law_fields, law_parameters, make_law, regime_problem
-from tribofmu.physics.parameters import Parameter, declared as declared_by
-
-
-@functools.lru_cache(maxsize=None)
-def declared(cls: type) -> tuple[Parameter, ...]:
-    """The parameters a dataclass declares (:func:`tribofmu.physics.parameters.declared`), made
-    once per class: every instantiation of an FMU declares them (frozen: nothing changes them)."""
-    return declared_by(cls)
+from tribofmu.physics.parameters import Parameter, declared  # noqa: F401 (the models import it from here)
 
 
 def declare_parameter(slave, p: Parameter, checked: bool = True) -> None:

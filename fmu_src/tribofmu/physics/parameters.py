@@ -13,6 +13,7 @@ without numpy.
 """
 from __future__ import annotations
 
+import functools
 import math
 import re
 from dataclasses import dataclass, field, fields, replace
@@ -127,7 +128,14 @@ def parameter(default: Any, unit: str, description: str, check: Range | OneOf | 
 
 def declared(cls_or_instance) -> tuple[Parameter, ...]:
     """The parameters a dataclass declares, in field order (a subclass's after its base's)."""
-    return tuple(replace(f.metadata[_KEY], name=f.name) for f in fields(cls_or_instance) if _KEY in f.metadata)
+    return _declared_by(cls_or_instance if isinstance(cls_or_instance, type) else type(cls_or_instance))
+
+
+@functools.lru_cache(maxsize=None)
+def _declared_by(cls: type) -> tuple[Parameter, ...]:
+    """:func:`declared` of a class, made once per class (frozen Parameters: nothing changes
+    them; every FMU instantiation and every check of an instance asks again)."""
+    return tuple(replace(f.metadata[_KEY], name=f.name) for f in fields(cls) if _KEY in f.metadata)
 
 
 def own_parameters(cls: type, base: type) -> tuple[Parameter, ...]:
