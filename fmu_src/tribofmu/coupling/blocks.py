@@ -25,6 +25,7 @@ prediction; one that misses sends the step back to be solved without it (the pat
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -77,24 +78,12 @@ class StickJacobian(NamedTuple):
     x_r: float
 
 
-# (w2, h, their integrals) last computed: a step's tries ask for the same ones again and again
-_last_integrals: tuple = (None, None, None)
-
-
+# (the last one kept: a step's tries ask for the same (w2, h) again and again)
+@functools.lru_cache(maxsize=1)
 def response_integrals(w2: float, h: float) -> tuple[float, float, float, float]:
     """The integrals of a step of h [s] of x'' = -w2 x + u(t) [w2 in 1/s^2] (any sign; 0 a free
     mass): (cos(w h), sin(w h)/w, (1 - cos(w h))/w2, (h - sin(w h)/w)/w2), the answer of x to
     x0, v0, a held u and a ramped u per unit (:meth:`BlockModel.answer`)."""
-    global _last_integrals
-    last = _last_integrals
-    if last[0] == w2 and last[1] == h:
-        return last[2]
-    integrals = _response_integrals(w2, h)
-    _last_integrals = (w2, h, integrals)  # (one assignment: a thread reads the old or the new)
-    return integrals
-
-
-def _response_integrals(w2: float, h: float) -> tuple[float, float, float, float]:
     z = w2 * h * h
     if abs(z) < SERIES_BELOW:
         # cos, sin/w, (1 - cos)/w2, (h - sin/w)/w2 through their z^4 terms
