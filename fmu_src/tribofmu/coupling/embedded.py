@@ -440,8 +440,9 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             state = self.errors.state_carry * local.f / self.magnitudes.f * self.magnitudes.F * h * self.velocity_per_impulse
         gain = self.expected_gain(h)
         loop = unstable_loop_factor(damping, h, new.ramped, gain)  # (1 but on a Stribeck drop)
-        ramp = ramp_step(point, new, h, self.history.slope, self.history.h, local.v * loop, gain)
-        self.estimate.recentre(ramp if self.curvature_known(point, new) else None)  # (then centre the last ramp)
+        self.estimate.recentre(  # (then centre the last ramp)
+            ramp_step(point, new, h, self.history.slope, self.history.h, local.v * loop, gain)
+            if self.curvature_known(point, new) else None)
         x = stick_onset_x_error(point, new, h, self.velocity_per_impulse, self.estimate.w2) \
             if stuck and point.mode.slipping else local.x * loop
         new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, local.v * loop + local.impulse + state,
