@@ -11,7 +11,6 @@ projected past ``limits.notice_after`` says up front what it will cost.
 from __future__ import annotations
 
 import math
-from math import isfinite
 import time as _time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -292,7 +291,7 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
 
 def _finite(point: Point) -> bool:
     """x, v, F and f of the point are finite (math.isfinite: a numpy array a point cost more)."""
-    return isfinite(point.x) and isfinite(point.v) and isfinite(point.F) and isfinite(point.f)
+    return math.isfinite(point.x) and math.isfinite(point.v) and math.isfinite(point.F) and math.isfinite(point.f)
 
 
 def _duration(seconds: float) -> str:
