@@ -53,7 +53,7 @@ class StepDoublingCoupling(ErrorControlledCoupling):
             mid = self.solve_step(system, point, h_ns // 2, full.ramped, saved=start)
             end = self.solve_step(system, mid, h_ns // 2, full.ramped)
             crossing = self._grazing(point, mid, end, h_ns)
-            if crossing is not None and self._landed_before(system, start, h_ns, crossing):
+            if crossing is not None and self._landed_at_crossing(system, start, h_ns, crossing):
                 return []  # a stick or a reversal the halves pass over: end the step there
             impulse = self._impulse_misses(point, mid, end)
             v_scale = self.velocity_scale(full, end)

@@ -34,7 +34,8 @@ class ErrorControlledCoupling(ImplicitCoupling):
     """What every error-controlled implicit coupling shares: the step-size bounds, the
     motion's magnitudes its errors are measured against (known, floored by the scene's
     scales, before the first step), the global error estimate, and the accept / reject /
-    land bookkeeping (:meth:`_landed`, :meth:`_landed_before`, :meth:`_accepted`). Subclasses estimate the errors."""
+    land bookkeeping (:meth:`_landed`, :meth:`_landed_at_crossing`, :meth:`_accepted`).
+    Subclasses estimate the errors."""
 
     default_tol = 2e-4  # per-step error against the block's own motion, when nothing chooses it (tribofmu.checked does for simulate)
     default_step = 1e-4  # first try [s]
@@ -113,7 +114,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
             return True
         return False
 
-    def _landed_before(self, system: CoupledSystem, start: States, h_ns: int, crossing: float) -> bool:
+    def _landed_at_crossing(self, system: CoupledSystem, start: States, h_ns: int, crossing: float) -> bool:
         """A slip step passed over a stick or a reversal, its dense output crossing at the
         fraction crossing of the tried step of h_ns (:func:`grazing_crossing`): roll back and
         make the step that ends there the next try (True), unless the step is no longer than

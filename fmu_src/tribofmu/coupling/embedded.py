@@ -170,8 +170,8 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             return []
         h = h_ns / NS
         grazing = self.grazing(point, new, h)
-        if grazing is not None and self._landed_before(system, start, h_ns, grazing):  # a stick passed over: end there
-            return []
+        if grazing is not None and self._landed_at_crossing(system, start, h_ns, grazing):
+            return []  # a stick passed over: end the step there
         local = self.local_error(point, new, h)
         err = self.error_ratio(point, new, local, h)
         # local error ~ h^(order + 1): ramped h^3, held h^2; a stick ramp's breakaway

@@ -66,10 +66,10 @@ def hermite_first_below(y0: float, y1: float, dy0: float, dy1: float, h: float, 
                         xtol: float) -> float | None:
     """The first s in (0, 1] at which :func:`hermite` (y0 to y1, slopes dy0, dy1 over h) falls
     to level (0 if y0 is below it already), to xtol in s; None where it stays at or above
-    level all through. Exact, not sampled: the cubic's derivative is a
-    quadratic, so its extrema are in closed form; the first extremum below level brackets
-    the crossing with the point before it (the start, or the extremum before), on which the
-    cubic is monotone, and the bracketed root finder locates it there."""
+    level all through. Exact, not sampled: the cubic's derivative is a quadratic, so its
+    extrema are in closed form; the first extremum below level brackets the crossing with the
+    point before it (the start, or the extremum before), on which the cubic is monotone, and
+    the bracketed root finder locates it there."""
     if y0 < level:
         return 0.0
     # the cubic in s: y0 + c1 s + c2 s^2 + c3 s^3 (hermite_basis expanded)
