@@ -14,7 +14,7 @@ from tribofmu.coupling.system import Contact, Point
 from fakes import MU_L, drive_scales, fig2_system
 
 # A dip of dv (in units of U, over a step of 1 in s) shorter than a quarter step: below 0 only
-# within about (0.03, 0.24), above it at the quarters 0.25, 0.5, 0.75, where dv is 0.012,
+# within (0.022, 0.248), above it at the quarters 0.25, 0.5, 0.75, where dv is 0.012,
 # 2.35 and 4.06 U (a check at those samples saw none).
 DIP = dict(y0=0.2, y1=2.0, m0=-10.0, m1=-20.0)
 
