@@ -10,7 +10,7 @@ steps; their difference is the error estimate.
 from __future__ import annotations
 
 from tribofmu.coupling.algorithms import ALGORITHMS
-from tribofmu.coupling.controlled import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
+from tribofmu.coupling.controlled import W2_POSITION_FLOOR, ErrorControlledCoupling, grazing_crossing
 from tribofmu.coupling.interpolation import NS, hermite_mid, velocity_slopes
 from tribofmu.coupling.system import Point
 
@@ -52,6 +52,9 @@ class StepDoublingCoupling(ErrorControlledCoupling):
             # ramped with a held step would measure the held step's first-order error.
             mid = self.solve_step(system, point, h_ns // 2, full.ramped, saved=start)
             end = self.solve_step(system, mid, h_ns // 2, full.ramped)
+            crossing = self._grazing(point, mid, end, h_ns)
+            if crossing is not None and self._landed_at_crossing(system, start, h_ns, crossing):
+                return []  # a stick or a reversal the halves pass over: end the step there
             impulse = self._impulse_misses(point, mid, end)
             v_scale = self.velocity_scale(full, end)
             err = max(self._error(point, full, end), self._interpolation_error(point, mid, end, h_ns),
@@ -82,10 +85,19 @@ class StepDoublingCoupling(ErrorControlledCoupling):
         v_scale, x_scale = self.velocity_scale(mid, end), self.position_scale(mid, end)
         error = max(abs(v_mid - mid.v) / (self.HALVES_INTERPOLATION * self.tol * v_scale),
                     abs(x_mid - mid.x) / (self.HALVES_INTERPOLATION * self.tol * x_scale))
-        if (start.mode.slipping and start.mode == mid.mode == end.mode
-                and (grazes(start, mid, 0.5 * h, self.tol * v_scale) or grazes(mid, end, 0.5 * h, self.tol * v_scale))):
-            error = max(error, GRAZING_ERROR)  # halve: the step may hide a stick or a reversal
         return error
+
+    def _grazing(self, start: Point, mid: Point, end: Point, h_ns: int) -> float | None:
+        """The fraction of the step at which either half's interpolated dv first crosses 0 by
+        more than tol (a stick or a reversal the halves pass over), or None."""
+        if not (start.mode.slipping and start.mode == mid.mode == end.mode):
+            return None
+        h, margin = 0.5 * h_ns / NS, self.tol * self.velocity_scale(mid, end)
+        for offset, (a, b) in ((0.0, (start, mid)), (0.5, (mid, end))):
+            crossing = grazing_crossing(a, b, h, margin)
+            if crossing is not None:
+                return offset + 0.5 * crossing
+        return None
 
     def _carry_error(self, start: Point, full: Point, mid: Point, end: Point, impulse: list[float]) -> None:
         """Carry the global error estimate over the accepted halves (see coupling/estimate.py):

@@ -25,12 +25,12 @@ step-doubling coupling of before issue 31 is benchmarks/doubling.py's.)
 from __future__ import annotations
 
 from .base import Counters, CouplingAlgorithm, ExplicitCoupling, Magnitudes, Scales
-from .controlled import ErrorControlledCoupling, grazes
+from .controlled import ErrorControlledCoupling, grazing_crossing
 from .embedded import EmbeddedCoupling as AdaptiveCoupling
 from .implicit import ImplicitCoupling
 
 __all__ = ["ALGORITHMS", "AdaptiveCoupling", "Counters", "CouplingAlgorithm", "ErrorControlledCoupling",
-           "ExplicitCoupling", "ImplicitCoupling", "Magnitudes", "Scales", "grazes", "make_algorithm"]
+           "ExplicitCoupling", "ImplicitCoupling", "Magnitudes", "Scales", "grazing_crossing", "make_algorithm"]
 
 ALGORITHMS = {
     "jacobi": lambda step=None, tol=None: ExplicitCoupling(step, tol, sequential=False),

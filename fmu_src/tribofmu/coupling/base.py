@@ -31,7 +31,7 @@ class Magnitudes:
 class Counters:
     steps: int = 0  # accepted communication steps
     rejected: int = 0  # steps rolled back for their error and retried smaller
-    landed: int = 0  # steps rolled back to end where the contact broke away inside them
+    landed: int = 0  # steps rolled back to end where the contact broke away or stuck inside them
     iterations: int = 0  # evaluations of the coupling loop (implicit solves)
     forced: int = 0  # steps accepted at the minimum step although above tolerance
     stick_steps: int = 0

@@ -1,22 +1,22 @@
 """What every error-controlled implicit coupling shares (:class:`ErrorControlledCoupling`): the
 step-size bounds, the motion's magnitudes the errors are measured against, the global error
-estimate, the accept / reject / land bookkeeping, and the check that a slip step does not pass
-over a stick (:func:`grazes`). The adaptive coupling (coupling/embedded.py) estimates its errors
-on top of it."""
+estimate, the accept / reject / land bookkeeping, and where a slip step would pass over a
+stick (:func:`grazing_crossing`, which the step then lands on). The adaptive coupling
+(coupling/embedded.py) estimates its errors on top of it."""
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, fields
 
 from .settings import STEP_CONTROL
 from .base import Magnitudes
 from .estimate import GlobalErrorEstimate
 from .implicit import ImplicitCoupling, LoopState
-from .interpolation import NS, hermite
-from .settings import LIMITS, RESOLUTION, SETTINGS
+from .interpolation import NS, hermite_first_below
+from .settings import LIMITS, RESOLUTION
 from .system import CoupledSystem, Point, States
 
-# (the names the embedded estimate reads them by)
-GRAZING_ERROR = SETTINGS.grazing_error
+# (the name the embedded estimate reads it by)
 W2_POSITION_FLOOR = RESOLUTION.w2_position_floor
 
 
@@ -34,7 +34,8 @@ class ErrorControlledCoupling(ImplicitCoupling):
     """What every error-controlled implicit coupling shares: the step-size bounds, the
     motion's magnitudes its errors are measured against (known, floored by the scene's
     scales, before the first step), the global error estimate, and the accept / reject /
-    land bookkeeping (:meth:`_landed`, :meth:`_accepted`). Subclasses estimate the errors."""
+    land bookkeeping (:meth:`_landed`, :meth:`_landed_at_crossing`, :meth:`_accepted`).
+    Subclasses estimate the errors."""
 
     default_tol = 2e-4  # per-step error against the block's own motion, when nothing chooses it (tribofmu.checked does for simulate)
     default_step = 1e-4  # first try [s]
@@ -113,6 +114,24 @@ class ErrorControlledCoupling(ImplicitCoupling):
             return True
         return False
 
+    def _landed_at_crossing(self, system: CoupledSystem, start: States, h_ns: int, crossing: float) -> bool:
+        """A slip step passed over a stick or a reversal, its dense output crossing at the
+        fraction crossing of the tried step of h_ns (:func:`grazing_crossing`): roll back and
+        make the step that ends there the next try (True), unless the step is no longer than
+        the smallest. A crossing closer to the start than settings.event_margin is not worth a
+        step of its own, but cannot be left inside an accepted step either (the step would
+        pass over the stick): the next try ends at the margin, past it, where the contact's
+        solve meets dv's change of sign and locates the stick onset inside (solvers.py)."""
+        g = self.step_granularity
+        landing = max(int(h_ns * crossing), math.ceil(self.settings.event_margin * h_ns), self.min_ns)
+        landing = -(-landing // g) * g
+        if landing < h_ns:
+            system.restore(start)
+            self.counters.landed += 1
+            self.h_ns = landing
+            return True
+        return False
+
     def _committed(self, system: CoupledSystem, start: States, new: Point) -> bool:
         """The block's real step at the step's predicted answer (deferred past the landing and
         the error check: a try rolled back never stepped it); new then holds its real x, v, a.
@@ -146,13 +165,13 @@ class ErrorControlledCoupling(ImplicitCoupling):
         return False
 
 
-def grazes(start: Point, end: Point, h: float, margin: float) -> bool:
-    """Slipping one way at both ends of a step of h [s], does the interpolated relative
-    velocity cross 0 by more than margin [m/s] in between? (A stick or a reversal that the
-    step would pass over; a crossing within the tolerance is not worth a smaller step.)"""
+def grazing_crossing(start: Point, end: Point, h: float, margin: float) -> float | None:
+    """Slipping one way at both ends of a step of h [s], the fraction of the step at which the
+    interpolated relative velocity (the results' dense output) first crosses 0 by margin
+    [m/s] the other way: a stick or a reversal the step would pass over, which the step is to
+    end at (landed on). None where it stays within margin (a dip within the tolerance is not
+    worth a step). Located on the cubic itself, to 1 ns of the step, not sampled."""
     direction = start.mode.direction
-    for s in SETTINGS.grazing_samples:
-        dv = hermite(start.V, end.V, start.aX, end.aX, h, s) - hermite(start.v, end.v, start.a, end.a, h, s)
-        if dv * direction < -margin:
-            return True
-    return False
+    return hermite_first_below(direction * (start.V - start.v), direction * (end.V - end.v),
+                               direction * (start.aX - start.a), direction * (end.aX - end.a), h, -margin,
+                               xtol=1.0 / (h * NS))

@@ -31,14 +31,16 @@ the block on the drive at the step's end is the chord's plus M (aX - a), the blo
 acceleration miss. When that force is past the friction's bound the contact broke away
 inside the step although the chord stayed within it (a micro-stick shorter than the step):
 the step is landed where that force, interpolated from its start, reaches the bound
-(:meth:`EmbeddedCoupling.missed_breakaway`).
+(:meth:`EmbeddedCoupling.missed_breakaway`). A slip step over which the results' dense output
+of dv dips through 0 (a stick or a reversal it would pass over) is landed on the crossing too
+(:meth:`EmbeddedCoupling.grazing`).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
 
-from .controlled import GRAZING_ERROR, W2_POSITION_FLOOR, ErrorControlledCoupling, grazes
+from .controlled import W2_POSITION_FLOOR, ErrorControlledCoupling, grazing_crossing
 from .estimate import chord_damping
 from .interpolation import HERMITE_ERROR_DIVISOR, NS, hermite_miss
 from .local_errors import (dense_output_miss, force_curvature, ramp_step, slip_x_error, stick_onset_x_error,
@@ -167,6 +169,9 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         if missed is not None and self._landed(system, start, h_ns, missed):
             return []
         h = h_ns / NS
+        grazing = self.grazing(point, new, h)
+        if grazing is not None and self._landed_at_crossing(system, start, h_ns, grazing):
+            return []  # a stick passed over: end the step there
         local = self.local_error(point, new, h)
         err = self.error_ratio(point, new, local, h)
         # local error ~ h^(order + 1): ramped h^3, held h^2; a stick ramp's breakaway
@@ -183,6 +188,20 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         self.history = self.next_history(point, new, h)
         self.magnitudes.accept(new)
         return [new]
+
+    def grazing(self, point: Point, new: Point, h: float) -> float | None:
+        """Slipping the same way at both ends of the step of h [s] from point to new, the
+        fraction of it at which its dense output of dv crosses 0 by more than tol x the
+        velocity scale plus the dense output's own miss (:func:`grazing_crossing`), or None.
+        (Only for a law that sticks: with a jump at dv = 0 a dip is a stick the step would
+        pass over; a law without one, as a fluid's, slips through 0 continuously, and a stiff
+        one's creeping dv dipped in every held step: 90 % rejected. Less the dense output's
+        own miss: a stiff held step's dip is its end slope's.)"""
+        if self.stick_bounds is None or not point.mode.slipping or point.mode != new.mode:
+            return None
+        margin = self.tol * self.velocity_scale(point, new) + dense_output_miss(
+            point, new, h, self.expected_gain(h), self.velocity_per_impulse)
+        return grazing_crossing(point, new, h, margin)
 
     @staticmethod
     def next_history(point: Point, new: Point, h: float) -> ForceHistory:
@@ -322,14 +341,6 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             # rig at omega = 3 took 8 ms there, a quarter of the block's period, unchecked,
             # and its samples missed by 0.35 % of max|v|)
             error = max(error, self.interpolation_error(point, new, h, v_scale, x_scale))
-        if point.mode.slipping and point.mode == new.mode:
-            # (only for a law that has stuck: with a jump at dv = 0 a dip is a stick the step
-            # would pass over; a law without one, as a fluid's, slips through 0 continuously,
-            # and a stiff one's creeping dv dipped in every held step: 90 % rejected)
-            # (less the dense output's own miss: a stiff held step's dip is its end slope's)
-            if self.stick_bounds is not None and grazes(point, new, h, self.tol * v_scale + dense_output_miss(
-                    point, new, h, self.expected_gain(h), self.velocity_per_impulse)):
-                error = max(error, GRAZING_ERROR)
         return error
 
     def breakaway_timing_error(self, point: Point, new: Point, local: LocalError, h: float,

@@ -12,6 +12,10 @@ the scalar ones and runs in host processes that need not load numpy.
 """
 from __future__ import annotations
 
+import math
+
+from ..physics.roots import illinois
+
 NS = 1_000_000_000  # nanoseconds per second
 # The output grid, every T/1000 (T the drive period): results are sampled on it and, by
 # default, the references they are compared with, so that both are on the same times.
@@ -56,6 +60,44 @@ def hermite(y0, y1, dy0, dy1, h, s):
 def hermite_mid(y0, y1, dy0, dy1, h):
     """:func:`hermite` at the middle of the step (s = 1/2)."""
     return 0.5 * (y0 + y1) + h / 8.0 * (dy0 - dy1)
+
+
+def hermite_first_below(y0: float, y1: float, dy0: float, dy1: float, h: float, level: float,
+                        xtol: float) -> float | None:
+    """The first s in (0, 1] at which :func:`hermite` (y0 to y1, slopes dy0, dy1 over h) falls
+    to level (0 if y0 is below it already), to xtol in s; None where it stays at or above
+    level all through. Exact, not sampled: the cubic's derivative is a quadratic, so its
+    extrema are in closed form; the first extremum below level brackets the crossing with the
+    point before it (the start, or the extremum before), on which the cubic is monotone, and
+    the bracketed root finder locates it there."""
+    if y0 < level:
+        return 0.0
+    # the cubic in s: y0 + c1 s + c2 s^2 + c3 s^3 (hermite_basis expanded)
+    c1 = h * dy0
+    c2 = 3.0 * (y1 - y0) - h * (2.0 * dy0 + dy1)
+    c3 = 2.0 * (y0 - y1) + h * (dy0 + dy1)
+    cubic = lambda s: y0 + s * (c1 + s * (c2 + s * c3)) - level
+    lo = 0.0
+    for s in _quadratic_roots(3.0 * c3, 2.0 * c2, c1):
+        if 0.0 < s < 1.0 and cubic(s) < 0.0:
+            return illinois(cubic, lo, s, cubic(lo), cubic(s), xtol=xtol, rtol=0.0)
+        lo = max(lo, min(s, 1.0))
+    if cubic(1.0) < 0.0:  # (no extremum below level: it falls through level to the end)
+        return illinois(cubic, lo, 1.0, cubic(lo), cubic(1.0), xtol=xtol, rtol=0.0)
+    return None
+
+
+def _quadratic_roots(a: float, b: float, c: float) -> list[float]:
+    """The real roots of a s^2 + b s + c, ascending (the linear one where a = 0, none where
+    the quadratic has none or is constant); the cancellation-free form of the formula."""
+    if a == 0.0:
+        return [-c / b] if b != 0.0 else []
+    disc = b * b - 4.0 * a * c
+    if disc < 0.0:
+        return []
+    q = -0.5 * (b + math.copysign(math.sqrt(disc), b))
+    roots = [q / a, c / q] if q != 0.0 else [0.0]
+    return sorted(roots)
 
 
 SIGNALS = ("X", "V", "x", "v", "F", "f", "stuck")  # what sample() returns

@@ -54,19 +54,12 @@ class CouplingSettings:
     # resolved.
     max_step_periods: float = 1.0 / 20.0
     # An event this close to a step's start or end, as a fraction of the step, is not worth a
-    # step of its own: a breakaway this early in a tried step is not landed on (the step is
+    # step of its own: a breakaway (or a stick a slip step passes over: controlled.py
+    # grazing_crossing) this early in a tried step is not landed on (the step is
     # accepted with the event inside, its own error estimate judging it), one predicted this
     # close to the planned step's start or end does not shorten it, and one missed in the
     # step's last such fraction is left to the next step, which breaks away.
     event_margin: float = 0.01
-    # How much smaller than its allowance a grazing step's error is treated: > 1 rejects it
-    # (dv dips past 0 between communication points: a stick or a reversal the step would pass
-    # over).
-    grazing_error: float = 4.0
-    # Where between two communication points the interpolated relative velocity is checked
-    # for a crossing of 0 (quarters: a dip shorter than a quarter step is below the step's
-    # resolution).
-    grazing_samples: tuple[float, ...] = (0.25, 0.5, 0.75)
 
 
 @dataclass(frozen=True)
