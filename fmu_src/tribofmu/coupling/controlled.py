@@ -13,6 +13,7 @@ from .base import Magnitudes
 from .estimate import GlobalErrorEstimate
 from .implicit import ImplicitCoupling, LoopState
 from .interpolation import NS, hermite_first_below
+from .local_errors import dense_output_miss
 from .settings import LIMITS, RESOLUTION
 from .system import CoupledSystem, Point, States
 
@@ -131,6 +132,20 @@ class ErrorControlledCoupling(ImplicitCoupling):
             self.h_ns = landing
             return True
         return False
+
+    def grazing(self, point: Point, new: Point, h: float) -> float | None:
+        """Slipping the same way at both ends of the step of h [s] from point to new, the
+        fraction of it at which its dense output of dv crosses 0 by more than tol x the
+        velocity scale plus the dense output's own miss (:func:`grazing_crossing`), or None.
+        (Only for a law that sticks: with a jump at dv = 0 a dip is a stick the step would
+        pass over; a law without one, as a fluid's, slips through 0 continuously, and a stiff
+        one's creeping dv dipped in every held step: 90 % rejected. Less the dense output's
+        own miss: a stiff held step's dip is its end slope's.)"""
+        if self.stick_bounds is None or not point.mode.slipping or point.mode != new.mode:
+            return None
+        margin = self.tol * self.velocity_scale(point, new) + dense_output_miss(
+            point, new, h, self.expected_gain(h), self.velocity_per_impulse)
+        return grazing_crossing(point, new, h, margin)
 
     def _committed(self, system: CoupledSystem, start: States, new: Point) -> bool:
         """The block's real step at the step's predicted answer (deferred past the landing and

@@ -33,17 +33,17 @@ inside the step although the chord stayed within it (a micro-stick shorter than 
 the step is landed where that force, interpolated from its start, reaches the bound
 (:meth:`EmbeddedCoupling.missed_breakaway`). A slip step over which the results' dense output
 of dv dips through 0 (a stick or a reversal it would pass over) is landed on the crossing too
-(:meth:`EmbeddedCoupling.grazing`).
+(:meth:`~.controlled.ErrorControlledCoupling.grazing`).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
 
-from .controlled import W2_POSITION_FLOOR, ErrorControlledCoupling, grazing_crossing
+from .controlled import W2_POSITION_FLOOR, ErrorControlledCoupling
 from .estimate import chord_damping
 from .interpolation import HERMITE_ERROR_DIVISOR, NS, hermite_miss
-from .local_errors import (dense_output_miss, force_curvature, ramp_step, slip_x_error, stick_onset_x_error,
+from .local_errors import (force_curvature, ramp_step, slip_x_error, stick_onset_x_error,
                            unstable_loop_factor)
 from .settings import ERROR_SETTINGS, RESOLUTION
 from .system import Contact, CoupledSystem, Point
@@ -188,20 +188,6 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         self.history = self.next_history(point, new, h)
         self.magnitudes.accept(new)
         return [new]
-
-    def grazing(self, point: Point, new: Point, h: float) -> float | None:
-        """Slipping the same way at both ends of the step of h [s] from point to new, the
-        fraction of it at which its dense output of dv crosses 0 by more than tol x the
-        velocity scale plus the dense output's own miss (:func:`grazing_crossing`), or None.
-        (Only for a law that sticks: with a jump at dv = 0 a dip is a stick the step would
-        pass over; a law without one, as a fluid's, slips through 0 continuously, and a stiff
-        one's creeping dv dipped in every held step: 90 % rejected. Less the dense output's
-        own miss: a stiff held step's dip is its end slope's.)"""
-        if self.stick_bounds is None or not point.mode.slipping or point.mode != new.mode:
-            return None
-        margin = self.tol * self.velocity_scale(point, new) + dense_output_miss(
-            point, new, h, self.expected_gain(h), self.velocity_per_impulse)
-        return grazing_crossing(point, new, h, margin)
 
     @staticmethod
     def next_history(point: Point, new: Point, h: float) -> ForceHistory:
