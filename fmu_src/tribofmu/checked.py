@@ -34,7 +34,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .coupling.settings import CHECK_SETTINGS, LIMITS, MAX_ORDER, PLAN_ORDER, RESOLUTION
+from .coupling.settings import CHECK_SETTINGS, LIMITS, MAX_ORDER, RESOLUTION
 from .forked_runs import ForkedRuns, InlineRuns, check_workers, cpu_seconds
 from .progress import run_started
 from .run_folder import run_folder
@@ -251,13 +251,13 @@ class CheckSequence:
         """How much tighter the run after one whose own error ``own`` missed tol is: planned to
         land one CHECK_RATIO below tol (a run's steps grow only as the per-step tolerance to the
         -1/3, 26 % for that ratio, where a miss costs a whole run), at the order the last two
-        runs' own errors showed (before there are two, the method's own, PLAN_ORDER), at least
-        CHECK_RATIO. The first plan is not capped (a first run 30x off tol took five runs capped
-        at MAX_JUMP: mixed friction at 1e-4, when it vouched); planned at MAX_ORDER instead, the
-        highest order, runs 10-60x off tol under-jumped and took a third run. A plan from an
-        observed order is capped at MAX_JUMP as a planned pair is: two estimates' ratio at loose
-        tolerances is a guess (one such plan jumped 1600x, to an error 60x below tol)."""
-        order, cap = PLAN_ORDER, math.inf
+        runs' own errors showed (MAX_ORDER before there are two), at least CHECK_RATIO. The
+        first plan is not capped: at MAX_ORDER, the highest order runs that vouch show
+        (0.7-1), it under-jumps rather than over (a first run 30x off tol took five runs capped
+        at MAX_JUMP: mixed friction at 1e-4, when it vouched). A plan from an observed order is
+        capped at MAX_JUMP as a planned pair is: two estimates' ratio at loose tolerances is a
+        guess (one such plan jumped 1600x, to an error 60x below tol)."""
+        order, cap = MAX_ORDER, math.inf
         if self.own_last is not None and self.own_last[0] > self.step_tol:
             previous_tol, previous = self.own_last
             # (an error that did not fall: the slowest order allowed for, the longest jump)

@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from tribofmu import checked
-from tribofmu.coupling import settings
 
 WINDOW = (1.0, 2.0)
 
@@ -227,36 +226,23 @@ def test_an_own_estimate_past_tol_over_the_margin_plans_the_next_run_from_it_wit
     runs = VouchingRuns(power_law(3.0), own=power_law(2.0))  # 2e-3 at 1e-3: 4e-3 with the margin
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
     tols = [c[0] for c in runs.calls]
-    # the plan: error falling at the method's own order in the per-step tolerance (PLAN_ORDER),
-    # aiming one CHECK_RATIO below tol: 4e-3 -> 5e-4 asks for 8 ** (1 / PLAN_ORDER) tighter
-    factor = 8.0 ** (1.0 / settings.PLAN_ORDER)
-    assert tols == pytest.approx([1e-3, 1e-3 / factor])
-    assert result.ok and result.stats["step_tol"] == pytest.approx(1e-3 / factor)
-    assert result.stats["estimated_error"]["nrms_v"] == pytest.approx(checked.ONE_RUN_MARGIN * 2e-3 / factor)
-
-
-def test_a_run_at_the_methods_own_order_is_planned_in_one_jump_where_order_one_took_two():
-    # own error 30 tol at per-step tol, falling as step_tol^(2/3) (a ramped coupling's): planned
-    # at order 1 (MAX_ORDER: 120x) the second run's own error with the margin is 2.5 tol
-    own = power_law(30.0 * 1e-3 / 1e-3 ** settings.PLAN_ORDER, order=settings.PLAN_ORDER)
-    assert own(1e-3) == pytest.approx(30e-3)
-    runs = VouchingRuns(own, own=own)
-    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
-    assert len(runs.calls) == 2 and result.ok
-    assert checked.ONE_RUN_MARGIN * own(result.stats["step_tol"]) == pytest.approx(1e-3 / checked.CHECK_RATIO)
+    # the plan: error falling as the per-step tolerance, aiming one CHECK_RATIO below tol:
+    # 4e-3 -> 5e-4 asks for 8x tighter
+    assert tols == pytest.approx([1e-3, 1e-3 / 8.0])
+    assert result.ok and result.stats["step_tol"] == pytest.approx(1.25e-4)
+    assert result.stats["estimated_error"]["nrms_v"] == pytest.approx(checked.ONE_RUN_MARGIN * 2.5e-4)
 
 
 def test_the_third_run_is_planned_at_the_order_the_first_two_own_errors_showed():
-    own = power_law(0.04, order=0.4)  # slower than the plan's order: a third run
+    own = power_law(0.04, order=0.5)
     runs = VouchingRuns(own, own=own)
     checked.checked_simulation(runs, tol=1e-3, max_wall=None)
     tols = [c[0] for c in runs.calls]
     assert len(tols) == 3
     shown = math.log(own(tols[0]) / own(tols[1])) / math.log(tols[0] / tols[1])
-    assert shown == pytest.approx(0.4)
+    assert shown == pytest.approx(0.5)
     wanted = (checked.ONE_RUN_MARGIN * own(tols[1]) * checked.CHECK_RATIO / 1e-3) ** (1.0 / shown)
-    at_order_one = checked.ONE_RUN_MARGIN * own(tols[1]) * checked.CHECK_RATIO / 1e-3
-    assert tols[1] / tols[2] == pytest.approx(min(wanted, checked.MAX_JUMP)) and wanted > at_order_one
+    assert tols[1] / tols[2] == pytest.approx(wanted) and wanted > 2.5  # (order 1 would ask for 2.25)
 
 
 def test_an_own_estimate_that_falls_slower_than_planned_takes_one_more_run_not_a_wrong_ok():
@@ -289,8 +275,7 @@ def test_an_own_estimate_far_from_tol_jumps_as_far_as_it_asks_in_one_plan():
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
     tols = [c[0] for c in runs.calls]
     assert len(tols) == 2 and result.ok  # a planned pair's cap (MAX_JUMP) would have taken three
-    planned = (30.0 * checked.ONE_RUN_MARGIN * checked.CHECK_RATIO) ** (1.0 / settings.PLAN_ORDER)
-    assert tols[0] / tols[1] == pytest.approx(planned)
+    assert tols[0] / tols[1] == pytest.approx(30.0 * checked.ONE_RUN_MARGIN * checked.CHECK_RATIO)
 
 
 def test_a_plan_from_an_observed_order_is_capped_and_an_error_that_never_falls_ends_not_ok():

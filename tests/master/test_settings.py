@@ -78,7 +78,6 @@ def module_numbers(path: Path) -> set[str]:
 NOT_TUNING = {
     "coupling/settings.py": {"STEP_CONTROL",  # a tuning group (TUNING_GROUPS), counted above
                              "MAX_ORDER",  # derived (its comment): an error-per-step run's order
-                             "PLAN_ORDER",  # derived (its comment): the ramped coupling's order in tol
                              "ROUND_OFF"},  # a block step's round-off, which Resolution's fields are
     # a unit; the output grid, not the coupling's; the cubic Hermite error bound's 384
     "coupling/interpolation.py": {"NS", "SAMPLES_PER_PERIOD", "HERMITE_ERROR_DIVISOR"},

@@ -177,18 +177,6 @@ class CheckSettings:
 # proportion to the per-step tolerance: the plan under-jumps rather than over).
 MAX_ORDER = 1.0
 
-# The order in the per-step tolerance at which the coupling's own error falls, derived from the
-# method, not tuned: a ramped step is second order (local error ~ h^3, the trapezoid on the
-# force), the controller holds each step's error to the per-step tolerance, so h ~ tol^(1/3),
-# and the run's error, h^2 per unit time, ~ tol^(2/3). (A held step, first order, gives
-# tol^(1/2); events landed to the step give up to MAX_ORDER.) A run whose own estimate vouches
-# plans the next run from its error at this order before two runs show their own: measured
-# between per-step tolerances 2x apart, 0.65-0.82 on boundary friction (fig6 and its rigs at
-# gamma = 0, 0.3, 1, 2, omega = 20), 0.72 on mixed friction at delta = 1 (its second run).
-# Planned at MAX_ORDER, runs off tol by 10-60x under-jumped and took a third run (mixed friction,
-# the dilatant fluid at omega = 40: bench_trust.py, 2026-11-27).
-PLAN_ORDER = 2.0 / 3.0
-
 
 # ============================================================================================
 # Not tuning: resolution, limits, switches.
