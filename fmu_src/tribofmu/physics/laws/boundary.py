@@ -258,24 +258,24 @@ class BoundaryLaw(FrictionLaw):
                 r_model = r0 * (1.0 + z * phi1) + h * phi1 * r_t
                 if r_model * r1 > 0.0 or r1 == 0.0:  # has not crossed an equilibrium
                     return f_exp, r1, 2.0 * abs((r1 - r_model) * h * phi1)
-        f1, r1 = BoundaryLaw._backward_euler(lambda y: rate(y, dv1), f0, h)
+        f1, r1 = BoundaryLaw._backward_euler(rate, dv1, f0, h)
         # Crossing: both the linear model and backward Euler land near the equilibrium;
         # where they disagree, the sub-step was too long for the curvature of the rate.
         err = abs(f_exp - f1) if f_exp is not None and math.isfinite(f_exp) else 0.5 * h * abs(r1 - r0)
         return f1, r1, err
 
     @staticmethod
-    def _backward_euler(rate, f0: float, h: float) -> tuple[float, float]:
-        """f1 = f0 + h rate(f1), its root bracketed between f0 and the equilibrium, and rate(f1)
-        (the last evaluation of the rate, where the root finder stopped on it)."""
-        rate0 = rate(f0)
+    def _backward_euler(rate, dv1: float, f0: float, h: float) -> tuple[float, float]:
+        """f1 = f0 + h rate(f1, dv1), its root bracketed between f0 and the equilibrium, and
+        the rate there (the last evaluation of the rate, where the root finder stopped on it)."""
+        rate0 = rate(f0, dv1)
         if rate0 == 0.0:
             return f0, rate0
         direction = 1.0 if rate0 > 0 else -1.0
         last = [f0, rate0]  # the last y the rate was evaluated at, and its rate
 
         def residual(y: float) -> float:  # signed so it starts < 0 and rises through the root
-            r = rate(y)
+            r = rate(y, dv1)
             last[0], last[1] = y, r
             return direction * (y - f0 - h * r)
 
@@ -293,4 +293,4 @@ class BoundaryLaw(FrictionLaw):
         else:  # the cubic term guarantees an equilibrium; only non-finite inputs get here
             raise ArithmeticError(f"no equilibrium of eq. (21) found from f={f0}")
         f1 = illinois(residual, lo, hi, r_lo, r_hi)
-        return f1, (last[1] if last[0] == f1 else rate(f1))
+        return f1, (last[1] if last[0] == f1 else rate(f1, dv1))
