@@ -62,3 +62,18 @@ def test_pi_term_answers_a_growing_error_harder_and_is_off_at_beta_zero():
     assert pi.factor(0.5, 2, previous_error=0.1) < pi.factor(0.5, 2, previous_error=0.9)
     assert pi.factor(0.5, 2, previous_error=0.0) == pi.factor(0.5, 2, previous_error=MIN_PREVIOUS_ERROR)
     assert pi.factor(1e-12, 2, previous_error=0.5) == 4.0  # still clipped
+
+
+@pytest.mark.parametrize("rule", [PLAIN, KINETICS_SUBSTEPS, COUPLING_STEPS,
+                                  StepSizeController(beta=0.1, min_previous_error=2.0)],
+                         ids=["plain", "kinetics", "coupling", "pi-floored-above-1"])
+@pytest.mark.parametrize("order", [1, 2])
+def test_factor_function_gives_factors_numbers_bit_for_bit(rule, order):
+    """The bound rule of an inner loop (the lubricant's sub-steps) is factor() itself: the
+    same float for every error, including the clipped, zero, infinite and NaN ones."""
+    bound = rule.factor_function(order)
+    errors = [0.0, -0.0, 1e-320, 1e-300, 1e-12, 0.01, 0.5, 0.9, 1.0, 1.0 + 2 ** -52, 8.0, 1e6,
+              math.inf, math.nan] + [10.0 ** (k / 7.0) for k in range(-40, 41)]
+    for error in errors:
+        a, b = rule.factor(error, order), bound(error)
+        assert (math.isnan(a) and math.isnan(b)) or a.hex() == b.hex(), (error, a, b)

@@ -183,3 +183,19 @@ def test_the_registry_resolves_names_and_fmu_codes_to_one_law_each():
     assert make_law("mixed", mu_static=0.7, lam=1.0) == MixedLaw(mu_static=0.7)  # others' keys ignored
     with pytest.raises(KeyError, match="must be one of dry, fluid, boundary, mixed, got 'wet'"):
         law_class("wet")
+
+
+def test_kinetics_made_once_per_inputs_follow_a_change_of_n_and_T():
+    """The law keeps the kinetics it made for the last (n, T): a step at other inputs gives
+    what a fresh law gives there, and the law still pickles (the closures are not state)."""
+    import pickle
+
+    law = BoundaryLaw(**FIG6)
+    steps = [(-1e6, 290.0), (-2e6, 290.0), (-2e6, 330.0), (-1e6, 290.0)]
+    for n, T in steps:
+        fresh = BoundaryLaw(**FIG6)
+        got = law.advance(0.1, 2e-5, n, T, 1e-4, 1e-5, 1e-5, dv_start=1e-5)
+        assert got == fresh.advance(0.1, 2e-5, n, T, 1e-4, 1e-5, 1e-5, dv_start=1e-5)
+    again = pickle.loads(pickle.dumps(law))
+    assert again == law
+    assert again.advance(0.1, 2e-5, -1e6, 290.0, 1e-4) == law.advance(0.1, 2e-5, -1e6, 290.0, 1e-4)

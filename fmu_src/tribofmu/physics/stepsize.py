@@ -46,6 +46,25 @@ class StepSizeController:
             raw *= max(previous_error, self.min_previous_error) ** self.beta
         return min(max(raw, self.min_factor), grow)
 
+    def factor_function(self, order: int):
+        """:meth:`factor` for one order, not after a rejection and with the previous error at
+        its default, as a function of the error alone: the same numbers (the same operations,
+        the builtins' max and min written as the comparisons they make), its constants bound
+        once, for an inner loop that asks on every sub-step (the lubricant kinetics)."""
+        exponent = -(1.0 / (order + 1) - 0.75 * self.beta)
+        safety, low, high = self.safety, self.min_factor, self.max_factor
+        # the PI term at previous error 1.0 (factor's default): a factor of exactly 1.0 at beta 0
+        previous = max(1.0, self.min_previous_error) ** self.beta if self.beta else None
+
+        def factor(error: float) -> float:
+            raw = safety * (1e-300 if 1e-300 > error else error) ** exponent
+            if previous is not None:
+                raw *= previous
+            raw = low if low > raw else raw
+            return high if high < raw else raw
+
+        return factor
+
 
 # The kinetics': sub-steps grow tenfold where f settles on its equilibrium (rates fall from
 # 1e7 to nothing within a step), and a rejection does not hold growth back (sub-steps are

@@ -11,6 +11,10 @@ from ..parameters import declared
 from ..roots import illinois
 from ..stepsize import KINETICS_SUBSTEPS
 
+# The sub-steps' rule (KINETICS_SUBSTEPS.factor at order 1: the defect estimate of a stiff
+# sub-step grows as its length squared), its constants bound once.
+_SUBSTEP_FACTOR = KINETICS_SUBSTEPS.factor_function(order=1)
+
 
 class BoundaryLaw(FrictionLaw):
     """F = tau S + m sgn(dv)|dv|^(gamma+1), eq. (23), with the lubricant's constants and the
@@ -81,6 +85,24 @@ class BoundaryLaw(FrictionLaw):
         rate = self._rates(n, T)[0]
         return lambda f: rate(f, dv)
 
+    def _kinetics(self, n: float, T: float):
+        """(rate, slope, rate_dv) of :meth:`_rates` and the mean force of
+        :meth:`_boundary_mean_force` for n, T held, made once per (n, T) a law sees in a row
+        (a scene holds n and T, or moves them slowly: the FMU asks again on every step)."""
+        cached = self.__dict__.get("_kinetics_cache")
+        if cached is not None and cached[0] == n and cached[1] == T:
+            return cached[2]
+        made = (*self._rates(n, T), self._boundary_mean_force(n))
+        # the law is frozen (its fields never change), so what they make stays valid
+        self.__dict__["_kinetics_cache"] = (n, T, made)
+        return made
+
+    def __getstate__(self):
+        """The law's fields without the kinetics made from them (closures: not picklable)."""
+        state = dict(self.__dict__)
+        state.pop("_kinetics_cache", None)
+        return state
+
     def _rates(self, n: float, T: float):
         """Eq. (21) for n, T held: rate(f, dv) [1/s], its slope d rate/df (f) [1/s], and
         d rate/d(dv) divided by dv [1/(s (m/s)^2)].
@@ -149,15 +171,16 @@ class BoundaryLaw(FrictionLaw):
         if not self.effects.melting or h <= 0.0:
             return f, self.mean_force(dv0, dv, n, f)
         dv_rate = (dv - dv0) / h  # m/s^2
-        rate, slope, rate_dv = self._rates(n, T)
-        mean_force = self._boundary_mean_force(n)
+        rate, slope, rate_dv, mean_force = self._kinetics(n, T)
+        substep, grow = self._substep, _SUBSTEP_FACTOR
         s, sub, min_sub = 0.0, h, 1e-12 * h
         r0 = rate(f, dv0)
         impulse = 0.0  # N s, the force integrated over the accepted sub-steps
+        halfway = self.MAX_SUBSTEPS // 2
         for count in range(self.MAX_SUBSTEPS):
             if s >= h:
                 return f, impulse / h
-            if count == self.MAX_SUBSTEPS // 2 and dv_rate != 0.0:
+            if count == halfway and dv_rate != 0.0:
                 # An input that swings the equilibrium across decades within the step (a host
                 # jumping dv by 1e6 m/s) cannot be followed at this tolerance: hold it at its
                 # end value for the rest of the step, where f lands on equilibria in a few
@@ -166,7 +189,7 @@ class BoundaryLaw(FrictionLaw):
             s1 = h if sub >= h - s else s + sub
             dv_s = dv0 + dv_rate * s if dv_rate else dv
             dv_s1 = dv if s1 >= h or not dv_rate else dv0 + dv_rate * s1
-            f1, r1, err = self._substep(rate, slope, f, r0, dv_s1, rate_dv * dv_s * dv_rate, s1 - s)
+            f1, r1, err = substep(rate, slope, f, r0, dv_s1, rate_dv * dv_s * dv_rate, s1 - s)
             tol = atol + rtol * abs(f1)
             if err <= tol or sub <= min_sub:
                 # f moves little where the sub-step is long: the force's mean over it is the
@@ -176,9 +199,11 @@ class BoundaryLaw(FrictionLaw):
                 f, r0, s = f1, r1, s1
                 # Floored: a sub-step forced through at the minimum must not shrink the next
                 # one toward zero, or s would stop advancing.
-                sub = max(min_sub, sub * KINETICS_SUBSTEPS.factor(err / tol, order=1))
+                sub *= grow(err / tol)
+                if not sub > min_sub:  # max(min_sub, sub), as the builtin compares
+                    sub = min_sub
             else:
-                sub *= KINETICS_SUBSTEPS.factor(err / tol, order=1)
+                sub *= grow(err / tol)
         if s >= h:
             return f, impulse / h
         raise ArithmeticError(f"eq. (21) needs more than {self.MAX_SUBSTEPS} sub-steps over "
@@ -233,32 +258,39 @@ class BoundaryLaw(FrictionLaw):
                 r_model = r0 * (1.0 + z * phi1) + h * phi1 * r_t
                 if r_model * r1 > 0.0 or r1 == 0.0:  # has not crossed an equilibrium
                     return f_exp, r1, 2.0 * abs((r1 - r_model) * h * phi1)
-        end_rate = lambda y: rate(y, dv1)  # noqa: E731 (the rate at the sub-step's end)
-        f1 = BoundaryLaw._backward_euler(end_rate, f0, end_rate(f0), h)
-        r1 = end_rate(f1)
+        f1, r1 = BoundaryLaw._backward_euler(rate, dv1, f0, h)
         # Crossing: both the linear model and backward Euler land near the equilibrium;
         # where they disagree, the sub-step was too long for the curvature of the rate.
         err = abs(f_exp - f1) if f_exp is not None and math.isfinite(f_exp) else 0.5 * h * abs(r1 - r0)
         return f1, r1, err
 
     @staticmethod
-    def _backward_euler(rate, f0: float, rate0: float, h: float) -> float:
+    def _backward_euler(rate, dv1: float, f0: float, h: float) -> tuple[float, float]:
+        """f1 = f0 + h rate(f1, dv1), its root bracketed between f0 and the equilibrium, and
+        the rate there (the last evaluation of the rate, where the root finder stopped on it)."""
+        rate0 = rate(f0, dv1)
         if rate0 == 0.0:
-            return f0
+            return f0, rate0
         direction = 1.0 if rate0 > 0 else -1.0
+        last = [f0, rate0]  # the last y the rate was evaluated at, and its rate
 
         def residual(y: float) -> float:  # signed so it starts < 0 and rises through the root
-            return direction * (y - f0 - h * rate(y))
+            r = rate(y, dv1)
+            last[0], last[1] = y, r
+            return direction * (y - f0 - h * r)
 
         # At least a few ulps: below that f0 + width == f0 and the bracket never opens
         # (a step of 1e-300 s moves f by less than one ulp).
         lo, width = f0, max(min(abs(h * rate0), 1e-3 * (1.0 + abs(f0))), 4.0 * math.ulp(f0))
+        r_lo = direction * (f0 - f0 - h * rate0)  # the residual at f0, from the rate there
         hi = f0 + direction * width
         for _ in range(400):
-            if residual(hi) >= 0.0:
+            r_hi = residual(hi)
+            if r_hi >= 0.0:
                 break
-            lo, width = hi, 2.0 * width
+            lo, r_lo, width = hi, r_hi, 2.0 * width
             hi = f0 + direction * width
         else:  # the cubic term guarantees an equilibrium; only non-finite inputs get here
             raise ArithmeticError(f"no equilibrium of eq. (21) found from f={f0}")
-        return illinois(residual, lo, hi)
+        f1 = illinois(residual, lo, hi, r_lo, r_hi)
+        return f1, (last[1] if last[0] == f1 else rate(f1, dv1))
