@@ -94,9 +94,14 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
 class GlobalErrorEstimate:
     """The carried error (ex [m], ev [m/s]) and what it needs of the block."""
 
-    def __init__(self):
+    def __init__(self, law=None):
         self.ex = self.ev = 0.0
+        self.ef = 0.0  # [1] the error in the friction's state f (0 without a law with state)
         self.w2 = 0.0  # 1/s^2, 2K/M as last measured (0: not yet)
+        # the friction law whose slopes carry its state's error (:meth:`state_slopes`); None:
+        # a law without state, or one the coupling was not given (a user's own Friction FMU):
+        # the block's carry alone
+        self.law = law if law is not None and law.has_state else None
         # the last accepted step's force ramp, whose charge the next ramp centres (recentre)
         self.ramp: RampStep | None = None
         # the carry reached the motion's own size somewhere: past its linearisation, it says only
@@ -104,14 +109,16 @@ class GlobalErrorEstimate:
         self.saturated = False
 
     def export(self) -> list:
-        """What a state snapshot carries of it (JSON-ready): ex, ev, w2 and the last ramp."""
-        return [self.ex, self.ev, self.w2, asdict(self.ramp) if self.ramp is not None else None]
+        """What a state snapshot carries of it (JSON-ready): ex, ev, w2, the last ramp and ef."""
+        return [self.ex, self.ev, self.w2, asdict(self.ramp) if self.ramp is not None else None, self.ef]
 
     def restore(self, values: list) -> None:
-        """Back to what :meth:`export` gave (or its first three, from a snapshot without a ramp)."""
+        """Back to what :meth:`export` gave (or its first three, from a snapshot without a ramp;
+        ef 0 from one without it)."""
         self.ex, self.ev, self.w2 = values[:3]
         ramp = values[3] if len(values) > 3 else None
         self.ramp = RampStep(**ramp) if ramp is not None else None
+        self.ef = values[4] if len(values) > 4 else 0.0
 
     def observe(self, x: float, a: float, F: float, velocity_per_impulse: float, x_floor: float) -> None:
         """Learn w2 from a point: a = F/M - w2 x, with 1/M the block's velocity per unit impulse
@@ -122,25 +129,63 @@ class GlobalErrorEstimate:
                 self.w2 = w2
 
     def advance(self, h: float, damping: float, local_x: float, local_v: float, stuck: bool,
-                x_scale: float = math.inf, v_scale: float = math.inf, stuck_through: bool = False) -> float:
+                x_scale: float = math.inf, v_scale: float = math.inf, stuck_through: bool = False,
+                slopes: tuple[float, float, float, float] | None = None, f_scale: float = math.inf) -> float:
         """Carry the error over a step of h [s] with the friction's damping c [1/s], add the
         step's local errors (x [m], v [m/s]); returns the error in v [m/s] at its end.
         stuck: stuck at the step's end (no error in v there); stuck_through: stuck at both
         ends, the block riding on the drive all along: the error in x is held, not carried by
         the spring (carried as a free block's, it fell 3x over a stick where the true error
-        stayed put: mixed friction, delta = 1).
+        stayed put: mixed friction, delta = 1). slopes: a friction with state's
+        (:meth:`state_slopes`): the error (ex, ev, ef) is carried by its variational equations
+        (:func:`state_flow`) instead, with their c in place of damping.
 
-        The carried error saturates at the motion's own size (x_scale [m], v_scale [m/s]):
-        a linearised carry is meaningless past it (a stiff spring whose 2K/M the block's
-        answers give only roughly would otherwise let it grow without bound, as would a
-        friction whose slope is negative)."""
-        ex, ev = (self.ex, 0.0) if stuck_through else self._flow(h, damping)
+        The carried error saturates at the motion's own size (x_scale [m], v_scale [m/s], and
+        f_scale [1] for f): a linearised carry is meaningless past it (a stiff spring whose
+        2K/M the block's answers give only roughly would otherwise let it grow without bound,
+        as would a friction whose slope is negative)."""
+        ef = self.ef
+        if stuck_through:
+            ex, ev = self.ex, 0.0
+        elif slopes is not None:
+            ex, ev, ef = state_flow(h, self.w2, *slopes, self.ex, self.ev, ef)
+        else:
+            ex, ev = self._flow(h, damping)
         ex, ev = ex + local_x, ev + local_v
         self.ex = _saturated(ex, x_scale)
         self.ev = 0.0 if stuck else _saturated(ev, v_scale)
-        if self.ex != ex or (not stuck and self.ev != ev):
+        self.ef = _saturated(ef, f_scale)
+        if self.ex != ex or (not stuck and self.ev != ev) or self.ef != ef:
             self.saturated = True
         return self.ev
+
+    def state_slopes(self, start, end, velocity_per_impulse: float,
+                     dv_floor: float) -> tuple[float, float, float, float] | None:
+        """The coefficients (c [1/s], p [m/s^2], q [1/m], r [1/s]) of the variational equations
+        over the slip step from point start to point end of a friction with an internal
+        state f (:data:`law`; F its force, g = df/dt its rate, eq. 21, M the block's mass):
+
+            ex' = ev,  ev' = -w2 ex - c ev + p ef,  ef' = q ev + r ef,
+
+        c = dF/d(dv) / M, p = dF/df / M, q = -dg/d(dv), r = dg/df (dv = V - v moves by -ev),
+        from the law's exact slopes (:meth:`~tribofmu.physics.friction.FrictionLaw.state_jacobian`)
+        at the step's middle: dv, f, n and T the means of its two points, |dv| no nearer 0
+        than dv_floor [m/s] (the solve's resolution: a shear-thinning slope is infinite at
+        rest), 1/M = velocity_per_impulse [m/s per N s]. At the step's end instead, the
+        melting runaway's positive dg/df over a whole step read 7x-236x the true error. F
+        and g are continuous in (dv, f) (the modulus floored at 0 is a kink, not a jump): no
+        saltation jump to first order. None without such a law, before the block's mass is
+        known, or where a slope is not finite."""
+        law = self.law
+        if law is None or velocity_per_impulse <= 0.0:
+            return None
+        dv = 0.5 * (start.dv + end.dv)
+        if abs(dv) < dv_floor:
+            dv = math.copysign(dv_floor, dv)
+        F_dv, F_f, g_dv, g_f = law.state_jacobian(dv, 0.5 * (start.f + end.f), 0.5 * (start.n + end.n),
+                                                  0.5 * (start.T + end.T))
+        slopes = (F_dv * velocity_per_impulse, F_f * velocity_per_impulse, -g_dv, g_f)
+        return slopes if all(map(math.isfinite, slopes)) else None
 
     def recentre(self, ramp: RampStep | None) -> None:
         """Before the step that ramp describes (None: not a ramp whose curvature is known) is
@@ -173,6 +218,38 @@ class GlobalErrorEstimate:
         nx = (e1 * (ax - l2 * ex) - e2 * (ax - l1 * ex)) / d
         nv = (e1 * (av - l2 * ev) - e2 * (av - l1 * ev)) / d
         return nx.real, nv.real
+
+
+# The (1,2) Pade approximant of e^z, R(z) = (1 + z/3) / (1 - 2z/3 + z^2/6), in partial fractions:
+# its poles PADE_POLE and its conjugate, 2 +- i sqrt(2), its residue at the first PADE_RESIDUE
+# (6 (1 + z1/3) / (z1 - conj(z1))), so that R(z) = 2 Re(PADE_RESIDUE / (z - PADE_POLE)) for real z
+PADE_POLE = complex(2.0, math.sqrt(2.0))
+PADE_RESIDUE = complex(1.0, -5.0 / math.sqrt(2.0))
+
+
+def state_flow(h: float, w2: float, c: float, p: float, q: float, r: float,
+               ex: float, ev: float, ef: float) -> tuple[float, float, float]:
+    """R(A h) (ex, ev, ef) over a step of h [s] for the variational equations of
+    :meth:`GlobalErrorEstimate.state_slopes`, A = [[0, 1, 0], [-w2, -c, p], [0, q, r]], with R
+    the (1,2) Pade approximant of the exponential: third order (A h of a non-stiff mode off
+    e^(A h) by (A h)^4 / 72) and L-stable (R(z) ~ 2/z as |z| grows: a stiff mode decays within
+    the step, as it does). The f-mode is stiff (|r| h up to 1e4) and a solid lubricant's
+    c h up to 1e5: an explicit or A-stable-only rule would ring or blow up, e^(A h) in closed
+    form is the 2x2 flow's cubic-in-three-eigenvalues (scipy's expm 130 us, numpy's eig 25
+    us a step). In partial fractions, R(A h) e = 2 Re(alpha (A h - z1 I)^-1 e) (z1, alpha:
+    PADE_POLE, PADE_RESIDUE): A h - z1 I is tridiagonal, one complex elimination, no (A h)^2
+    whose stiff entries would swamp the rest. (Exact solve: the denominator is 0 only where
+    an eigenvalue of A h is z1 itself; then the carry is not finite, as R is not.)"""
+    z1 = PADE_POLE
+    d0, d1, d2 = -z1, -c * h - z1, r * h - z1  # the diagonal of A h - z1 I
+    a, P, Q = -w2 * h, p * h, q * h
+    # rows: d0 u0 + h u1 = ex; a u0 + d1 u1 + P u2 = ev; Q u1 + d2 u2 = ef
+    pivot = d1 - a * h / d0 - P * Q / d2
+    if pivot == 0.0:
+        return math.nan, math.nan, math.nan
+    u1 = (ev - a * ex / d0 - P * ef / d2) / pivot
+    k = 2.0 * PADE_RESIDUE
+    return (k * (ex - h * u1) / d0).real, (k * u1).real, (k * (ef - Q * u1) / d2).real
 
 
 def _saturated(value: float, scale: float) -> float:
