@@ -17,6 +17,25 @@ stick onset, a lubricant that re-solidifies inside a step) enter through the loc
 the steps that hold them; the step into a stick through the x error of its held force
 (:func:`.local_errors.stick_onset_x_error`).
 
+A friction with an internal state (the lubricant's excess volume f [1], eq. 21: df/dt = g(dv,
+f)) adds the state's error ef, and the three move by the variational equations of the block and
+the lubricant (F the force, M the block's mass, dv = V - v moving by -ev):
+
+    ex' = ev,    ev' = -w2 ex - (F_dv/M) ev + (F_f/M) ef,    ef' = -g_dv ev + g_f ef,
+
+F_dv = dF/d(dv), F_f = dF/df, g_dv = dg/d(dv), g_f = dg/df: the law's own slopes
+(:meth:`~tribofmu.physics.friction.FrictionLaw.state_jacobian`; the coupling is given the law
+with the system, ``CoupledSystem(law=...)``), taken at the step's middle
+(:meth:`GlobalErrorEstimate.state_slopes`), carried over the step by the (1,2) Pade
+approximant of the exponential (:func:`state_flow`: L-stable; the f-mode is stiff, |g_f| h up
+to 1e4). F and g are continuous in (dv, f) (the shear modulus floored at 0 is a kink, not a
+jump), so no saltation jump enters to first order. No local error of f is charged: the step's
+miss of f moves the force, which the local errors in v already charge (the impulse misses);
+f's error is the one the carry grows from ev through g_dv. Without the law (a Friction FMU of
+unknown make) the block's 2x2 carry alone, with no state term. (Until 2026-11-27 the state
+entered as an impulse, ErrorSettings.state_carry = 8, calibrated on fig6's rig, times the
+step's miss of f over the largest |f|, times the largest |F| h / M.)
+
 c may be negative: a Stribeck law's force falls as the slip grows from rest, and an error
 grows while it slips there. The slip solve measures only the size of the slope (its loop
 gain); where the force is a function of dv alone (no internal state, no changing inputs),
@@ -37,6 +56,14 @@ error on Fig. 2 0.28 -> 0.78, a dry drive at omega = 3 6.1 -> 0.94, mixed fricti
 delta = 1 0.007 -> 0.88, boundary friction stuck all through 0 -> 1.0; a shear-thinning fluid
 at gamma = -0.9 65 (saturated) -> 0.74, at gamma = -0.7, M = 0.2 0.19 -> 0.81 (tol 1e-3);
 mixed friction at delta = 3, omega = 12 0.54 -> 0.97 (1e-3; 0.54 -> 1.03 at tol 1e-2).
+Boundary friction, the state's calibrated impulse -> the law's slopes (``python
+benchmarks/bench_trust.py --one-run --only boundary --tols default,1e-2`` and ``--only fig6``,
+2026-11-27 09:00 and 09:02 UTC, load 4-6): Fig. 6 3.0 -> 0.51 (per-step 1e-3) and 8.3 -> 0.58
+(1e-2); over the 9 points' 18 runs 0.98-50 -> 0.13-9.4 but for two runs the linearisation
+cannot see (gamma = -0.3 at 1e-2, 46 % off: 0.008 -> 0.006; gamma = 0 at 1e-2, 5.2 % off:
+1.2 -> 0.046), the solid lubricant (gamma = -0.85, K = 2000) 50 -> 9.4 and 16 -> 4.8; it
+under-reads at gamma >= 0.3 (0.13-0.26: after the first cycle the block slides nearly free
+while molten, and the carried error decays faster than the true one).
 """
 from __future__ import annotations
 
@@ -56,9 +83,13 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
 
     The carry above is exact to first order where its derivation holds: the friction force a
     function of dv alone with a bounded slope. It does not hold for
-    - a law with an internal state (the lubricant's f): its melting and re-solidifying are
-      events whose timing errors jump the force, which no linear carry follows (the state's
-      share enters through a weight, ErrorSettings.state_carry, not through a derivation);
+    - a law with an internal state (the lubricant's f): its error is carried by the law's own
+      slopes (the variational equations above, exact to first order about the run as
+      computed), but its melting and re-solidifying are events a run at a loose tolerance can
+      miss or misplace, moving the whole rest of the run: a linearisation about the computed
+      run cannot see that (gamma = -0.3 at per-step 1e-2, 46 % off, read at 0.006x; gamma = 0
+      at 1e-2, 5.2 % off, at 0.046x), and after the first cycle it under-reads (0.13-0.26x at
+      gamma >= 0.3, where the block slides nearly free while molten);
     - a force with an unbounded slope at rest (``law.slope_bounded``) other than a shear-thinning
       power law's (``law.shear_thinning``): a Stribeck curve's with delta < 1 at breakaway.
       A shear-thinning force is continuous through dv = 0 and its slope, |dv|^gamma, integrable
