@@ -106,8 +106,8 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
       followed: its error grows as the exponential of the chord's negative slope, and the
       local errors it grows from are charged as the drop makes them (:func:`centred_ramp_miss`:
       the curvature's lag, under-read where it steepens; ``unstable_loop_factor``: the loop
-      pushing an error on, both in coupling/local_errors.py). Charged at the lagging curvature and filtered as a damping loop's,
-      the estimate had read 0.30-0.88x its true error (0.54 at delta = 3, omega = 12, at each
+      pushing an error on, both in coupling/local_errors.py). Charged at the lagging curvature
+      and filtered as a damping loop's, the estimate had read 0.30-0.88x its true error (0.54 at delta = 3, omega = 12, at each
       per-step tol 1e-2 and 1e-3); charged so, 0.73-1.7 over 24 runs at tol 1e-2 to 1e-4 (8
       points: other omega, mu_s, v_s, delta, M, m, K; ``bench_trust.py --one-run --only
       mixed`` and ``--extra``, 2026-11-27);
