@@ -64,9 +64,7 @@ the linearisation cannot see (gamma = -0.3 at 1e-2, 46 % off: 0.008 -> 0.006; ga
 1e-2, 5.2 % off, a melt the run passed over: 1.2 -> 0.046); the solid lubricant (gamma =
 -0.85, K = 2000) 50, 16, 232 -> 9.4, 4.8, 9.9; it under-reads at gamma >= 0 (0.07-0.26, where
 the calibrated weight read 1.2-2.9: after the first cycle the block slides nearly free while
-molten, and the carried error decays while the true one grows cycle by cycle). A scene with a
-Thermal FMU (boundary_heating, T varying: the slopes at each step's n, T) 18 -> 0.50 (1e-3),
-173 -> 1.4 (1e-2).
+molten, and the carried error decays while the true one grows cycle by cycle).
 """
 from __future__ import annotations
 
