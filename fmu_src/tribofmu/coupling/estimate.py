@@ -108,10 +108,10 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
       local errors it grows from are charged as the drop makes them (:func:`centred_ramp_miss`:
       the curvature's lag, under-read where it steepens; ``unstable_loop_factor``: the loop
       pushing an error on, both in coupling/local_errors.py). Charged at the lagging curvature
-      and filtered as a damping loop's, the estimate had read 0.30-0.88x its true error (0.54 at delta = 3, omega = 12, at each
-      per-step tol 1e-2 and 1e-3); charged so, 0.73-1.7 over 24 runs at tol 1e-2 to 1e-4 (8
-      points: other omega, mu_s, v_s, delta, M, m, K; ``bench_trust.py --one-run --only
-      mixed`` and ``--extra``, 2026-11-27);
+      and filtered as a damping loop's, the estimate had read 0.30-0.88x its true error (0.54
+      at delta = 3, omega = 12, at each per-step tol 1e-2 and 1e-3); charged so, 0.73-1.7 over
+      24 runs at tol 1e-2 to 1e-4 (8 points: other omega, mu_s, v_s, delta, M, m, K;
+      ``bench_trust.py --one-run --only mixed`` and ``--extra``, 2026-11-27);
     - inputs n, T that change over the run (a Load or Thermal FMU): the chord of F against dv
       is then not the slope the carry needs, and the carry's damping has no sign."""
     if law.has_state:
@@ -124,7 +124,8 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
 
 
 class GlobalErrorEstimate:
-    """The carried error (ex [m], ev [m/s]) and what it needs of the block."""
+    """The carried error (ex [m], ev [m/s], and ef [1] for a friction with state) and what it
+    needs of the block and the law."""
 
     def __init__(self, law=None):
         self.ex = self.ev = 0.0
