@@ -135,7 +135,7 @@ class CoupledSystem:
         if friction is None and (load is not None or thermal is not None):
             raise ValueError("a load or thermal slave feeds the friction: give a friction slave")
         self.block, self.drive, self.friction = block, drive, friction
-        self.law = law if friction is not None else None
+        self.law = law
         self.load, self.thermal = load, thermal
         self.slaves = [s for s in (drive, load, block, friction, thermal) if s is not None]
         # (each call's value references a tuple, built once: a slave may key what it prepared
