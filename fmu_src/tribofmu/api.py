@@ -458,7 +458,8 @@ def build_system(scenario: Scenario, slaves: dict) -> CoupledSystem:
     friction = slaves.get("Friction")
     return CoupledSystem(block=slaves["BlockSpring"], drive=slaves.get("Drive"), friction=friction,
                          conditions=constant_inputs(scenario) if friction is not None else None,
-                         load=slaves.get("Load"), thermal=slaves.get("Thermal"))
+                         load=slaves.get("Load"), thermal=slaves.get("Thermal"),
+                         law=scenario.friction.law() if friction is not None else None)
 
 
 def output_samples(scenario: Scenario) -> int:

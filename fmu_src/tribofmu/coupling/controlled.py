@@ -53,7 +53,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
         self.min_ns = max(g, int(scales.period * LIMITS.min_step_periods * NS) // g * g)
         self.max_ns = max(self.min_ns, int(scales.period * self.settings.max_step_periods * NS) // g * g)
         self.h_ns = min(max(self.step_ns // g * g, self.min_ns), self.max_ns)
-        self.estimate = GlobalErrorEstimate()
+        self.estimate = GlobalErrorEstimate(getattr(system, "law", None))  # (a law with state: its slopes)
         self.magnitudes = Magnitudes()
         self.rejected_last = False  # the last step was rejected (its successor may not grow)
         self.accepted_error = 1.0  # the last accepted step's error ratio (the controller's PI term)

@@ -430,11 +430,9 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             damping = self.loop_gain / self.loop_gain_step * (2.0 if new.ramped else 1.0)
         x_scale, v_scale = self.position_scale(point, new), self.velocity_scale(point, new)
         self.estimate.observe(new.x, new.a, new.F, self.velocity_per_impulse, W2_POSITION_FLOOR * x_scale)
-        state = 0.0
-        if not (stuck := new.mode.stuck) and self.magnitudes.f > 0.0:
-            # the friction's state off its path moves the force by about its share of the
-            # largest force per share of the largest state: an impulse over the step
-            state = self.errors.state_carry * local.f / self.magnitudes.f * self.magnitudes.F * h * self.velocity_per_impulse
+        stuck = new.mode.stuck  # (a friction with state: its error carried by the law's slopes, estimate.py)
+        slopes = self.estimate.state_slopes(point, new, self.velocity_per_impulse,
+                                            RESOLUTION.zero_velocity * self.scales.velocity)
         gain = self.expected_gain(h)
         loop = unstable_loop_factor(damping, h, new.ramped, gain)  # (1 but on a Stribeck drop)
         self.estimate.recentre(  # (then centre the last ramp)
@@ -442,6 +440,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             if self.curvature_known(point, new) else None)
         x = stick_onset_x_error(point, new, h, self.velocity_per_impulse, self.estimate.w2) \
             if stuck and point.mode.slipping else local.x * loop
-        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, local.v * loop + local.impulse + state,
-                                                 stuck, x_scale, v_scale, stuck_through=stuck and point.mode.stuck)
+        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, local.v * loop + local.impulse,
+                                                 stuck, x_scale, v_scale, stuck and point.mode.stuck, slopes,
+                                                 max(self.magnitudes.f, abs(new.f)) or math.inf)
         new.est_error = abs(local.v)

@@ -17,6 +17,25 @@ stick onset, a lubricant that re-solidifies inside a step) enter through the loc
 the steps that hold them; the step into a stick through the x error of its held force
 (:func:`.local_errors.stick_onset_x_error`).
 
+A friction with an internal state (the lubricant's excess volume f [1], eq. 21: df/dt = g(dv,
+f)) adds the state's error ef, and the three move by the variational equations of the block and
+the lubricant (F the force, M the block's mass, dv = V - v moving by -ev):
+
+    ex' = ev,    ev' = -w2 ex - (F_dv/M) ev + (F_f/M) ef,    ef' = -g_dv ev + g_f ef,
+
+F_dv = dF/d(dv), F_f = dF/df, g_dv = dg/d(dv), g_f = dg/df: the law's own slopes
+(:meth:`~tribofmu.physics.friction.FrictionLaw.state_jacobian`; the coupling is given the law
+with the system, ``CoupledSystem(law=...)``), taken at the step's middle
+(:meth:`GlobalErrorEstimate.state_slopes`), carried over the step by the (1,2) Pade
+approximant of the exponential (:func:`state_flow`: L-stable; the f-mode is stiff, |g_f| h up
+to 1e4). F and g are continuous in (dv, f) (the shear modulus floored at 0 is a kink, not a
+jump), so no saltation jump enters to first order. No local error of f is charged: the step's
+miss of f moves the force, which the local errors in v already charge (the impulse misses);
+f's error is the one the carry grows from ev through g_dv. Without the law (a Friction FMU of
+unknown make) the block's 2x2 carry alone, with no state term. (Until 2026-11-27 the state
+entered as an impulse, ErrorSettings.state_carry = 8, calibrated on fig6's rig, times the
+step's miss of f over the largest |f|, times the largest |F| h / M.)
+
 c may be negative: a Stribeck law's force falls as the slip grows from rest, and an error
 grows while it slips there. The slip solve measures only the size of the slope (its loop
 gain); where the force is a function of dv alone (no internal state, no changing inputs),
@@ -37,6 +56,15 @@ error on Fig. 2 0.28 -> 0.78, a dry drive at omega = 3 6.1 -> 0.94, mixed fricti
 delta = 1 0.007 -> 0.88, boundary friction stuck all through 0 -> 1.0; a shear-thinning fluid
 at gamma = -0.9 65 (saturated) -> 0.74, at gamma = -0.7, M = 0.2 0.19 -> 0.81 (tol 1e-3);
 mixed friction at delta = 3, omega = 12 0.54 -> 0.97 (1e-3; 0.54 -> 1.03 at tol 1e-2).
+Boundary friction, the state's calibrated impulse -> the law's slopes (``python
+benchmarks/bench_trust.py --one-run --only boundary --tols default,1e-2,1e-4`` and ``--only
+fig6``, 2026-11-27 09:00-09:10 UTC, load 2-6): Fig. 6 3.0 -> 0.51 (per-step 1e-3), 8.3 -> 0.58
+(1e-2), 0.73 -> 0.46 (1e-4); over the 9 points' 27 runs 0.33-232 -> 0.074-9.9 but for two runs
+the linearisation cannot see (gamma = -0.3 at 1e-2, 46 % off: 0.008 -> 0.006; gamma = 0 at
+1e-2, 5.2 % off, a melt the run passed over: 1.2 -> 0.046); the solid lubricant (gamma =
+-0.85, K = 2000) 50, 16, 232 -> 9.4, 4.8, 9.9; it under-reads at gamma >= 0 (0.07-0.26, where
+the calibrated weight read 1.2-2.9: after the first cycle the block slides nearly free while
+molten, and the carried error decays while the true one grows cycle by cycle).
 """
 from __future__ import annotations
 
@@ -56,9 +84,13 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
 
     The carry above is exact to first order where its derivation holds: the friction force a
     function of dv alone with a bounded slope. It does not hold for
-    - a law with an internal state (the lubricant's f): its melting and re-solidifying are
-      events whose timing errors jump the force, which no linear carry follows (the state's
-      share enters through a weight, ErrorSettings.state_carry, not through a derivation);
+    - a law with an internal state (the lubricant's f): its error is carried by the law's own
+      slopes (the variational equations above, exact to first order about the run as
+      computed), but its melting and re-solidifying are events a run at a loose tolerance can
+      miss or misplace, moving the whole rest of the run: a linearisation about the computed
+      run cannot see that (gamma = -0.3 at per-step 1e-2, 46 % off, read at 0.006x; gamma = 0
+      at 1e-2, 5.2 % off, at 0.046x), and after the first cycle it under-reads (0.07-0.26x at
+      gamma >= 0, where the block slides nearly free while molten);
     - a force with an unbounded slope at rest (``law.slope_bounded``) other than a shear-thinning
       power law's (``law.shear_thinning``): a Stribeck curve's with delta < 1 at breakaway.
       A shear-thinning force is continuous through dv = 0 and its slope, |dv|^gamma, integrable
@@ -75,11 +107,11 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
       followed: its error grows as the exponential of the chord's negative slope, and the
       local errors it grows from are charged as the drop makes them (:func:`centred_ramp_miss`:
       the curvature's lag, under-read where it steepens; ``unstable_loop_factor``: the loop
-      pushing an error on, both in coupling/local_errors.py). Charged at the lagging curvature and filtered as a damping loop's,
-      the estimate had read 0.30-0.88x its true error (0.54 at delta = 3, omega = 12, at each
-      per-step tol 1e-2 and 1e-3); charged so, 0.73-1.7 over 24 runs at tol 1e-2 to 1e-4 (8
-      points: other omega, mu_s, v_s, delta, M, m, K; ``bench_trust.py --one-run --only
-      mixed`` and ``--extra``, 2026-11-27);
+      pushing an error on, both in coupling/local_errors.py). Charged at the lagging curvature
+      and filtered as a damping loop's, the estimate had read 0.30-0.88x its true error (0.54
+      at delta = 3, omega = 12, at each per-step tol 1e-2 and 1e-3); charged so, 0.73-1.7 over
+      24 runs at tol 1e-2 to 1e-4 (8 points: other omega, mu_s, v_s, delta, M, m, K;
+      ``bench_trust.py --one-run --only mixed`` and ``--extra``, 2026-11-27);
     - inputs n, T that change over the run (a Load or Thermal FMU): the chord of F against dv
       is then not the slope the carry needs, and the carry's damping has no sign."""
     if law.has_state:
@@ -92,11 +124,17 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
 
 
 class GlobalErrorEstimate:
-    """The carried error (ex [m], ev [m/s]) and what it needs of the block."""
+    """The carried error (ex [m], ev [m/s], and ef [1] for a friction with state) and what it
+    needs of the block and the law."""
 
-    def __init__(self):
+    def __init__(self, law=None):
         self.ex = self.ev = 0.0
+        self.ef = 0.0  # [1] the error in the friction's state f (0 without a law with state)
         self.w2 = 0.0  # 1/s^2, 2K/M as last measured (0: not yet)
+        # the friction law whose slopes carry its state's error (:meth:`state_slopes`); None:
+        # a law without state, or one the coupling was not given (a user's own Friction FMU):
+        # the block's carry alone
+        self.law = law if law is not None and law.has_state else None
         # the last accepted step's force ramp, whose charge the next ramp centres (recentre)
         self.ramp: RampStep | None = None
         # the carry reached the motion's own size somewhere: past its linearisation, it says only
@@ -104,14 +142,16 @@ class GlobalErrorEstimate:
         self.saturated = False
 
     def export(self) -> list:
-        """What a state snapshot carries of it (JSON-ready): ex, ev, w2 and the last ramp."""
-        return [self.ex, self.ev, self.w2, asdict(self.ramp) if self.ramp is not None else None]
+        """What a state snapshot carries of it (JSON-ready): ex, ev, w2, the last ramp and ef."""
+        return [self.ex, self.ev, self.w2, asdict(self.ramp) if self.ramp is not None else None, self.ef]
 
     def restore(self, values: list) -> None:
-        """Back to what :meth:`export` gave (or its first three, from a snapshot without a ramp)."""
+        """Back to what :meth:`export` gave (or its first three, from a snapshot without a ramp;
+        ef 0 from one without it)."""
         self.ex, self.ev, self.w2 = values[:3]
         ramp = values[3] if len(values) > 3 else None
         self.ramp = RampStep(**ramp) if ramp is not None else None
+        self.ef = values[4] if len(values) > 4 else 0.0
 
     def observe(self, x: float, a: float, F: float, velocity_per_impulse: float, x_floor: float) -> None:
         """Learn w2 from a point: a = F/M - w2 x, with 1/M the block's velocity per unit impulse
@@ -122,25 +162,63 @@ class GlobalErrorEstimate:
                 self.w2 = w2
 
     def advance(self, h: float, damping: float, local_x: float, local_v: float, stuck: bool,
-                x_scale: float = math.inf, v_scale: float = math.inf, stuck_through: bool = False) -> float:
+                x_scale: float = math.inf, v_scale: float = math.inf, stuck_through: bool = False,
+                slopes: tuple[float, float, float, float] | None = None, f_scale: float = math.inf) -> float:
         """Carry the error over a step of h [s] with the friction's damping c [1/s], add the
         step's local errors (x [m], v [m/s]); returns the error in v [m/s] at its end.
         stuck: stuck at the step's end (no error in v there); stuck_through: stuck at both
         ends, the block riding on the drive all along: the error in x is held, not carried by
         the spring (carried as a free block's, it fell 3x over a stick where the true error
-        stayed put: mixed friction, delta = 1).
+        stayed put: mixed friction, delta = 1). slopes: a friction with state's
+        (:meth:`state_slopes`): the error (ex, ev, ef) is carried by its variational equations
+        (:func:`state_flow`) instead, with their c in place of damping.
 
-        The carried error saturates at the motion's own size (x_scale [m], v_scale [m/s]):
-        a linearised carry is meaningless past it (a stiff spring whose 2K/M the block's
-        answers give only roughly would otherwise let it grow without bound, as would a
-        friction whose slope is negative)."""
-        ex, ev = (self.ex, 0.0) if stuck_through else self._flow(h, damping)
+        The carried error saturates at the motion's own size (x_scale [m], v_scale [m/s], and
+        f_scale [1] for f): a linearised carry is meaningless past it (a stiff spring whose
+        2K/M the block's answers give only roughly would otherwise let it grow without bound,
+        as would a friction whose slope is negative)."""
+        ef = self.ef
+        if stuck_through:
+            ex, ev = self.ex, 0.0
+        elif slopes is not None:
+            ex, ev, ef = state_flow(h, self.w2, *slopes, self.ex, self.ev, ef)
+        else:
+            ex, ev = self._flow(h, damping)
         ex, ev = ex + local_x, ev + local_v
         self.ex = _saturated(ex, x_scale)
         self.ev = 0.0 if stuck else _saturated(ev, v_scale)
-        if self.ex != ex or (not stuck and self.ev != ev):
+        self.ef = _saturated(ef, f_scale)
+        if self.ex != ex or (not stuck and self.ev != ev) or self.ef != ef:
             self.saturated = True
         return self.ev
+
+    def state_slopes(self, start, end, velocity_per_impulse: float,
+                     dv_floor: float) -> tuple[float, float, float, float] | None:
+        """The coefficients (c [1/s], p [m/s^2], q [1/m], r [1/s]) of the variational equations
+        over the slip step from point start to point end of a friction with an internal
+        state f (:data:`law`; F its force, g = df/dt its rate, eq. 21, M the block's mass):
+
+            ex' = ev,  ev' = -w2 ex - c ev + p ef,  ef' = q ev + r ef,
+
+        c = dF/d(dv) / M, p = dF/df / M, q = -dg/d(dv), r = dg/df (dv = V - v moves by -ev),
+        from the law's exact slopes (:meth:`~tribofmu.physics.friction.FrictionLaw.state_jacobian`)
+        at the step's middle: dv, f, n and T the means of its two points, |dv| no nearer 0
+        than dv_floor [m/s] (the solve's resolution: a shear-thinning slope is infinite at
+        rest), 1/M = velocity_per_impulse [m/s per N s]. At the step's end instead, the
+        melting runaway's positive dg/df over a whole step read 7x-236x the true error. F
+        and g are continuous in (dv, f) (the modulus floored at 0 is a kink, not a jump): no
+        saltation jump to first order. None without such a law, before the block's mass is
+        known, or where a slope is not finite."""
+        law = self.law
+        if law is None or velocity_per_impulse <= 0.0:
+            return None
+        dv = 0.5 * (start.dv + end.dv)
+        if abs(dv) < dv_floor:
+            dv = math.copysign(dv_floor, dv)
+        F_dv, F_f, g_dv, g_f = law.state_jacobian(dv, 0.5 * (start.f + end.f), 0.5 * (start.n + end.n),
+                                                  0.5 * (start.T + end.T))
+        slopes = (F_dv * velocity_per_impulse, F_f * velocity_per_impulse, -g_dv, g_f)
+        return slopes if all(map(math.isfinite, slopes)) else None
 
     def recentre(self, ramp: RampStep | None) -> None:
         """Before the step that ramp describes (None: not a ramp whose curvature is known) is
@@ -173,6 +251,38 @@ class GlobalErrorEstimate:
         nx = (e1 * (ax - l2 * ex) - e2 * (ax - l1 * ex)) / d
         nv = (e1 * (av - l2 * ev) - e2 * (av - l1 * ev)) / d
         return nx.real, nv.real
+
+
+# The (1,2) Pade approximant of e^z, R(z) = (1 + z/3) / (1 - 2z/3 + z^2/6), in partial fractions:
+# its poles PADE_POLE and its conjugate, 2 +- i sqrt(2), its residue at the first PADE_RESIDUE
+# (6 (1 + z1/3) / (z1 - conj(z1))), so that R(z) = 2 Re(PADE_RESIDUE / (z - PADE_POLE)) for real z
+PADE_POLE = complex(2.0, math.sqrt(2.0))
+PADE_RESIDUE = complex(1.0, -5.0 / math.sqrt(2.0))
+
+
+def state_flow(h: float, w2: float, c: float, p: float, q: float, r: float,
+               ex: float, ev: float, ef: float) -> tuple[float, float, float]:
+    """R(A h) (ex, ev, ef) over a step of h [s] for the variational equations of
+    :meth:`GlobalErrorEstimate.state_slopes`, A = [[0, 1, 0], [-w2, -c, p], [0, q, r]], with R
+    the (1,2) Pade approximant of the exponential: third order (A h of a non-stiff mode off
+    e^(A h) by (A h)^4 / 72) and L-stable (R(z) ~ 2/z as |z| grows: a stiff mode decays within
+    the step, as it does). The f-mode is stiff (|r| h up to 1e4) and a solid lubricant's
+    c h up to 1e5: an explicit or A-stable-only rule would ring or blow up, e^(A h) in closed
+    form is the 2x2 flow's cubic-in-three-eigenvalues (scipy's expm 130 us, numpy's eig 25
+    us a step). In partial fractions, R(A h) e = 2 Re(alpha (A h - z1 I)^-1 e) (z1, alpha:
+    PADE_POLE, PADE_RESIDUE): A h - z1 I is tridiagonal, one complex elimination, no (A h)^2
+    whose stiff entries would swamp the rest. (Exact solve: the denominator is 0 only where
+    an eigenvalue of A h is z1 itself; then the carry is not finite, as R is not.)"""
+    z1 = PADE_POLE
+    d0, d1, d2 = -z1, -c * h - z1, r * h - z1  # the diagonal of A h - z1 I
+    a, P, Q = -w2 * h, p * h, q * h
+    # rows: d0 u0 + h u1 = ex; a u0 + d1 u1 + P u2 = ev; Q u1 + d2 u2 = ef
+    pivot = d1 - a * h / d0 - P * Q / d2
+    if pivot == 0.0:
+        return math.nan, math.nan, math.nan
+    u1 = (ev - a * ex / d0 - P * ef / d2) / pivot
+    k = 2.0 * PADE_RESIDUE
+    return (k * (ex - h * u1) / d0).real, (k * u1).real, (k * (ef - Q * u1) / d2).real
 
 
 def _saturated(value: float, scale: float) -> float:

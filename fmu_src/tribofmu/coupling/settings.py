@@ -78,14 +78,6 @@ class ErrorSettings:
     # the lubricant's melts and re-solidifications timed (fig6 gamma=-0.3: 4.4e-3 nRMS(v)
     # without this term, 1.2e-3 at 1.0, 9.5e-4 at 0.3 in 25 % fewer steps than at 1.0).
     state_weight: float = 0.3
-    # The carried estimate takes the state's miss as an impulse: its share of the largest |f|
-    # moves the force by that share of the largest |F|, times this factor. The coupling does
-    # not know dF/df, and a miss in f shifts a melt's timing, which the force then carries
-    # for the rest of the phase: calibrated on fig6's rig at the defaults and gamma = 0, 0.3,
-    # 1 (estimate/true 0.61, 1.09, 1.67, 1.80; at 1.0 they were 0.14-0.23), checked at points
-    # not used for it: gamma = -0.3 0.37, omega = 20 0.67. (The run's checked error is
-    # issue 27's.)
-    state_carry: float = 8.0
     # A slipping step is at most this fraction of the block's own period 2 pi / sqrt(w2): the
     # interpolation bound compares the step's ends, which alias beyond it (fig2's rig at
     # omega = 10: 6.4e-2 nRMS(v) without this cap).
@@ -273,7 +265,6 @@ OTHER_GROUPS = {"Resolution": Resolution, "Limits": Limits, "Switches": Switches
 # method, and where (see the comments above): what a rebuild of the method should replace by a rule.
 CALIBRATED = {
     "CouplingSettings.max_ramp_gain": "fig6_boundary",
-    "ErrorSettings.state_carry": "fig6_boundary (its rig at gamma = 0, 0.3, 1)",
     "ErrorSettings.state_weight": "fig6_boundary (its rig at gamma = -0.3)",
     "ErrorSettings.error_weight": "off-scene fluid points (gamma = 2 at omega = 30, gamma = 1 at omega = 40)",
     "STEP_CONTROL.beta": "the shipped scenes and bench_floor's off-scene points (mixed_stribeck the worst)",

@@ -124,14 +124,18 @@ class CoupledSystem:
     load: a slave whose output ``n`` [Pa] feeds the friction's input n (a function of time);
     thermal: a slave with inputs ``P`` [W] and outputs ``T`` [K], ``Q`` [J] whose T feeds the
     friction's input T and which is fed the friction power. Both need a friction slave.
+    law: the friction law the friction slave runs, where known (a scene's, the pair's; None
+    for a Friction FMU of unknown make): its slopes carry the run's error estimate
+    (coupling/estimate.py), the coupling never steps it.
     """
 
     def __init__(self, block: SlaveLike, drive: SlaveLike | None = None,
                  friction: SlaveLike | None = None, conditions: dict[str, float] | None = None,
-                 load: SlaveLike | None = None, thermal: SlaveLike | None = None):
+                 load: SlaveLike | None = None, thermal: SlaveLike | None = None, law=None):
         if friction is None and (load is not None or thermal is not None):
             raise ValueError("a load or thermal slave feeds the friction: give a friction slave")
         self.block, self.drive, self.friction = block, drive, friction
+        self.law = law
         self.load, self.thermal = load, thermal
         self.slaves = [s for s in (drive, load, block, friction, thermal) if s is not None]
         # (each call's value references a tuple, built once: a slave may key what it prepared

@@ -12,6 +12,7 @@ Equation numbers refer to the seed paper (see docs/model.md).
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -214,6 +215,27 @@ class FrictionLaw:
     def kinetics_rate(self, f: float, dv: float, n: float, T: float) -> float:
         """df/dt [1/s] of the law's state (0 for a law without one)."""
         return 0.0
+
+    def state_jacobian(self, dv: float, f: float, n: float, T: float) -> tuple[float, float, float, float]:
+        """The slopes of the force F = :meth:`force` and of the state's rate g =
+        :meth:`kinetics_rate` at (dv [m/s], f [1]) with n [Pa], T [K] held: (dF/d(dv) [N s/m],
+        dF/df [N], dg/d(dv) [1/m], dg/df [1/s]), the variational equations' coefficients (the
+        carried error estimate of coupling/estimate.py). Here by central differences, each
+        step the cube root of the machine epsilon (where the truncation, ~step^2, meets the
+        round-off, ~eps/step) relative to |dv| and to max(|f|, 1) (f is of order one); at dv = 0,
+        where no relative step exists, that many m/s (a slope infinite at rest, a shear-thinning
+        term's, is then the chord's: ask off rest). A law may override it with its exact
+        derivatives. Where the force has a kink (a floored modulus) the differences straddle
+        it: the mean of its two slopes."""
+        rel = sys.float_info.epsilon ** (1.0 / 3.0)
+        ddv = rel * abs(dv) or rel
+        df = rel * max(abs(f), 1.0)
+        lo_dv, hi_dv, lo_f, hi_f = dv - ddv, dv + ddv, f - df, f + df
+        F_dv = (self.force(hi_dv, n, f) - self.force(lo_dv, n, f)) / (hi_dv - lo_dv)
+        F_f = (self.force(dv, n, hi_f) - self.force(dv, n, lo_f)) / (hi_f - lo_f)
+        g_dv = (self.kinetics_rate(f, hi_dv, n, T) - self.kinetics_rate(f, lo_dv, n, T)) / (hi_dv - lo_dv)
+        g_f = (self.kinetics_rate(hi_f, dv, n, T) - self.kinetics_rate(lo_f, dv, n, T)) / (hi_f - lo_f)
+        return F_dv, F_f, g_dv, g_f
 
     def advance_f(self, f: float, dv: float, n: float, T: float, h: float,
                   rtol: float = 1e-6, atol: float = 1e-6, dv_start: float | None = None) -> float:

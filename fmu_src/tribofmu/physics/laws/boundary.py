@@ -294,3 +294,27 @@ class BoundaryLaw(FrictionLaw):
             raise ArithmeticError(f"no equilibrium of eq. (21) found from f={f0}")
         f1 = illinois(residual, lo, hi, r_lo, r_hi)
         return f1, (last[1] if last[0] == f1 else rate(f1, dv1))
+
+    def state_jacobian(self, dv: float, f: float, n: float, T: float) -> tuple[float, float, float, float]:
+        """:meth:`FrictionLaw.state_jacobian`, exact: (dF/d(dv) [N s/m], dF/df [N], dg/d(dv)
+        [1/m], dg/df [1/s]) of eq. (23) and eq. (21) at (dv, f), n and T held. The elastic
+        term's modulus is floored at 0 (eq. 19): past the melt threshold it is 0 and moves with
+        neither dv nor f (at the kink itself, the molten side's slopes). The viscous slope
+        m (gamma + 1) |dv|^gamma is infinite at rest for gamma < 0. With melting off, f does
+        not move (:meth:`advance`): g's slopes are 0."""
+        lub, effects = self.lubricant, self.effects
+        F_dv = F_f = 0.0
+        if effects.elastic:
+            mu_eff = lub.mu_shear - lub.mu_shear_bar * f
+            if mu_eff > 0.0:
+                stiffness = 2.0 * lub.tau_e / lub.h * self.S  # m^2 s / m: tau S per unit modulus and dv
+                F_dv, F_f = stiffness * mu_eff, -stiffness * lub.mu_shear_bar * dv
+        if effects.viscous:
+            if dv != 0.0:
+                F_dv += self.m * (self.gamma + 1.0) * abs(dv) ** self.gamma
+            else:
+                F_dv += math.inf if self.gamma < 0.0 else (self.m if self.gamma == 0.0 else 0.0)
+        if not effects.melting:
+            return F_dv, F_f, 0.0, 0.0
+        _, slope, rate_dv, _ = self._kinetics(n, T)
+        return F_dv, F_f, rate_dv * dv, slope(f)

@@ -1,0 +1,84 @@
+"""A friction law's slopes for the variational equations of its force and its state
+(``FrictionLaw.state_jacobian``): the base by central differences, the boundary law's exact,
+each against a derivative known in closed form."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from tribofmu.physics.friction import FrictionLaw
+from tribofmu.physics.laws.boundary import BoundaryLaw
+from tribofmu.physics.laws.dry import DryLaw
+
+
+class CubicStateLaw(FrictionLaw):
+    """A made-up law with state whose slopes are known: F = 3 dv^3 + 2 f^2 dv, g = -5 f^3 + 7 dv^2 n."""
+
+    has_state = True
+
+    def force(self, dv, n, f=0.0):
+        return 3.0 * dv ** 3 + 2.0 * f * f * dv
+
+    def kinetics_rate(self, f, dv, n, T):
+        return -5.0 * f ** 3 + 7.0 * dv * dv * n
+
+    @staticmethod
+    def exact(dv, f, n, T):
+        return 9.0 * dv * dv + 2.0 * f * f, 4.0 * f * dv, 14.0 * dv * n, -15.0 * f * f
+
+
+@pytest.mark.parametrize("dv,f", [(0.3, 0.7), (-2.0, 1.5), (0.05, -0.2), (0.5, 0.4)])
+def test_the_base_differences_meet_the_exact_slopes(dv, f):
+    """To about eps^(2/3) ~ 4e-11 of the function's size over its step (truncation and
+    round-off balanced): 1e-7 relative here, where no slope is far below its function's size."""
+    law = CubicStateLaw()
+    got, exact = law.state_jacobian(dv, f, -3.0, 290.0), CubicStateLaw.exact(dv, f, -3.0, 290.0)
+    for a, b in zip(got, exact):
+        assert a == pytest.approx(b, rel=1e-7)
+
+
+def test_a_law_without_state_has_no_state_slopes():
+    law = DryLaw(mu_friction=0.5, S=1.0)
+    F_dv, F_f, g_dv, g_f = law.state_jacobian(0.2, 0.0, -20.0, 290.0)
+    assert (F_dv, F_f, g_dv, g_f) == (0.0, 0.0, 0.0, 0.0)  # slipping, mu L is flat in dv
+
+
+LUBRICANT_POINTS = [(1e-3, 0.3), (-2e-3, 0.9), (4e-4, 1.02), (-1e-5, -0.1)]
+
+
+@pytest.mark.parametrize("gamma", [-0.5, 0.0, 1.0])
+@pytest.mark.parametrize("dv,f", LUBRICANT_POINTS)
+def test_the_boundary_laws_exact_slopes_are_its_force_and_rate_differenced(gamma, dv, f):
+    """Against the force's own closed form (eq. 23: 2 mu_eff tau_e/h dv S + m |dv|^(gamma+1))
+    and the rate's differences: in f at dv = 0 (the strain's dv^2 term only adds to the rate,
+    and would swamp a difference in f with its round-off), in dv at a thousandth of dv."""
+    law = BoundaryLaw(m=0.05, gamma=gamma, S=3e-9)
+    n, T = -1e6, 290.0
+    F_dv, F_f, g_dv, g_f = law.state_jacobian(dv, f, n, T)
+    lub = law.lubricant
+    k = 2.0 * lub.tau_e / lub.h * law.S
+    mu_eff = lub.mu_shear - lub.mu_shear_bar * f
+    assert F_dv == pytest.approx(k * mu_eff + law.m * (gamma + 1) * abs(dv) ** gamma, rel=1e-12)
+    assert F_f == pytest.approx(-k * lub.mu_shear_bar * dv, rel=1e-12)
+    step = 1e-6
+    rate = lambda f_, dv_: law.kinetics_rate(f_, dv_, n, T)  # noqa: E731
+    assert g_f == pytest.approx((rate(f + step, 0.0) - rate(f - step, 0.0)) / (2 * step), rel=1e-6)
+    dstep = 1e-3 * abs(dv)
+    assert g_dv == pytest.approx((rate(f, dv + dstep) - rate(f, dv - dstep)) / (2 * dstep), rel=1e-6)
+
+
+def test_past_the_melt_threshold_the_elastic_term_has_no_slope():
+    """mu_eff is floored at 0 (eq. 19): molten, only the viscous term moves with dv, none with f."""
+    law = BoundaryLaw(m=0.05, gamma=0.0, S=3e-9)
+    f = law.melt_threshold() + 0.1
+    F_dv, F_f, _, _ = law.state_jacobian(2e-3, f, -1e6, 290.0)
+    assert (F_dv, F_f) == (0.05, 0.0)
+
+
+def test_a_shear_thinning_slope_at_rest_is_infinite_and_without_melting_f_stands():
+    law = BoundaryLaw(m=0.05, gamma=-0.5, S=3e-9)
+    assert law.state_jacobian(0.0, 0.2, -1e6, 290.0)[0] == math.inf
+    from tribofmu.physics.friction import Effects
+    frozen = BoundaryLaw(m=0.05, gamma=0.0, S=3e-9, effects=Effects(melting=False))
+    assert frozen.state_jacobian(1e-3, 0.2, -1e6, 290.0)[2:] == (0.0, 0.0)
