@@ -149,11 +149,11 @@ def sweep_args(out: Path, fmu_dir, *extra, masses: str = "0.5,0.6") -> list:
 def test_interrupted_dask_sweep_is_one_line_and_130(tmp_path, env, fmu_dir, delay, group):
     pytest.importorskip("distributed")
     out = tmp_path / "sweep"
-    # 128 points (the signal ends it at 3 or 5 s): still running at 5 s on a fast machine, so
+    # 512 points (the signal ends it at 3 or 5 s): still running at 5 s on a fast machine, so
     # the signal interrupts work and the test does not skip (32 points finished within 5 s once
     # dry friction's stick steps got cheaper, 2026-11-25; 64 once a dry point was one run,
-    # 2026-11-27)
-    masses = ",".join(f"{m / 10:g}" for m in range(3, 35))
+    # 2026-11-27; 128 once a stick a slip step passed over was landed on, 2026-11-27 09:45)
+    masses = ",".join(f"{m / 10:g}" for m in range(3, 131))
     proc = subprocess.Popen(command(*sweep_args(out, fmu_dir, "--workers", "2", masses=masses)), cwd=tmp_path, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     time.sleep(delay)
