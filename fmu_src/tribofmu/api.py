@@ -430,9 +430,11 @@ def estimated_error(coupling, audit: WindowError, problem: str | None = None) ->
     value = audit.nrms()
     if problem is None and coupling.estimate.saturated:
         problem = "its carried error reached the motion's own size (past its linearisation)"
+    motion = ("the block's and the lubricant's linearised motion (the law's own slopes)"
+              if getattr(coupling.estimate, "law", None) is not None else "the block's linearised motion")
     return {"nrms_v": value if math.isfinite(value) else None, "vouches": problem is None,
             "method": f"propagated: the {coupling.name} coupling's local error estimates (and the "
-                      "friction's impulse misses) carried through the block's linearised motion to the "
+                      f"friction's impulse misses) carried through {motion} to the "
                       "window (coupling/estimate.py); "
                       + ("it vouches for the run (its derivation holds here)" if problem is None
                          else f"it cannot vouch for the run: {problem}")}

@@ -170,3 +170,19 @@ def test_a_slope_infinite_at_rest_is_taken_at_the_solves_resolution():
     assert slopes is not None and all(map(math.isfinite, slopes))
     assert slopes[0] == estimate.law.state_jacobian(1e-13, 0.1, -1e6, 290.0)[0] / 0.7
     assert slopes[0] > 1e8  # (the viscous slope at 1e-13 m/s: 0.05 x 0.15 x 1e-13^-0.85 / 0.7)
+
+
+def test_the_propagated_method_says_the_lubricants_motion_is_carried_where_the_law_is_known():
+    from types import SimpleNamespace
+
+    from tribofmu import api
+    from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError
+    from tribofmu.physics.laws import law_class
+
+    def method(law) -> str:
+        coupling = SimpleNamespace(name="adaptive", estimate=GlobalErrorEstimate(law))
+        return api.estimated_error(coupling, WindowError((0.0, 1.0)), "not here")["method"]
+
+    assert "the block's and the lubricant's linearised motion" in method(law_class("boundary")())
+    assert "carried through the block's linearised motion" in method(law_class("dry")())  # no state
+    assert "carried through the block's linearised motion" in method(None)  # a Friction FMU of unknown make
