@@ -10,7 +10,7 @@ import pytest
 from tribofmu.coupling.algorithms import Scales
 from tribofmu.coupling.system import Contact
 from tribofmu.physics import FluidLaw
-from tribofmu.coupling.settings import STEP_CONTROL as COUPLING_STEPS
+from tribofmu.coupling.settings import LIMITS, STEP_CONTROL as COUPLING_STEPS
 
 from fakes import DRY_LAW, MU_L, drive_scales, fig2_system, point_at, rig
 
@@ -53,7 +53,8 @@ def states(system):
 
 def test_prepare_bounds_the_step_by_the_period():
     algorithm = adaptive(slipping_fluid()[0], step=1.0)
-    assert algorithm.min_ns == 10 and algorithm.max_ns == 5_000_000
+    # the scene's period here is 0.1 s: the step between 1e-7 of it and a whole period (Limits)
+    assert algorithm.min_ns == 10 and algorithm.max_ns == 100_000_000 == round(0.1 * LIMITS.max_step_periods * 1e9)
     assert algorithm.h_ns == algorithm.max_ns  # a first try beyond the bound is clipped
     assert adaptive(slipping_fluid()[0], step=1e-12).h_ns == algorithm.min_ns
 

@@ -51,7 +51,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
         self._held = None  # (point, system, the slaves' states there): see states_at
         g = self.step_granularity
         self.min_ns = max(g, int(scales.period * LIMITS.min_step_periods * NS) // g * g)
-        self.max_ns = max(self.min_ns, int(scales.period * self.settings.max_step_periods * NS) // g * g)
+        self.max_ns = max(self.min_ns, int(scales.period * LIMITS.max_step_periods * NS) // g * g)
         self.h_ns = min(max(self.step_ns // g * g, self.min_ns), self.max_ns)
         self.estimate = GlobalErrorEstimate(getattr(system, "law", None))  # (a law with state: its slopes)
         self.magnitudes = Magnitudes()

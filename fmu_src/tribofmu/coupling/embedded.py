@@ -200,10 +200,12 @@ class EmbeddedCoupling(ErrorControlledCoupling):
     def interpolation_limit(self, point: Point) -> float:
         """The longest step [s] whose interpolants should stay within tol (see
         :meth:`interpolation_error`), from the block's jerk over the last step: planned
-        ahead, so that the interpolation bound shortens steps instead of rejecting them."""
+        ahead, so that the interpolation bound shortens steps instead of rejecting them; and
+        in any mode the drive's own interpolants' (:meth:`drive_interpolation_limit`)."""
+        drive = self.drive_interpolation_limit(point)
         w2 = self.estimate.w2
         if w2 <= 0.0:
-            return math.inf
+            return drive
         # (planned from the last step's jerk, not this one's: the controller's safety on the step,
         # which is on the error to the bound's h^4)
         room_v = self.controller.safety ** 4 * HERMITE_ERROR_DIVISOR * self.tol * self.velocity_scale(point) / w2
@@ -211,13 +213,13 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         if not point.mode.slipping:
             breakaway = self.predicted_breakaway(point)
             if breakaway is None or breakaway > self.h_ns / NS:
-                return self.stuck_interpolation_limit(point)
+                return drive  # (stuck: v and x move with the drive)
             # stuck at (or near) the bound: the step will slip from its start, at most a
             # fraction of the block's period (see error_ratio)
-            return self.errors.block_period_fraction * 2.0 * math.pi / math.sqrt(w2)
+            return min(drive, self.errors.block_period_fraction * 2.0 * math.pi / math.sqrt(w2))
         # the ends of a step as long as the block's own period can look alike (a slow dry
         # drive's slip phases: fig2's rig at omega = 10, 6.4e-2 nRMS(v) without this cap)
-        limits = [self.errors.block_period_fraction * 2.0 * math.pi / math.sqrt(w2)]
+        limits = [drive, self.errors.block_period_fraction * 2.0 * math.pi / math.sqrt(w2)]
         if self.history.h > 0.0 and self.history.jerk != 0.0:  # a slip step of this mode
             limits.append((room_v / abs(self.history.jerk)) ** 0.25)
         if point.a != 0.0:
@@ -228,19 +230,20 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         """The drive's angular frequency squared [1/s^2], from the scene's period."""
         return (2.0 * math.pi / self.scales.period) ** 2
 
-    def stuck_interpolation_limit(self, point: Point) -> float:
-        """The longest stuck step [s] whose interpolants of the drive's motion (see
+    def drive_interpolation_limit(self, point: Point) -> float:
+        """The longest step [s] whose interpolants of the drive's motion (see
         :meth:`stuck_interpolation_error`) stay within tol, planned from the point (a harmonic
-        drive's jerk is -w^2 V, the fourth derivative of its X is -w^2 aX)."""
-        if not point.mode.stuck:
-            return math.inf
+        drive's jerk is -w^2 V, the fourth derivative of its X is -w^2 aX): stuck, the block's v
+        and x against its motion; slipping, the drive's V and X against the scene's scales."""
         w2 = self.drive_w2()
         room = self.controller.safety ** 4 * HERMITE_ERROR_DIVISOR * self.tol / (w2 * w2)
+        v_scale, x_scale = ((self.velocity_scale(point), self.position_scale(point)) if point.mode.stuck
+                            else (self.scales.velocity, self.scales.position))
         limits = [math.inf]
         if point.V != 0.0:
-            limits.append((room * self.velocity_scale(point) / abs(point.V)) ** 0.25)
+            limits.append((room * v_scale / abs(point.V)) ** 0.25)
         if point.aX != 0.0:
-            limits.append((room * w2 * self.position_scale(point) / abs(point.aX)) ** 0.25)
+            limits.append((room * w2 * x_scale / abs(point.aX)) ** 0.25)
         return min(limits)
 
     def stuck_interpolation_error(self, point: Point, new: Point, h: float, v_scale: float,

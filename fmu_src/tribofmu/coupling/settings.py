@@ -50,9 +50,6 @@ class CouplingSettings:
     # order coupling, for comparison: a loop gain is never negative.) Measured on fig6 (stiff
     # solid lubricant): 30 rather than 3 cut rejections 7x at equal error.
     max_ramp_gain: float = 30.0
-    # The largest step, as a fraction of the scene's period: T/20 keeps the drive's own cosine
-    # resolved.
-    max_step_periods: float = 1.0 / 20.0
     # An event this close to a step's start or end, as a fraction of the step, is not worth a
     # step of its own: a breakaway (or a stick a slip step passes over: controlled.py
     # grazing_crossing) this early in a tried step is not landed on (the step is
@@ -231,6 +228,12 @@ class Limits:
     # this short is accepted whatever its error, and counted as forced); 1e-7 T resolves any
     # event the kinetics can produce.
     min_step_periods: float = 1e-7
+    # The largest step, as a fraction of the scene's period: a step never spans a whole drive
+    # period. It ends the steps' growth where nothing else would (a scene at rest); where the
+    # motion is resolved, the steps are bounded by the interpolation limits long before it
+    # (the drive's own, embedded.py drive_interpolation_limit, in every contact mode). (As the
+    # tuning value T/20, "to keep the drive's cosine resolved", it had been the drive's limit.)
+    max_step_periods: float = 1.0
     # At most this many runs in one check sequence: a sequence always ends.
     max_runs: int = 8
     # A run whose budget [s] is this small is not started (it could not reach the window).
