@@ -252,7 +252,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         x moves with the drive's X (slopes V): the cubic Hermite bound, h^4/384 of the fourth
         derivative (w^2 |d aX/dt| for V, w^2 |aX| for X, w the drive's own frequency),
         relative to tol. (The breakaway's timing, which bounded these steps too, counts only
-        near the friction's bound: far from it a stick kept its steps at the longest, T/20, in
+        near the friction's bound: far from it a stick kept its steps at the longest, then T/20, in
         both runs of a check, which then agreed on 1e-5 of interpolation error and reported 0.)"""
         return hermite_miss(self.drive_w2(), point.aX, new.aX, h, self.tol * v_scale, self.tol * x_scale)
 

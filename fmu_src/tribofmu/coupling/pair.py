@@ -63,8 +63,8 @@ class PairModel:
         self.block = BlockPart("block", p.M, p.K, p.x0, p.v0)
         self.friction = FrictionPart("friction", p.law, p.f0, n, T, p.kinetics_tol)
         self.system = CoupledSystem(self.block, self.drive, self.friction, conditions={"n": n, "T": T}, law=p.law)
-        # The block's own period sets the coupling's shortest and longest steps (1e-7 and
-        # 1/20 of it; the host's step bounds them too). A free mass has none: 1 s.
+        # The block's own period sets the coupling's shortest and longest steps (1e-7 of it and
+        # all of it, settings.LIMITS; the host's step bounds them too). A free mass has none: 1 s.
         self.period = 2.0 * math.pi * math.sqrt(p.M / (2.0 * p.K)) if p.K > 0 else 1.0
 
     def _scales(self, V: float, a_drive: float, velocity: float) -> Scales:

@@ -17,12 +17,14 @@ from .scenario_file import NUMBER_RANGE, _short
 
 # -- a run that can resolve its drive ------------------------------------------------------------
 # The coupling's time grid counts integer nanoseconds (coupling.interpolation.NS) in int64, with
-# steps of at least 2 ns; the adaptive algorithm's largest step is a twentieth of the drive
-# period. A fixed-step run needs a handful of communication points per drive period: with
+# steps of at least 2 ns; the adaptive algorithm's steps are bounded by the drive's own
+# interpolation (its cubic within tol: about an eighth of the period at tol 1e-3), and it is let
+# through for drives the grid gives 20 points a period. A fixed-step run needs a handful of
+# communication points per drive period: with
 # fewer, the drive's motion is sampled below its Nyquist rate and the result is garbage (the
 # jacobi run at --step 0.2 on Fig. 2: one step, V ten times A*omega, x = v = 0).
 MIN_POINTS_PER_PERIOD = 10  # fixed-step algorithms: communication points per drive period
-ADAPTIVE_POINTS_PER_PERIOD = 20  # the adaptive algorithm's largest step is period/20
+ADAPTIVE_POINTS_PER_PERIOD = 20  # grid points a period the adaptive algorithm is given at least
 GRID_NS = 2  # the smallest step of the integer-nanosecond time grid
 LONGEST_RUN = 2.0 ** 62 / NS  # s (~146 years): the time grid is int64 nanoseconds
 # The smallest --max-wall but 0 (no limit) [s]. The limit is on a run's projected wall time,
@@ -126,7 +128,7 @@ def check_resolution(scenario, algorithm: str, step: float | None, step_name: st
                          f"the {algorithm} coupling can resolve ({points} steps per period of at "
                          f"least {GRID_NS} ns); drive.omega must be <= {fastest:.3g} rad/s")
     if algorithm == "adaptive":
-        return  # its steps are at most period/20, whatever the first try
+        return  # its steps are bounded by the drive's interpolation, whatever the first try
     if step is not None:
         source, h = step_name, step
     elif scenario.simulation.step is not None:
