@@ -132,19 +132,7 @@ class FMUInstance:
             raise FMUFileError(f"{instance}: cannot unzip {path}: {exc}") from None
         self._take_fmpy_slave(md)
         self._closed = False
-        resources = str(Path(self._unzipped, "resources"))
-        try:
-            if self.fmi_version == 3:
-                self._log_message = self._make_log_message()
-                self.call("instantiate", loggingOn=True, logMessage=self._log_message)
-            else:
-                self._callbacks = self._make_callbacks()
-                self.call("instantiate", callbacks=self._callbacks, loggingOn=True)
-        finally:
-            # pythonfmu put the FMU's resources folder first on sys.path to import the slave;
-            # once imported it is not needed, and its bundled pythonfmu copy (without the
-            # builder's binaries) would shadow the installed one in this process.
-            sys.path[:] = [entry for entry in sys.path if entry != resources]
+        self._instantiate()
         dll = getattr(self._fmu, "dll", None)
         release_pythonfmu_guard_at_exit(dll)
         # Behind the native loader a saved state can be overwritten in place (FMI's get into a
@@ -176,6 +164,23 @@ class FMUInstance:
                 from fmpy.fmi2 import FMU2Slave as FMUSlave
             self._fmu = FMUSlave(guid=md.guid, unzipDirectory=str(self._unzipped),
                                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName=self.instance)
+
+    def _instantiate(self) -> None:
+        """fmi2Instantiate / fmi3Instantiate, with the logger that keeps what explains a failure
+        in ``messages``."""
+        resources = str(Path(self._unzipped, "resources"))
+        try:
+            if self.fmi_version == 3:
+                self._log_message = self._make_log_message()
+                self.call("instantiate", loggingOn=True, logMessage=self._log_message)
+            else:
+                self._callbacks = self._make_callbacks()
+                self.call("instantiate", callbacks=self._callbacks, loggingOn=True)
+        finally:
+            # pythonfmu put the FMU's resources folder first on sys.path to import the slave;
+            # once imported it is not needed, and its bundled pythonfmu copy (without the
+            # builder's binaries) would shadow the installed one in this process.
+            sys.path[:] = [entry for entry in sys.path if entry != resources]
 
     def _make_callbacks(self):
         from fmpy import calloc, free
