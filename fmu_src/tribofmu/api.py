@@ -14,8 +14,6 @@ from __future__ import annotations
 import contextlib
 import json
 import math
-import os
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,7 +27,9 @@ from .fmu_cache import find_fmus
 from .forked_runs import check_workers as count_check_workers
 from .provenance import overrides_dict, record
 from .result_csv import ResultCsvWriter, write_result_csv
-from .errors import ArgumentError, FMUError, FMUSetupError, UsageError  # noqa: F401 (FMUSetupError re-exported)
+from .api_arguments import (SCENE_MAX_WALL, arguments, check_flag, check_overrides, check_path,
+                            check_run_arguments, refuse)
+from .errors import ArgumentError, FMUError, FMUSetupError  # noqa: F401 (FMUSetupError re-exported)
 from .coupling.algorithms import Scales, make_algorithm
 from .coupling.estimate import WindowError, carry_problem
 from .coupling.interpolation import INPUT_SIGNALS, NS, SAMPLES_PER_PERIOD, SIGNALS
@@ -37,12 +37,11 @@ from .coupling.system import CoupledSystem
 from .master import FMUCallError, FMUFileError, FMUInstance, GridRecorder, RunLimits, run
 from .master.energy import EnergyAudit
 from .metrics import result_metrics
-from .scene.checks import check_max_wall, check_run, shown
+from .scene.checks import check_run
 from .scene.library import resolve_scene
 from .scene.scenario import Scenario, ScenarioError, load_scenario, scales, to_dict
 from .scene.wiring import constant_inputs, fmu_parameters
 from .trajectory import SampledTrajectory
-
 
 
 # The output grid is held in memory (8 bytes a value): 1e7 samples are 0.6 GB of results.
@@ -79,13 +78,9 @@ def load(path: str | Path, overrides: dict[str, Any] | list[str] | None = None) 
     """Read and validate a scenario (a .toml path, or a shipped scene's name such as
     ``"fig2_dry"``); raises ScenarioError with a one-line message (ArgumentError for a path
     that is no path, or overrides that are no overrides)."""
-    _check_path("load", "path", path)
-    _check_overrides("load", overrides)
+    check_path("load", "path", path)
+    check_overrides("load", overrides)
     return load_scenario(resolve_scene(path), overrides)
-
-
-# max_wall's default: the scene's own limit (simulation.max_wall)
-SCENE_MAX_WALL = "scene"
 
 
 def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[str] | None = None,
@@ -115,14 +110,14 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     Every argument is checked before any FMU is found or built: a wrong type or a value out
     of range raises :class:`~tribofmu.errors.ArgumentError` (one line naming it).
     """
-    _check_run_arguments("simulate", scenario, overrides, fmu_dir, build, progress, notice, max_wall,
-                         keep_points=keep_points, keep_window=keep_window, sink=sink)
-    workers = _arguments("simulate", lambda: count_check_workers(check_workers))
+    check_run_arguments("simulate", scenario, overrides, fmu_dir, build, progress, notice, max_wall,
+                        keep_points=keep_points, keep_window=keep_window, sink=sink)
+    workers = arguments("simulate", lambda: count_check_workers(check_workers))
     scenario = _scenario(scenario, overrides)
     sim = scenario.simulation
     # step and tol in range, the algorithm known and taking them, a drive and a
     # communication step the run can resolve: refused before any work, as the CLI refuses them
-    name = _arguments("simulate", lambda: check_run(scenario, algorithm, step, tol))
+    name = arguments("simulate", lambda: check_run(scenario, algorithm, step, tol))
     tol = tol if tol is not None else sim.tol
     step = step if step is not None else sim.step
     try:
@@ -154,84 +149,6 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     vouches = own_estimate_problem(scenario, inputs_vary(scenario)) is None
     return checked_simulation(run_once, tol if tol is not None else DEFAULT_TOL, budget, sink, workers=workers,
                               progress=progress, notice=notice, prepare=load_fmus, vouches=vouches)
-
-
-# -- the arguments of a call, checked at the door ----------------------------------------------
-def _arguments(call: str, check):
-    """``check()``'s answer; its refusal of an argument (a UsageError) as an ArgumentError
-    naming the call."""
-    try:
-        return check()
-    except ArgumentError:
-        raise
-    except UsageError as exc:
-        raise ArgumentError(f"api.{call}: {exc}") from None
-
-
-def _refuse(call: str, name: str, wanted: str, value) -> None:
-    raise ArgumentError(f"api.{call}: {name} must be {wanted}, got {shown(value)}"
-                        f"{'' if value is None else f' ({type(value).__name__})'}")
-
-
-def _check_path(call: str, name: str, value, optional: bool = False) -> None:
-    if optional and value is None:
-        return
-    if not isinstance(value, (str, os.PathLike)) or (isinstance(value, str) and not value.strip()):
-        _refuse(call, name, "a path (str or os.PathLike)" + (" or None" if optional else ""), value)
-
-
-def _check_scenario(call: str, value) -> None:
-    if not isinstance(value, Scenario):
-        try:
-            _check_path(call, "scenario", value)
-        except ArgumentError:
-            _refuse(call, "scenario", "a Scenario (api.load), a shipped scene's name or a .toml path", value)
-
-
-def _check_overrides(call: str, overrides) -> None:
-    """None, a mapping of ``"table.key"`` strings to values, or a list of ``"KEY=VALUE"`` strings."""
-    wanted = "a mapping {'table.key': value} or a list of 'KEY=VALUE' strings"
-    if overrides is None:
-        return
-    if isinstance(overrides, Mapping):
-        bad = next((k for k in overrides if not isinstance(k, str)), None)
-        if bad is not None:
-            _refuse(call, "overrides' key", "a string 'table.key'", bad)
-    elif isinstance(overrides, (list, tuple)):
-        bad = next((item for item in overrides if not isinstance(item, str) or "=" not in item), None)
-        if bad is not None:
-            _refuse(call, "an item of overrides", "a 'KEY=VALUE' string", bad)
-    else:
-        _refuse(call, "overrides", wanted, overrides)
-
-
-def _check_flag(call: str, name: str, value, optional: bool = False) -> None:
-    if not (isinstance(value, bool) or (optional and value is None)):
-        _refuse(call, name, "True or False" + (" or None" if optional else ""), value)
-
-
-def _check_callable(call: str, name: str, value) -> None:
-    if value is not None and not callable(value):
-        _refuse(call, name, "a callable or None", value)
-
-
-def _check_run_arguments(call: str, scenario, overrides, fmu_dir, build, progress, notice, max_wall,
-                         **flags) -> None:
-    """The arguments :func:`simulate` and :func:`simulate_and_save` share (but step, tol and
-    algorithm, which :func:`~tribofmu.scene.checks.check_run` checks with the scene)."""
-    _check_scenario(call, scenario)
-    _check_overrides(call, overrides)
-    _check_path(call, "fmu_dir", fmu_dir, optional=True)
-    _check_flag(call, "build", build, optional=True)
-    for name, value in flags.items():
-        if name == "sink":
-            _check_callable(call, name, value)
-        else:
-            _check_flag(call, name, value)
-    _check_callable(call, "progress", progress)
-    _check_callable(call, "notice", notice)
-    if not (isinstance(max_wall, str) and max_wall == SCENE_MAX_WALL):
-        _arguments(call, lambda: check_max_wall(max_wall, "max_wall"))
 
 
 def _scenario(scenario: Scenario | str | Path, overrides) -> Scenario:
@@ -333,14 +250,14 @@ def simulate_and_save(scenario: Scenario | str | Path, out: str | Path,
     Python). Returns the result, holding the shown window only (the rest is in
     ``result.csv``)."""
 
-    _check_run_arguments("simulate_and_save", scenario, overrides, fmu_dir, build, progress, notice, max_wall,
-                         plots=plots)
-    _check_path("simulate_and_save", "out", out)
+    check_run_arguments("simulate_and_save", scenario, overrides, fmu_dir, build, progress, notice, max_wall,
+                        plots=plots)
+    check_path("simulate_and_save", "out", out)
     if command is not None and not (isinstance(command, (list, tuple)) and all(isinstance(w, str) for w in command)):
-        _refuse("simulate_and_save", "command", "a list of strings or None", command)
+        refuse("simulate_and_save", "command", "a list of strings or None", command)
     scene_file = None if isinstance(scenario, Scenario) else resolve_scene(scenario)
     scenario = _scenario(scenario if scene_file is None else scene_file, overrides)
-    _arguments("simulate_and_save", lambda: check_run(scenario, algorithm, step, tol))
+    arguments("simulate_and_save", lambda: check_run(scenario, algorithm, step, tol))
     requested = {"algorithm": algorithm, "step": step, "tol": tol}
     with result_set(Path(out)) as tmp:  # swapped in whole when done; untouched on failure or Ctrl-C
         # rows go to disk as they come; only the shown window is kept (metrics, plots)
@@ -362,11 +279,11 @@ def save(result: SimulationResult, out: str | Path, plots: bool = True,
     provenance (the scene's file and its sha256; default: none, a scene from Python)."""
 
     if not isinstance(result, SimulationResult):
-        _refuse("save", "result", "a SimulationResult (what api.simulate returns)", result)
-    _check_path("save", "out", out)
-    _check_flag("save", "plots", plots)
-    _check_path("save", "scene_file", scene_file, optional=True)
-    _check_overrides("save", overrides)
+        refuse("save", "result", "a SimulationResult (what api.simulate returns)", result)
+    check_path("save", "out", out)
+    check_flag("save", "plots", plots)
+    check_path("save", "scene_file", scene_file, optional=True)
+    check_overrides("save", overrides)
     completed = result.stats.get("completed", result.ok)
     if completed and (len(result.time) == 0 or result.time[0] != 0.0):
         raise ArgumentError("api.save: the result holds the shown window only (keep_window=True): save needs the whole "

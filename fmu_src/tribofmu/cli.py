@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
             _subparsers(parser)[args.command].error(f"unrecognized arguments: {' '.join(unknown)}")
         from .forked_runs import check_workers
         check_workers()  # TRIBOFMU_CHECK_WORKERS, read by any run: wrong, it is said before any work
-        from .master.instance import remove_orphan_extractions
+        from .master.fmu_files import remove_orphan_extractions
         atexit.register(remove_orphan_extractions)  # unzipped FMUs of finished (Dask) workers
         status = args.run(args)
         work_done()

@@ -322,7 +322,7 @@ def _child_main(run_once, step_tol, max_wall, spool, write_end, result_path: Pat
             signal.signal(sig, signal.SIG_IGN)
         _die_with_parent(parent)
         share_with_forked_child()
-        from .master.instance import share_extractions_with_forked_child  # (the master, loaded by then)
+        from .master.fmu_files import share_extractions_with_forked_child  # (the master, loaded by then)
         share_extractions_with_forked_child()
         teller = _Teller(write_end)
         try:

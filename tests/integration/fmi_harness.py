@@ -26,7 +26,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
-from tribofmu.master.instance import extract as extract_once
+from tribofmu.master.fmu_files import extract as extract_once
 from tribofmu.fmu.registry import fmu_names
 
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4

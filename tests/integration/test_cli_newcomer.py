@@ -14,7 +14,7 @@ import pytest
 
 from tribofmu import api, cli
 from tribofmu.build import PRIVATE_PREFIX, private_package_name
-from tribofmu.master.instance import EXTRACT_PREFIX
+from tribofmu.master.fmu_files import EXTRACT_PREFIX
 
 from cli_run import command, main, tribofmu
 from scenes import SCENARIOS

@@ -21,7 +21,7 @@ import pytest
 from fmpy import read_model_description
 from fmpy.fmi1 import FMICallException
 
-from tribofmu.master.instance import extract
+from tribofmu.master.fmu_files import extract
 
 from fmi_harness import FMU_NAMES
 

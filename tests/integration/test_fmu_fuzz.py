@@ -223,7 +223,7 @@ def test_log_messages_escape_percent_signs(fmu_paths):
 
 FORMATTING_HOST = """
 import sys
-from tribofmu.master.instance import extract
+from tribofmu.master.fmu_files import extract
 from fmpy import read_model_description
 from fmpy.fmi2 import FMU2Slave
 path, name = sys.argv[1], sys.argv[2]

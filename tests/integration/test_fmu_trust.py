@@ -83,10 +83,10 @@ def test_leftovers_of_killed_builds_are_removed(cache, tmp_path, monkeypatch):
 def test_workers_use_only_what_they_received(tmp_path, monkeypatch, fmu_dir):
     """A folder planted under the name older workers computed is ignored; a copy changed
     after unpacking is written again before use."""
-    import tribofmu.master.instance as instance
+    import tribofmu.master.fmu_files as fmu_files
     from tribofmu.studies.sweep.worker import pack_fmus, unpack_fmus
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
-    monkeypatch.setattr(instance, "_extract_root", None)
+    monkeypatch.setattr(fmu_files, "_extract_root", None)
     bundle = pack_fmus(fmu_dir, ["Friction"])
     digest = hashlib.sha1()
     for name in sorted(bundle):
@@ -101,10 +101,10 @@ def test_workers_use_only_what_they_received(tmp_path, monkeypatch, fmu_dir):
     (folder / "Friction.fmu").write_bytes(b"changed")
     assert Path(unpack_fmus(bundle)) == folder
     assert (folder / "Friction.fmu").read_bytes() == bundle["Friction.fmu"]
-    instance.remove_orphan_extractions(tmp_path)  # an all-digit name is no pid: no OverflowError
+    fmu_files.remove_orphan_extractions(tmp_path)  # an all-digit name is no pid: no OverflowError
     digits = tmp_path / "tribofmu-fmus-1234567890123456"
     digits.mkdir()
-    instance.remove_orphan_extractions(tmp_path)
+    fmu_files.remove_orphan_extractions(tmp_path)
     assert digits.exists()
 
 

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from tribofmu import api
+from tribofmu import api, api_arguments
 from tribofmu.errors import MAX_MESSAGE, ArgumentError, TriboFMUError, UsageError
 
 SCENE = "fig2_dry"
@@ -147,7 +147,7 @@ def test_max_wall_defaults_to_the_scenes_and_takes_none_or_zero_for_no_limit():
     import inspect
     assert inspect.signature(api.simulate).parameters["max_wall"].default == api.SCENE_MAX_WALL
     for value in (None, 0.0, 1.0, 1800):
-        api._check_run_arguments("simulate", SCENE, None, None, None, None, None, value)
+        api_arguments.check_run_arguments("simulate", SCENE, None, None, None, None, None, value)
 
 
 def test_the_library_checks_a_run_without_the_cli():

@@ -10,76 +10,23 @@ from __future__ import annotations
 
 import atexit
 import ctypes
-import hashlib
-import os
-import shutil
 import sys
-import tempfile
 import threading
 from pathlib import Path
 from typing import Any, Sequence
 
-from ..atomic import left_by_gone_process
 from ..coupling.system import CALL_KINDS
-from ..run_folder import remove_gone_runs, run_folder
 from ..errors import STATUS_NAMES, FMUCallError, FMUError, FMUFileError, FMUSetupError  # noqa: F401 (re-exported)
+from .fmu_files import content_digest, extract, model_description
 
 # fmpy is imported in the functions that call it: 137 ms at start-up (-X importtime, min of 5,
 # 2026-11-26 23:59 UTC, load 5.5), and every command but --help loads this module (the CLI
 # clears unzipped FMUs at exit: 'scenes' too), while only a run opens an FMU
 
-
-# -- where FMUs are unzipped -------------------------------------------------------------
-# One folder per process, ``<tmp>/tribofmu-fmus-<pid>-<random>``, removed at exit; each FMU
-# file is unzipped into it once (keyed by its content) and shared by all its instances.
-# A process killed before its exit handlers run leaves its folder behind: the next process
-# that unzips an FMU, and every process that exits after unzipping one (or the tribofmu
-# command, whose Dask workers unzip), removes the folders of processes that no longer exist.
-EXTRACT_PREFIX = "tribofmu-fmus-"
-_extract_lock = threading.Lock()
-_extract_root: tuple[int, Path] | None = None  # (pid that made it, folder)
-_extracted: dict[str, Path] = {}
-
-
-def remove_orphan_extractions(tmp: Path | None = None) -> None:
-    """Remove the extraction folders of processes that are gone (killed, crashed, or
-    terminated without exit handlers, as Dask stops its worker processes)."""
-    tmp = Path(tmp) if tmp is not None else Path(tempfile.gettempdir())
-    remove_gone_runs(tmp)  # the run folders the unzipped FMUs live in now
-    for folder in tmp.glob(EXTRACT_PREFIX + "*"):  # straight in the temp dir: earlier versions
-        if left_by_gone_process(folder, EXTRACT_PREFIX):  # (an all-digit hash is no pid: not ours)
-            shutil.rmtree(folder, ignore_errors=True)
-
-
-def _remove_root(pid: int, folder: Path) -> None:
-    if os.getpid() == pid:  # a forked child inherits the handler, not the folder
-        shutil.rmtree(folder, ignore_errors=True)
-        remove_orphan_extractions(folder.parent)  # e.g. the folders of finished worker processes
-
-
-def extraction_root() -> Path:
-    """This process's folder of unzipped FMUs (made on first use, removed at exit)."""
-    global _extract_root
-    with _extract_lock:
-        if _extract_root is None or _extract_root[0] != os.getpid():
-            remove_orphan_extractions()
-            folder = Path(tempfile.mkdtemp(prefix=f"{EXTRACT_PREFIX}{os.getpid()}-", dir=run_folder()))
-            _extract_root = (os.getpid(), folder)
-            _extracted.clear()
-            atexit.register(_remove_root, os.getpid(), folder)
-        return _extract_root[1]
-
-
-def share_extractions_with_forked_child() -> None:
-    """In a child forked to work for this process (:mod:`tribofmu.forked_runs`): use the FMUs
-    the parent unzipped (and its folder for more), instead of unzipping them all again."""
-    global _extract_root
-    with _extract_lock:
-        if _extract_root is not None:
-            _extract_root = (os.getpid(), _extract_root[1])
-
-
-_guards_released_at_exit: set[int] = set()  # library handles (under _extract_lock)
+# What this process keeps of the FMUs' libraries and of the instances it freed (of the FMU
+# files, their unzipped copies and model descriptions: master.fmu_files)
+_instances_lock = threading.Lock()
+_guards_released_at_exit: set[int] = set()  # library handles (under _instances_lock)
 
 
 def release_pythonfmu_guard_at_exit(dll) -> None:
@@ -95,7 +42,7 @@ def release_pythonfmu_guard_at_exit(dll) -> None:
     release = getattr(dll, "finalizePythonInterpreter", None) if hasattr(dll, "_handle") else None
     if release is None:
         return
-    with _extract_lock:
+    with _instances_lock:
         if dll._handle in _guards_released_at_exit:
             return
         _guards_released_at_exit.add(dll._handle)
@@ -103,55 +50,11 @@ def release_pythonfmu_guard_at_exit(dll) -> None:
     atexit.register(release)
 
 
-def content_digest(path: Path) -> str:
-    """What names an FMU file's content in this process (what is unzipped or read once per content)."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
-
-
-_descriptions: dict[str, Any] = {}  # content digest -> fmpy's model description (under _extract_lock)
-
-
-def model_description(path: Path, digest: str | None = None):
-    """fmpy's model description of an FMU file, read (and validated) once per content in this
-    process: 1.4 ms a file, every run's instances (2026-11-27)."""
-    import fmpy
-
-    digest = digest or content_digest(path)
-    with _extract_lock:
-        md = _descriptions.get(digest)
-    if md is None:
-        md = fmpy.read_model_description(str(path))
-        with _extract_lock:
-            _descriptions[digest] = md
-    return md
-
-
 # fmpy's objects of the instances this process freed, by what they were made for (FMI version,
 # unzipped folder, guid, model identifier, instance name), with the hot path's functions made
 # for them: the next instance of the same FMU takes one (fmpy loads the library's functions
 # with their signatures when it makes one: 1 ms, every run's instances; 2026-11-27).
-_idle_slaves: dict[tuple, list] = {}  # under _extract_lock
-
-
-def extract(path: Path, digest: str | None = None) -> Path:
-    """The unzipped copy of an FMU file for this process (unzipped once per content; digest:
-    :func:`content_digest` of the file, when the caller has it)."""
-    import fmpy
-
-    digest = digest or content_digest(path)
-    root = extraction_root()
-    with _extract_lock:
-        folder = _extracted.get(digest)
-        if folder is None or not folder.is_dir():
-            folder = root / f"{Path(path).stem}-{digest}"
-            partial = Path(tempfile.mkdtemp(prefix=".partial-", dir=root))
-            try:
-                fmpy.extract(str(path), unzipdir=str(partial))
-                os.replace(partial, folder) if not folder.exists() else None
-            finally:
-                shutil.rmtree(partial, ignore_errors=True)
-            _extracted[digest] = folder
-        return folder
+_idle_slaves: dict[tuple, list] = {}  # under _instances_lock
 
 
 # A call's status above this one (fmi2Warning, fmi3Warning) is a failure.
@@ -229,19 +132,7 @@ class FMUInstance:
             raise FMUFileError(f"{instance}: cannot unzip {path}: {exc}") from None
         self._take_fmpy_slave(md)
         self._closed = False
-        resources = str(Path(self._unzipped, "resources"))
-        try:
-            if self.fmi_version == 3:
-                self._log_message = self._make_log_message()
-                self.call("instantiate", loggingOn=True, logMessage=self._log_message)
-            else:
-                self._callbacks = self._make_callbacks()
-                self.call("instantiate", callbacks=self._callbacks, loggingOn=True)
-        finally:
-            # pythonfmu put the FMU's resources folder first on sys.path to import the slave;
-            # once imported it is not needed, and its bundled pythonfmu copy (without the
-            # builder's binaries) would shadow the installed one in this process.
-            sys.path[:] = [entry for entry in sys.path if entry != resources]
+        self._instantiate()
         dll = getattr(self._fmu, "dll", None)
         release_pythonfmu_guard_at_exit(dll)
         # Behind the native loader a saved state can be overwritten in place (FMI's get into a
@@ -263,7 +154,7 @@ class FMUInstance:
         made): one an instance of the same FMU left when it was closed, else a new one."""
         self._made_for = (self.fmi_version, str(self._unzipped), md.guid, md.coSimulation.modelIdentifier,
                           self.instance)
-        with _extract_lock:
+        with _instances_lock:
             idle = _idle_slaves.get(self._made_for)
             self._fmu, self._hot = idle.pop() if idle else (None, None)
         if self._fmu is None:
@@ -273,6 +164,23 @@ class FMUInstance:
                 from fmpy.fmi2 import FMU2Slave as FMUSlave
             self._fmu = FMUSlave(guid=md.guid, unzipDirectory=str(self._unzipped),
                                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName=self.instance)
+
+    def _instantiate(self) -> None:
+        """fmi2Instantiate / fmi3Instantiate, with the logger that keeps what explains a failure
+        in ``messages``."""
+        resources = str(Path(self._unzipped, "resources"))
+        try:
+            if self.fmi_version == 3:
+                self._log_message = self._make_log_message()
+                self.call("instantiate", loggingOn=True, logMessage=self._log_message)
+            else:
+                self._callbacks = self._make_callbacks()
+                self.call("instantiate", callbacks=self._callbacks, loggingOn=True)
+        finally:
+            # pythonfmu put the FMU's resources folder first on sys.path to import the slave;
+            # once imported it is not needed, and its bundled pythonfmu copy (without the
+            # builder's binaries) would shadow the installed one in this process.
+            sys.path[:] = [entry for entry in sys.path if entry != resources]
 
     def _make_callbacks(self):
         from fmpy import calloc, free
@@ -478,5 +386,5 @@ class FMUInstance:
             getattr(self._fmu, f"{self._prefix}FreeInstance")(self._fmu.component)
         except Exception:
             return  # not freed: not for another instance either
-        with _extract_lock:
+        with _instances_lock:
             _idle_slaves.setdefault(self._made_for, []).append((self._fmu, self._hot))

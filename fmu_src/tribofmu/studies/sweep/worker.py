@@ -83,11 +83,11 @@ def pack_fmus(fmu_dir: Path, names) -> dict[str, bytes]:
 
 def unpack_fmus(fmus: dict[str, bytes]) -> str:
     """Write a bundle from :func:`pack_fmus` into this process's private folder of unzipped
-    FMUs (mode 0700, removed at exit; :func:`~tribofmu.master.instance.extraction_root`),
+    FMUs (mode 0700, removed at exit; :func:`~tribofmu.master.fmu_files.extraction_root`),
     once per bundle; returns the folder. Files already there are used only when their
     content hash is the bundle's (nothing is trusted for its name, no link followed)."""
     from ...fmu_cache import sha256_file
-    from ...master.instance import extraction_root
+    from ...master.fmu_files import extraction_root
     hashes = {name: hashlib.sha256(data).hexdigest() for name, data in fmus.items()}
     digest = hashlib.sha256("".join(f"{n}\0{hashes[n]}\0" for n in sorted(hashes)).encode())
     target = extraction_root() / f"bundle-{digest.hexdigest()[:16]}"
