@@ -349,7 +349,8 @@ def estimated_error(coupling, audit: WindowError, problem: str | None = None) ->
         problem = "its carried error reached the motion's own size (past its linearisation)"
     motion = ("the block's and the lubricant's linearised motion (the law's own slopes)"
               if getattr(coupling.estimate, "law", None) is not None else "the block's linearised motion")
-    return {"nrms_v": value if math.isfinite(value) else None, "vouches": problem is None,
+    order = coupling.convergence_order() if hasattr(coupling, "convergence_order") else None
+    return {"nrms_v": value if math.isfinite(value) else None, "vouches": problem is None, "order": order,
             "method": f"propagated: the {coupling.name} coupling's local error estimates (and the "
                       f"friction's impulse misses) carried through {motion} to the "
                       "window (coupling/estimate.py); "

@@ -34,7 +34,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .coupling.settings import CHECK_SETTINGS, LIMITS, MAX_ORDER, RESOLUTION
+from .coupling.settings import CHECK_SETTINGS, LIMITS, MAX_ORDER, RESOLUTION, STEP_CONTROL
 from .forked_runs import ForkedRuns, InlineRuns, check_workers, cpu_seconds
 from .progress import run_started
 from .run_folder import run_folder
@@ -234,7 +234,7 @@ class CheckSequence:
                           else f"{MAX_RUNS} runs, the most one sequence makes")
             return True
         if own is not None:  # the next run, planned from this one's error, vouches for itself too
-            factor = self._own_tightening(own)
+            factor = self._own_tightening(own, result)
             self.own_last = (self.step_tol, own)
             self.expected_to_meet, self.base = True, None
             self.step_tol = max(self.step_tol / factor, MIN_STEP_TOL)
@@ -247,23 +247,28 @@ class CheckSequence:
         self.step_tol = max(self.step_tol / factor, MIN_STEP_TOL)
         return False
 
-    def _own_tightening(self, own: float) -> float:
-        """How much tighter the run after one whose own error ``own`` missed tol is: planned to
-        land one CHECK_RATIO below tol (a run's steps grow only as the per-step tolerance to the
-        -1/3, 26 % for that ratio, where a miss costs a whole run), at the order the last two
-        runs' own errors showed (MAX_ORDER before there are two), at least CHECK_RATIO. The
-        first plan is not capped: at MAX_ORDER, the highest order runs that vouch show
-        (0.7-1), it under-jumps rather than over (a first run 30x off tol took five runs capped
-        at MAX_JUMP: mixed friction at 1e-4, when it vouched). A plan from an observed order is
-        capped at MAX_JUMP as a planned pair is: two estimates' ratio at loose tolerances is a
-        guess (one such plan jumped 1600x, to an error 60x below tol)."""
-        order, cap = MAX_ORDER, math.inf
+    def _own_tightening(self, own: float, result) -> float:
+        """How much tighter the run after ``result``, whose own error ``own`` missed tol, is:
+        planned to land at the step-size rule's safety x tol (as the rule aims a step: the next
+        run's error is predicted from this one's, not known), at least CHECK_RATIO, at the
+        order the last two runs' own errors showed or, before there are two, the order the run
+        itself expects of its error (``estimated_error.order``: its steps' orders,
+        coupling/controlled.py convergence_order; MAX_ORDER, the most a run's error can fall,
+        where it has none). The first plan is not capped: at the run's own order it lands where
+        planned (a first run 30x off tol took five runs capped at MAX_JUMP: mixed friction at
+        1e-4, when it vouched). A plan from an observed order is capped at MAX_JUMP as a planned
+        pair is: two estimates' ratio at loose tolerances is a guess (one such plan jumped
+        1600x, to an error 60x below tol). (Aiming one CHECK_RATIO below tol at MAX_ORDER
+        instead, the dilatant point at omega = 40, order 0.66, landed at 1.1x tol from a first
+        run 5x off: three runs.)"""
+        expected = (result.stats.get("estimated_error") or {}).get("order")
+        order, cap = (expected if expected is not None and 0.0 < expected <= MAX_ORDER else MAX_ORDER), math.inf
         if self.own_last is not None and self.own_last[0] > self.step_tol:
             previous_tol, previous = self.own_last
             # (an error that did not fall: the slowest order allowed for, the longest jump)
             shown = math.log(previous / own) / math.log(previous_tol / self.step_tol) if own < previous else 0.0
             order, cap = min(max(shown, MIN_ORDER), MAX_ORDER), MAX_JUMP
-        wanted = (own * CHECK_RATIO / self.tol) ** (1.0 / order)
+        wanted = (own / (STEP_CONTROL.safety * self.tol)) ** (1.0 / order)
         return min(cap, max(CHECK_RATIO, wanted))
 
     def _expects_to_meet(self, result, error: float, factor: float) -> bool:
@@ -377,6 +382,7 @@ def _finish(result, difference: float | None, sequence: CheckSequence, began: tu
         "method": _method(checked, sequence),
         "propagated": own.get("nrms_v"),  # the run's own linearised estimate, for comparison
         "vouches": bool(own.get("vouches")),
+        "order": own.get("order"),  # the power of the per-step tolerance the run's error is expected to fall at
     }
     stats["tolerance_met"] = bool(met)
     stats["warnings"] = [] if met else [_advice(difference if checked else None, tol, records, limit,

@@ -5,6 +5,8 @@ the FMU calls an accepted step costs. (Error within its estimate: test_estimate.
 export and import: test_state.py.)"""
 from dataclasses import replace
 
+import numpy as np
+
 import pytest
 
 from tribofmu.coupling.algorithms import make_algorithm
@@ -12,7 +14,7 @@ from tribofmu.coupling.system import Contact
 from tribofmu.master.run import run
 from tribofmu.physics.laws.mixed import MixedLaw
 
-from fakes import MU_L, N_STRESS, drive_scales, exact_dry_segments, fig2_system
+from fakes import MU_L, N_STRESS, drive_scales, exact_dry, exact_dry_segments, fig2_system
 
 
 def located_events(points):
@@ -113,3 +115,26 @@ def test_fmu_calls_per_accepted_step(omega):
     steps = out.counters["steps"]
     assert sum(out.calls.values()) / steps <= 28.0
     assert out.calls["drive"] / steps <= 5.0
+
+
+@pytest.mark.parametrize("omega", [13.0, 80.0])
+def test_a_run_says_at_what_power_of_its_tolerance_its_error_falls(omega):
+    """convergence_order(): the mean over the accepted steps of p/(p + 1), p each step's order
+    (held 1, ramped 2, stick ramp 3), so between 1/2 and 3/4; and the run's error falls at least
+    at that power of its tolerance, which the check's plan takes it to (a dry block's falls
+    faster: at 8x tighter, 14x and 35x closer to the exact motion where the order says 4x;
+    a plan from it then lands below its aim, not above)."""
+    scales = drive_scales(omega)
+    stop = 2 * scales.period
+    errors, orders = [], []
+    for tol in (1e-3, 1.25e-4):
+        algorithm = make_algorithm("adaptive", tol=tol)
+        out = run(fig2_system(omega=omega), algorithm, stop, scales)
+        assert out.ok, out.message
+        order = algorithm.convergence_order()
+        assert 0.5 <= order <= 0.75
+        orders.append(order)
+        t = np.array([p.t_ns * 1e-9 for p in out.points])
+        _, v_exact, _ = exact_dry(t, omega=omega)
+        errors.append(float(np.max(np.abs(np.array([p.v for p in out.points]) - v_exact))))
+    assert errors[0] / errors[1] >= 8.0 ** max(orders)

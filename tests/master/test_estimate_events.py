@@ -135,6 +135,27 @@ def test_the_chord_is_no_slope_where_the_force_is_not_a_function_of_dv(change):
     assert chord_damping(start, end, vpi, resolution) is None
 
 
+@pytest.mark.parametrize("mode", [Contact.FORWARD, Contact.BACKWARD])
+def test_the_chord_is_no_slope_where_an_end_is_within_the_resolution_of_dv_0_or_past_it(mode):
+    """A shear-thinning force, F = m |dv|^0.1 sign(dv), steepest at rest: each end's force is the
+    law's at the dv the solve found on its mode's side; the point's dv is the block's answer, off
+    it by up to the resolution. An end past 0 reads a rising force as a falling one (a damping of
+    -1.8e7 1/s at gamma = -0.9: the carry saturated); an end within the resolution of 0 reads a
+    slope the law has nowhere near there."""
+    side = mode.direction
+    def force(dv):
+        return 5.0 * abs(dv) ** 0.1 * side
+    vpi, resolution = 1 / 0.6, 2.2e-8
+    start = slip(side * 4.7e-8, force(4.7e-8), mode)
+    past = slip(-side * 1.1e-8, force(1.0e-8), mode)  # its force from the solve's dv, on the mode's side
+    assert chord_damping(start, past, vpi, resolution) is None
+    near = slip(side * 2.0e-8, force(2.0e-8), mode)  # within the resolution of 0
+    assert chord_damping(start, near, vpi, resolution) is None
+    far = slip(side * 1.0e-6, force(1.0e-6), mode)  # both ends clear of it: the slope, positive
+    c = chord_damping(start, far, vpi, resolution)
+    assert c is not None and c > 0.0
+
+
 # -- a run's estimate against its true error ---------------------------------------------------------
 
 # (estimate / true: 0.78, 0.65, 0.63; before the chord's slope and the x error held through

@@ -35,6 +35,10 @@ class Counters:
     iterations: int = 0  # evaluations of the coupling loop (implicit solves)
     forced: int = 0  # steps accepted at the minimum step although above tolerance
     stick_steps: int = 0
+    # the sum over accepted steps of p/(p + 1), p the step's order (local error ~ h^(p + 1)):
+    # under error-per-step control each step's share of the run's error falls as the per-step
+    # tolerance to that power (ErrorControlledCoupling.convergence_order)
+    convergence_sum: float = 0.0
 
 
 class CouplingAlgorithm(ABC):

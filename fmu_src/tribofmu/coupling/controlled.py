@@ -133,6 +133,17 @@ class ErrorControlledCoupling(ImplicitCoupling):
             return True
         return False
 
+    def convergence_order(self) -> float | None:
+        """The power of the per-step tolerance at which this run's error is expected to fall
+        (None before a step): a step of order p whose error the controller holds to its share
+        of the per-step tolerance tol is h ~ tol^(1/(p + 1)) long, so a span takes ~tol^(-1/(p + 1))
+        of them and their errors add to ~tol^(p/(p + 1)); over the run, the mean of p/(p + 1)
+        over its accepted steps (held steps first order: 1/2; ramped second: 2/3; stick ramps
+        third: 3/4). A shear-thinning fluid near gamma = -1, whose stiff loop holds its force in
+        four steps of ten, reads 0.60; a dilatant one, ramped almost throughout, 0.66."""
+        steps = self.counters.steps
+        return self.counters.convergence_sum / steps if steps else None
+
     def grazing(self, point: Point, new: Point, h: float) -> float | None:
         """Slipping the same way at both ends of the step of h [s] from point to new, the
         fraction of it at which its dense output of dv crosses 0 by more than tol x the
@@ -168,6 +179,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
         if error <= 1.0 or h_ns <= min_ns:
             self.counters.forced += error > 1.0
             self.counters.steps += steps
+            self.counters.convergence_sum += steps * order / (order + 1.0)
             self.rejected_last = False
             self.accepted_error = error
             self.h_ns = int(min(max(h_ns * factor, self.min_ns), self.max_ns)) // self.step_granularity \
