@@ -122,8 +122,14 @@ def test_very_stiff_spring_default_tolerance(fmu_dir, K):
 
 # -- fluid friction --------------------------------------------------------------------------
 @pytest.mark.parametrize("ov, residual_rel, negative_frac, kw", [
+    # tiny m: the block barely moves and dv follows the drive's V through 0 at each of its
+    # reversals (6 in 3.1 periods), where a step that spans the change of sign leaves a sliver
+    # of negative dissipation (the ramped force and the interpolated dv cross 0 a hair apart):
+    # at most one such step per reversal, and all of them under 1e-6 of the dissipation
+    # (measured 2026-11-27: 6 steps, one at each reversal, 7.5e-15 J against 1.0e-5 J; 2 at a
+    # per-step tolerance 11 % tighter)
     (["friction.gamma=-0.6666666666666666", "friction.m=1e-3", "time.periods=3.1", "time.window=[2.0,3.0]"],
-     1e-4, 0.01, {}),
+     1e-4, "reversals", {}),
     # huge m: the blocks creep with |dv| ~ 1e-6 |V|, below what a tolerance on v resolves, so
     # held steps leave slivers where the interpolated dv and the held force differ in sign;
     # they must sum to under 1e-3 of the dissipation (checked below), not by count. They fall
@@ -145,7 +151,11 @@ def test_shear_thinning_extremes(fmu_dir, ov, residual_rel, negative_frac, kw):
         D = WV - Wv
         assert -D[D < 0].sum() < 1e-3 * D.sum()
     else:
-        assert_sane(r, residual_rel=residual_rel, negative_steps=negative_frac * steps)
+        reversals = math.floor(2.0 * sc.time.periods)  # V = -A w sin(w t) changes sign at t = k pi / w
+        assert_sane(r, residual_rel=residual_rel, negative_steps=reversals)
+        _, WV, Wv = step_integrals(r.points)
+        D = WV - Wv
+        assert -D[D < 0].sum() < 1e-6 * D.sum()
     err, ref = error_vs_reference(sc, r)
     rm = (ref.time >= sc.window[0]) & (ref.time <= sc.window[1])
     drive_scale = sc.drive.A * sc.drive.omega
