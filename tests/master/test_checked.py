@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from tribofmu import checked
+from tribofmu.coupling.settings import STEP_CONTROL
 
 WINDOW = (1.0, 2.0)
 
@@ -196,6 +197,9 @@ def test_differences_that_do_not_shrink_are_not_credited_an_order():
     assert checked.observed_order(1e-4, 1e-3) == checked.MAX_ORDER  # 3.3 is not credited
 
 
+SAFETY = STEP_CONTROL.safety  # what a vouching run's successor is aimed at, as a fraction of tol
+
+
 # -- a run whose own carried estimate vouches for it (issue 36: one run where one is enough) --
 class VouchingRuns(FakeRuns):
     """FakeRuns whose runs carry their own estimate, own(step_tol), saying it vouches (as
@@ -230,7 +234,7 @@ def test_an_own_estimate_past_tol_over_the_margin_plans_the_next_run_from_it_wit
     tols = [c[0] for c in runs.calls]
     # the plan: the run says no order of its own, so its error is taken to fall in proportion
     # to the per-step tolerance (MAX_ORDER), aimed at the rule's safety x tol: 4e-3 -> 9e-4
-    factor = 4.0 / 0.9
+    factor = 4.0 / SAFETY
     assert tols == pytest.approx([1e-3, 1e-3 / factor])
     assert result.ok and result.stats["step_tol"] == pytest.approx(1e-3 / factor)
     assert result.stats["estimated_error"]["nrms_v"] == pytest.approx(checked.ONE_RUN_MARGIN * 2.0 / factor * 1e-3)
@@ -247,9 +251,9 @@ def test_the_second_run_is_planned_at_the_order_the_first_run_expects_and_lands_
     runs = VouchingRuns(own, own=own, order=order)
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
     tols = [c[0] for c in runs.calls]
-    assert tols[0] / tols[1] == pytest.approx((5.0 / 0.9) ** (1.0 / order))
+    assert tols[0] / tols[1] == pytest.approx((5.0 / SAFETY) ** (1.0 / order))
     assert len(tols) == 2 and result.ok
-    assert result.stats["estimated_error"]["nrms_v"] == pytest.approx(0.9e-3)
+    assert result.stats["estimated_error"]["nrms_v"] == pytest.approx(SAFETY * 1e-3)
 
 
 def test_an_order_the_run_cannot_have_is_not_taken():
@@ -258,7 +262,7 @@ def test_an_order_the_run_cannot_have_is_not_taken():
         runs = VouchingRuns(own, own=own, order=order)
         checked.checked_simulation(runs, tol=1e-3, max_wall=None)
         tols = [c[0] for c in runs.calls]
-        assert tols[0] / tols[1] == pytest.approx(5.0 / 0.9)  # MAX_ORDER's plan
+        assert tols[0] / tols[1] == pytest.approx(5.0 / SAFETY)  # MAX_ORDER's plan
 
 
 def test_the_third_run_is_planned_at_the_order_the_first_two_own_errors_showed():
@@ -269,7 +273,7 @@ def test_the_third_run_is_planned_at_the_order_the_first_two_own_errors_showed()
     assert len(tols) == 3
     shown = math.log(own(tols[0]) / own(tols[1])) / math.log(tols[0] / tols[1])
     assert shown == pytest.approx(0.5)
-    wanted = (checked.ONE_RUN_MARGIN * own(tols[1]) / (0.9 * 1e-3)) ** (1.0 / shown)
+    wanted = (checked.ONE_RUN_MARGIN * own(tols[1]) / (SAFETY * 1e-3)) ** (1.0 / shown)
     assert tols[1] / tols[2] == pytest.approx(wanted) and wanted > 2.5
 
 
@@ -303,7 +307,7 @@ def test_an_own_estimate_far_from_tol_jumps_as_far_as_it_asks_in_one_plan():
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
     tols = [c[0] for c in runs.calls]
     assert len(tols) == 2 and result.ok  # a planned pair's cap (MAX_JUMP) would have taken three
-    assert tols[0] / tols[1] == pytest.approx(30.0 * checked.ONE_RUN_MARGIN / 0.9)
+    assert tols[0] / tols[1] == pytest.approx(30.0 * checked.ONE_RUN_MARGIN / SAFETY)
 
 
 def test_a_plan_from_an_observed_order_is_capped_and_an_error_that_never_falls_ends_not_ok():
