@@ -43,6 +43,7 @@ from dataclasses import asdict, dataclass
 from .controlled import W2_POSITION_FLOOR, ErrorControlledCoupling
 from .estimate import chord_damping
 from .interpolation import HERMITE_ERROR_DIVISOR, NS, hermite_miss
+from .path_error import path_local_error
 from .local_errors import (force_curvature, ramp_step, slip_x_error, stick_onset_x_error,
                            unstable_loop_factor)
 from .settings import ERROR_SETTINGS, RESOLUTION
@@ -438,12 +439,20 @@ class EmbeddedCoupling(ErrorControlledCoupling):
                                             RESOLUTION.zero_velocity * self.scales.velocity)
         gain = self.expected_gain(h)
         loop = unstable_loop_factor(damping, h, new.ramped, gain)  # (1 but on a Stribeck drop)
+        # a slip step of a friction with state: its defect along its own path, carried through
+        # the law's slopes (coupling/path_error.py), in place of the force's divided differences
+        path = path_local_error(point, new, h, self.estimate.w2, slopes, self.velocity_per_impulse) \
+            if slopes is not None and new.mode.slipping and point.mode == new.mode else None
         self.estimate.recentre(  # (then centre the last ramp)
             ramp_step(point, new, h, self.history.slope, self.history.h, local.v * loop, gain)
-            if self.curvature_known(point, new) else None)
-        x = stick_onset_x_error(point, new, h, self.velocity_per_impulse, self.estimate.w2) \
-            if stuck and point.mode.slipping else local.x * loop
-        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, local.v * loop + local.impulse,
+            if path is None and self.curvature_known(point, new) else None)
+        if path is not None:
+            x, v, f = path
+        else:
+            x = stick_onset_x_error(point, new, h, self.velocity_per_impulse, self.estimate.w2) \
+                if stuck and point.mode.slipping else local.x * loop
+            v, f = local.v * loop + local.impulse, 0.0
+        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, v,
                                                  stuck, x_scale, v_scale, stuck and point.mode.stuck, slopes,
-                                                 max(self.magnitudes.f, abs(new.f)) or math.inf)
+                                                 max(self.magnitudes.f, abs(new.f)) or math.inf, f)
         new.est_error = abs(local.v)

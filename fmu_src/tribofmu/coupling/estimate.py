@@ -163,7 +163,8 @@ class GlobalErrorEstimate:
 
     def advance(self, h: float, damping: float, local_x: float, local_v: float, stuck: bool,
                 x_scale: float = math.inf, v_scale: float = math.inf, stuck_through: bool = False,
-                slopes: tuple[float, float, float, float] | None = None, f_scale: float = math.inf) -> float:
+                slopes: tuple[float, float, float, float] | None = None, f_scale: float = math.inf,
+                local_f: float = 0.0) -> float:
         """Carry the error over a step of h [s] with the friction's damping c [1/s], add the
         step's local errors (x [m], v [m/s]); returns the error in v [m/s] at its end.
         stuck: stuck at the step's end (no error in v there); stuck_through: stuck at both
@@ -184,7 +185,7 @@ class GlobalErrorEstimate:
             ex, ev, ef = state_flow(h, self.w2, *slopes, self.ex, self.ev, ef)
         else:
             ex, ev = self._flow(h, damping)
-        ex, ev = ex + local_x, ev + local_v
+        ex, ev, ef = ex + local_x, ev + local_v, ef + local_f
         self.ex = _saturated(ex, x_scale)
         self.ev = 0.0 if stuck else _saturated(ev, v_scale)
         self.ef = _saturated(ef, f_scale)
