@@ -406,7 +406,8 @@ def _method(checked: bool, sequence: CheckSequence) -> str:
                   "estimate of the one before, which had missed tol")
         return (f"own: the run's carried estimate of its error (coupling/estimate.py) times {ONE_RUN_MARGIN:g}; "
                 "it vouches for the run here (its derivation holds: the friction a function of dv alone "
-                f"whose slope is bounded, or a shear-thinning fluid's), so the run was not repeated{before}")
+                "whose slope is bounded, a shear-thinning fluid's, or a lubricant's whose state's error the "
+                f"law's slopes carry), so the run was not repeated{before}")
     if not checked:
         return f"not checked: {sequence.limit} before the run could be repeated at a tighter tolerance"
     order = sequence.order

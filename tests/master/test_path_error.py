@@ -12,7 +12,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from tribofmu.coupling.path_error import forced_response, hermite_bubble, path_local_error
+from tribofmu.coupling.path_error import forced_response, hermite_bubble, passed_phase_change, path_local_error
 from tribofmu.coupling.system import Contact, Point
 
 
@@ -120,3 +120,39 @@ def test_no_mean_force_no_path_error():
     start = Point(0, F=1.0, f=0.5, mode=Contact.FORWARD)
     end = Point(1000, F=1.1, f=0.5, mode=Contact.FORWARD, ramped=True)
     assert path_local_error(start, end, 1e-6, 1e3, (1.0, 0.0, 0.0, -1.0), 5.0) is None
+
+
+def lubricant():
+    from tribofmu.physics.laws.boundary import BoundaryLaw
+
+    law = BoundaryLaw()
+    return law, law.melt_threshold()
+
+
+def slip_points(law, f0, f1, F_mean, dv0=2e-5, dv1=-1.5e-5, n=-2e5):
+    start = Point(0, V=dv0, f=f0, F=law.force(dv0, n, f0), n=n, mode=Contact.FORWARD)
+    end = Point(4_000_000, V=dv1, f=f1, F=law.force(dv1, n, f1), n=n, F_mean=F_mean, mode=Contact.BACKWARD)
+    return start, end
+
+
+def test_a_grip_inside_a_molten_step_is_an_event_passed_over():
+    """Both ends molten, the friction's mean force over the step (along its line of dv) is the
+    molten force's mean but for the solid phase's elastic grip, which only a re-solidifying
+    inside the step can give."""
+    law, melt = lubricant()
+    start, end = slip_points(law, melt + 1.5, melt + 1.2, None)
+    molten = law.path_mean_force(start.dv, end.dv, end.n, start.f)
+    scale = max(abs(start.F), abs(end.F))
+    assert not passed_phase_change(law, start, *slip_points(law, melt + 1.5, melt + 1.2, molten)[1:], scale, 1e-3)
+    # a grip: the mean force holds an elastic term neither end has
+    gripped = slip_points(law, melt + 1.5, melt + 1.2, molten + 5.0 * scale)[1]
+    assert passed_phase_change(law, start, gripped, scale, 1e-3)
+    # within tol of the force: not worth a step
+    assert not passed_phase_change(law, start, slip_points(law, melt + 1.5, melt + 1.2, molten + 1e-4 * scale)[1],
+                                   scale, 1e-3)
+    # an end solid: its elastic term is in its own force, no event to tell
+    solid_start, solid_end = slip_points(law, melt - 0.2, melt + 1.2, molten + 5.0 * scale)
+    assert not passed_phase_change(law, solid_start, solid_end, scale, 1e-3)
+    # a friction without a lubricant that melts, or that reports no mean force
+    assert not passed_phase_change(None, start, gripped, scale, 1e-3)
+    assert not passed_phase_change(law, start, slip_points(law, melt + 1.5, melt + 1.2, None)[1], scale, 1e-3)

@@ -83,14 +83,18 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
     """Why the carried estimate cannot vouch for a run of friction ``law`` (None: it can).
 
     The carry above is exact to first order where its derivation holds: the friction force a
-    function of dv alone with a bounded slope. It does not hold for
-    - a law with an internal state (the lubricant's f): its error is carried by the law's own
-      slopes (the variational equations above, exact to first order about the run as
-      computed), but its melting and re-solidifying are events a run at a loose tolerance can
-      miss or misplace, moving the whole rest of the run: a linearisation about the computed
-      run cannot see that (gamma = -0.3 at per-step 1e-2, 46 % off, read at 0.006x; gamma = 0
-      at 1e-2, 5.2 % off, at 0.046x), and after the first cycle it under-reads (0.07-0.26x at
-      gamma >= 0, where the block slides nearly free while molten);
+    function of dv alone with a bounded slope, or a law with an internal state (the lubricant's
+    f), whose error the law's own slopes carry (the variational equations above) from each slip
+    step's path error (coupling/path_error.py). Its melting and re-solidifying are events a
+    linearisation cannot follow where a step passes over them; the step control does not take
+    such a step (a grip inside a step, :func:`.path_error.passed_phase_change`), and a run that
+    had to, at the shortest step, cannot vouch (GlobalErrorEstimate.passed_event). (Charged from
+    the force's divided differences, the slip steps' local errors had the wrong sign, and the
+    estimate read 0.07-0.26x the true error at gamma >= 0; with grips passed over, gamma = -0.3
+    at per-step 1e-2 ran 46 % off and read 0.006x. With both: estimate / true 0.46-1.5 over 24
+    runs at gamma = -0.95 to 2, omega 20 and 30, tol 1e-2 to 1e-4, ``bench_trust.py --one-run
+    --only boundary``, 2026-11-27; a solid lubricant 0.14-0.21, its errors all below tol / 10.)
+    It does not hold for
     - a force with an unbounded slope at rest (``law.slope_bounded``) other than a shear-thinning
       power law's (``law.shear_thinning``): a Stribeck curve's with delta < 1 at breakaway.
       A shear-thinning force is continuous through dv = 0 and its slope, |dv|^gamma, integrable
@@ -114,8 +118,6 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
       ``bench_trust.py --one-run --only mixed`` and ``--extra``, 2026-11-27);
     - inputs n, T that change over the run (a Load or Thermal FMU): the chord of F against dv
       is then not the slope the carry needs, and the carry's damping has no sign."""
-    if law.has_state:
-        return f"{law.label} has an internal state (the lubricant's melting and re-solidifying)"
     if not law.slope_bounded and not law.shear_thinning:
         return f"the {law.label} force's slope is unbounded at rest"
     if inputs_vary:
@@ -140,6 +142,9 @@ class GlobalErrorEstimate:
         # the carry reached the motion's own size somewhere: past its linearisation, it says only
         # that the run is far off, not how far (it cannot vouch for the run)
         self.saturated = False
+        # a step passed over an event the linearisation cannot follow (a grip of the lubricant
+        # inside a step, coupling/path_error.py): the run cannot vouch
+        self.passed_event = False
 
     def export(self) -> list:
         """What a state snapshot carries of it (JSON-ready): ex, ev, w2, the last ramp and ef."""

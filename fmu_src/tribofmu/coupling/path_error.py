@@ -38,20 +38,30 @@ true global error (offline, 26 recordings of Fig. 6's rig at gamma = -2/3 to 2, 
 """
 from __future__ import annotations
 
+import cmath
 import math
 
-import numpy as np
+
+def _cubic_roots(b: float, c: float, d: float) -> tuple[complex, complex, complex]:
+    """The roots of z^3 + b z^2 + c z + d (Cardano; this module ships in the TriboPair FMU, which
+    runs without numpy)."""
+    shift = -b / 3.0  # z = y + shift: y^3 + p y + q
+    p = c - b * b / 3.0
+    q = 2.0 * b ** 3 / 27.0 - b * c / 3.0 + d
+    u = (-q / 2.0 + cmath.sqrt(q * q / 4.0 + p ** 3 / 27.0)) ** (1.0 / 3.0)
+    turn = complex(-0.5, math.sqrt(3.0) / 2.0)  # a cube root of unity
+    return tuple(u * w - p / (3.0 * u * w) + shift for w in (1.0, turn, turn.conjugate()))
+
 
 # e^z's (2,3) Pade approximant N(z) / D(z), N = 1 + 2z/5 + z^2/20, D = 1 - 3z/5 + 3z^2/20 - z^3/60,
-# in partial fractions sum_i a_i / (z - z_i): fifth order, so that it is exact for the cubic
-# forcing's terms where the dynamics are slow (the augmented system's nilpotent part needs e^z to
-# z^4), and L-stable, so that a stiff mode (the lubricant's, |r| h up to 1e4) answers a forcing
-# quasi-statically, -d / r, as it does (the carry's (1,2) approximant, coupling/estimate.py, is
-# third order: it missed the cubic term by a third)
-_DENOMINATOR = (-1.0 / 60.0, 3.0 / 20.0, -3.0 / 5.0, 1.0)  # highest power first
-PADE_POLES = tuple(complex(z) for z in np.roots(_DENOMINATOR))
-PADE_RESIDUES = tuple((1.0 + 0.4 * z + z * z / 20.0) / complex(np.polyval(np.polyder(_DENOMINATOR), z))
-                      for z in PADE_POLES)
+# in partial fractions sum_i a_i / (z - z_i), a_i = N(z_i) / D'(z_i): fifth order, so that it is
+# exact for the cubic forcing's terms where the dynamics are slow (the augmented system's
+# nilpotent part needs e^z to z^4), and L-stable, so that a stiff mode (the lubricant's, |r| h up
+# to 1e4) answers a forcing quasi-statically, -d / r, as it does (the carry's (1,2) approximant,
+# coupling/estimate.py, is third order: it missed the cubic term by a third). D's roots are
+# those of z^3 - 9 z^2 + 36 z - 60 (-60 D): 3.64 and 2.68 +- 3.05i.
+PADE_POLES = _cubic_roots(-9.0, 36.0, -60.0)
+PADE_RESIDUES = tuple((1.0 + 0.4 * z + z * z / 20.0) / (-0.6 + 0.3 * z - z * z / 20.0) for z in PADE_POLES)
 # the forcing's terms u^k / k!, k = 0..3 (a cubic in the step's fraction u)
 _FACTORIAL = (1.0, 1.0, 2.0, 6.0)
 
@@ -119,3 +129,22 @@ def path_local_error(start, end, h: float, w2: float, slopes: tuple[float, float
     except ZeroDivisionError:  # (a pole of the approximant is an eigenvalue of h A itself)
         return None
     return (x, v, f) if math.isfinite(x) and math.isfinite(v) and math.isfinite(f) else None
+
+
+def passed_phase_change(law, start, end, F_scale: float, tol: float) -> bool:
+    """Whether the lubricant changed phase inside the slip step from point start to point end
+    and back, with both ends molten: the friction's mean force over the step (``F_mean``, along
+    its path) then holds the solid phase's elastic grip, which no end shows, by more than tol x
+    F_scale [N] (the ends' larger force) past the molten force's mean along the same path. The grip is an event the step
+    passed over: the block, held by it, would have kept dv near 0 and the lubricant solid (a
+    reversal at gamma = -0.3, per-step tol 1e-2: a 1.4 ms step whose mean force was 11x its end
+    forces; its run lost the drive's phase, 46 % off where it estimated 2e-4). Its linearisation
+    about the computed path cannot see that: such a step is not to be taken (coupling/embedded.py),
+    and a run that had to take one cannot vouch for itself. (Both ends solid, a melt inside the
+    step would move the elastic term by f, which the ends show: not told apart here.)"""
+    if law is None or end.F_mean is None or not (start.mode.slipping and end.mode.slipping):
+        return False
+    if law.melt_margin(start.f) > 0.0 or law.melt_margin(end.f) > 0.0:
+        return False
+    molten = law.path_mean_force(start.dv, end.dv, end.n, max(start.f, end.f))
+    return abs(end.F_mean - molten) > tol * F_scale
