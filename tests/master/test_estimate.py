@@ -140,6 +140,7 @@ class P:
     a: float = 0.0  # m/s^2, dv/dt: the interpolants' slopes
     aX: float = 0.0
     mode: Contact = Contact.FORWARD
+    inside_error: float = 0.0  # m/s, at the step's middle beyond the line of the carried errors
 
 
 def random_points(seed=3, n=60, span=1.0):
@@ -246,6 +247,19 @@ def test_carried_estimate_is_within_3x_of_the_true_error_of_a_dry_run(omega, tol
 def test_carried_estimate_is_within_3x_of_the_true_error_of_a_mostly_stuck_dry_run(tol):
     true, estimated = dry_run_errors(80.0, tol)
     assert true / 3 < estimated < 3 * true
+
+
+def test_the_error_inside_a_step_adds_its_bubble():
+    """A step whose carried errors are 0 at both ends but e at its middle (a ringing ramp's: the
+    ends agree, the middle does not) adds the bubble 4 e u (1 - u): RMS e sqrt(16/30)."""
+    e, vmax = 2e-6, 0.5
+    points = [P(0, 0.0, vmax), P(1_000_000, 0.0, vmax, inside_error=e)]
+    audit = WindowError((0.0, 1e-3))
+    audit.add(points)
+    assert audit.nrms() == pytest.approx(e * math.sqrt(16.0 / 30.0) / vmax, rel=1e-12)
+    half = WindowError((0.0, 0.5e-3))  # the first half: the bubble's integral to u = 1/2 (1/60)
+    half.add(points)
+    assert half.nrms() == pytest.approx(e * 4.0 * math.sqrt(1.0 / 60.0 / 0.5) / vmax, rel=1e-12)
 
 
 @pytest.mark.xfail(strict=True, reason="WindowError takes max |v| only from points inside the "

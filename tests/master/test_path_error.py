@@ -107,9 +107,16 @@ def test_the_path_error_is_the_steps_miss_of_the_exact_flow():
         end = Point(int(h * 1e9), x=x1, v=v1, a=(toy.force((x1, v1, f1)) / toy.M - toy.w2 * x1), f=f1,
                     F=toy.force((x1, v1, f1)), F_start=F0, F_rate=(toy.force((x1, v1, f1)) - F0) / h,
                     F_mean=F_mean, mode=Contact.BACKWARD, ramped=True)
-        got = np.array(path_local_error(start, end, h, toy.w2, toy.slopes(), 1.0 / toy.M))
-        want = exact - np.array([x1, v1, f1])
+        *ends, inside = path_local_error(start, end, h, toy.w2, toy.slopes(), 1.0 / toy.M)
+        got, want = np.array(ends), exact - np.array([x1, v1, f1])
         misses.append((got, want))
+        # and v's at the step's middle beyond the line between the ends' (what the results
+        # between points miss): the exact flow against the block's own path there
+        middle = solve_ivp(toy.rhs, (0.0, h / 2), y0, method="Radau", rtol=1e-12, atol=1e-16).y[1, -1]
+        inside_true = middle - block.sol(h / 2)[1] - 0.5 * want[1]
+        # (16-18 % here: the friction's force along its path taken as the parabola through its
+        # ends with its mean)
+        assert inside == pytest.approx(inside_true, rel=0.25), (h, inside, inside_true)
         assert np.all(np.abs(got - want) <= 0.05 * np.abs(want)), (h, got, want)  # (2.5 % at 4 ms)
     # and the estimate's error shrinks faster than the error itself (second order in h)
     (g1, w1), (g2, w2) = misses

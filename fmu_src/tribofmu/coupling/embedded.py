@@ -63,9 +63,9 @@ class LocalError:
     impulse: float = 0.0
     f: float = 0.0  # [1] the friction's state off its predicted path
     stuck: bool = False  # stuck throughout: F is the stick force's miss (the breakaway's timing)
-    # (x [m], v [m/s], f [1]) of a slip step of a friction with state, one way all through: its
-    # path's defect carried to its end (coupling/path_error.py); None: not such a step
-    path: tuple[float, float, float] | None = None
+    # (x [m], v [m/s], f [1], v inside [m/s]) of a slip step of a friction with state: its path's
+    # defect carried to its end and to its middle (coupling/path_error.py); None: not such a step
+    path: tuple[float, float, float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -250,8 +250,8 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         :func:`.path_error.passed_phase_change`)."""
         return passed_phase_change(self.estimate.law, point, new, max(abs(new.F), abs(point.F)), self.tol)
 
-    def path_error(self, point: Point, new: Point, h: float) -> tuple[float, float, float] | None:
-        """The slip step's local error (x [m], v [m/s], f [1]) from its own path, carried through
+    def path_error(self, point: Point, new: Point, h: float) -> tuple[float, float, float, float] | None:
+        """The slip step's local error (x [m], v [m/s], f [1], v inside [m/s]) from its own path, carried through
         the law's slopes (coupling/path_error.py), for a friction with state slipping one way
         all through; None for any other step."""
         if not (new.mode.slipping and point.mode.slipping):
@@ -283,7 +283,7 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
             # charged on its own as well, it cut Fig. 6's solid steps near the melt, where the
             # loop's solve then took 3 evaluations where it had taken 1: 70 % more per run at
             # per-step tol 1e-3, at the same accuracy)
-            x, v, _ = local.path
+            x, v, _, _ = local.path
             error = max(error, abs(x) / (allowance * x_scale), abs(v) / (allowance * v_scale))
         if new.mode.slipping and (point.mode == new.mode or point.mode.stuck):
             # (across a transition a jumps and the interpolants take one-sided slopes; stuck,
@@ -396,7 +396,7 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
             ramp_step(point, new, h, self.history.slope, self.history.h, local.v * loop, gain)
             if path is None and self.curvature_known(point, new) else None)
         if path is not None:
-            x, v, f = path
+            x, v, f, new.inside_error = path
             if self.passed_phase_change(point, new):  # (taken at the shortest step)
                 self.estimate.passed_event = True
         else:

@@ -101,18 +101,16 @@ def forced_response(h: float, w2: float, c: float, p: float, q: float, r: float,
     return x, v, f
 
 
-def path_local_error(start, end, h: float, w2: float, slopes: tuple[float, float, float, float],
-                     velocity_per_impulse: float) -> tuple[float, float, float] | None:
-    """The local error (x [m], v [m/s], f [1]; exact less computed) of the slip step of h [s]
-    from point start to point end (see the module's docstring). slopes: (c [1/s], p [m/s^2],
-    q [1/m], r [1/s]) of :meth:`~.estimate.GlobalErrorEstimate.state_slopes`; w2 [1/s^2] the
-    springs over the mass; 1/M = velocity_per_impulse. None where the friction reports no
-    mean force over the step, or the result is not finite."""
+def path_forcing(start, end, h: float, slopes: tuple[float, float, float, float],
+                 velocity_per_impulse: float) -> tuple[tuple, tuple] | None:
+    """The defect d(u) of the slip step's path (see the module's docstring) as the cubics'
+    coefficients (force_v [m/s^2], force_f [1/s]) of :func:`forced_response`; None where the
+    friction reports no mean force over the step."""
     mean = end.F_mean
     if mean is None or h <= 0.0 or velocity_per_impulse <= 0.0:
         return None
     vpi = velocity_per_impulse
-    c, p, q, r = slopes
+    c, _, q, _ = slopes
     # the force the block felt, F_start + F_rate s, and the friction's along its path: the
     # parabola through the two points' forces with the friction's own mean
     felt0, felt_rise = end.F_start, end.F_rate * h
@@ -122,13 +120,34 @@ def path_local_error(start, end, h: float, w2: float, slopes: tuple[float, float
     # under the force before: a held step jumps to its end force)
     slope0 = start.aX - start.a - (felt0 - start.F) * vpi
     beta = (0.0, *hermite_bubble(start.dv, end.dv, slope0, end.aX - end.a, h))
-    force_v = tuple(m * vpi + c * b for m, b in zip(miss, beta))
-    force_f = tuple(-q * b for b in beta)
+    return tuple(m * vpi + c * b for m, b in zip(miss, beta)), tuple(-q * b for b in beta)
+
+
+def path_local_error(start, end, h: float, w2: float, slopes: tuple[float, float, float, float],
+                     velocity_per_impulse: float) -> tuple[float, float, float, float] | None:
+    """The local error (x [m], v [m/s], f [1]; exact less computed) of the slip step of h [s]
+    from point start to point end (see the module's docstring), and v's [m/s] at the step's
+    middle beyond the line between the step's ends' (the results between points are
+    interpolated from the ends: where the force the block felt crosses the true one inside the
+    step, as a stiff loop's ringing ramp does, the ends agree and the middle does not). slopes:
+    (c [1/s], p [m/s^2], q [1/m], r [1/s]) of
+    :meth:`~.estimate.GlobalErrorEstimate.state_slopes`; w2 [1/s^2] the springs over the mass;
+    1/M = velocity_per_impulse. None where the friction reports no mean force over the step, or
+    the result is not finite."""
+    forcing = path_forcing(start, end, h, slopes, velocity_per_impulse)
+    if forcing is None:
+        return None
+    force_v, force_f = forcing
+    # the middle: the same cubic over the first half, u = u' / 2
+    half_v = tuple(d / 2.0 ** k for k, d in enumerate(force_v))
+    half_f = tuple(d / 2.0 ** k for k, d in enumerate(force_f))
     try:
-        x, v, f = forced_response(h, w2, c, p, q, r, force_v, force_f)
+        x, v, f = forced_response(h, w2, *slopes, force_v, force_f)
+        middle = forced_response(0.5 * h, w2, *slopes, half_v, half_f)[1]
     except ZeroDivisionError:  # (a pole of the approximant is an eigenvalue of h A itself)
         return None
-    return (x, v, f) if math.isfinite(x) and math.isfinite(v) and math.isfinite(f) else None
+    inside = middle - 0.5 * v
+    return (x, v, f, inside) if all(map(math.isfinite, (x, v, f, inside))) else None
 
 
 def passed_phase_change(law, start, end, F_scale: float, tol: float) -> bool:
