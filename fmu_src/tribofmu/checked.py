@@ -196,6 +196,7 @@ class CheckSequence:
         # A first run that vouches for itself is: at a per-step tolerance of tol its true error
         # lands at 0.05-0.25 tol (checked_simulation), inside tol over the margin
         self.expected_to_meet = vouches
+        self.ahead = None  # the per-step tolerance of the run started ahead of a first run that vouches
 
     def planned(self) -> int:
         """Runs planned so far, the next one's pair included (for the progress bar)."""
@@ -208,6 +209,13 @@ class CheckSequence:
         likely be stopped unused: Fig. 6 spent half again its CPU time on one)."""
         if len(self.records) + 1 >= MAX_RUNS or self.step_tol <= MIN_STEP_TOL:
             return None
+        if self.own and not self.records:
+            # a first run that vouches: its successor, where the plan sends it when the run's
+            # reported error (ONE_RUN_MARGIN x its estimate) is its per-step tolerance, at the
+            # order of ramped slip steps (p = 2: 2/3), the method's own; the sequence takes it
+            # where its plan lands up to a check ratio looser (_own_tightening)
+            self.ahead = max(self.step_tol / (ONE_RUN_MARGIN / STEP_CONTROL.safety) ** 1.5, MIN_STEP_TOL)
+            return self.ahead
         if self.expected_to_meet and (self.base is not None or self.own):
             return None
         return max(self.step_tol / CHECK_RATIO, MIN_STEP_TOL)
@@ -237,7 +245,10 @@ class CheckSequence:
             factor = self._own_tightening(own, result)
             self.own_last = (self.step_tol, own)
             self.expected_to_meet, self.base = True, None
-            self.step_tol = max(self.step_tol / factor, MIN_STEP_TOL)
+            planned = max(self.step_tol / factor, MIN_STEP_TOL)
+            # the run started ahead, where it is tighter than planned by less than a check ratio
+            ahead, self.ahead = self.ahead, None
+            self.step_tol = ahead if ahead is not None and planned / CHECK_RATIO <= ahead <= planned else planned
             return False
         factor = CHECK_RATIO if math.isnan(error) else next_tightening(error, self.tol)
         self.expected_to_meet = self._expects_to_meet(result, error, factor)
@@ -315,8 +326,7 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     begin, cpu_begin = time.perf_counter(), cpu_seconds()
     count = check_workers(workers)
     make_spool = (lambda: Spool()) if sink is not None else (lambda: None)
-    # (runs that vouch for themselves are planned one at a time: nothing ever runs beside them)
-    runs = (InlineRuns(run_once, make_spool) if count == 1 or vouches else
+    runs = (InlineRuns(run_once, make_spool) if count == 1 else
             ForkedRuns(run_once, make_spool, count, progress=progress, notice=notice, prepare=prepare))
     # The first run's per-step tolerance is tol itself: the reported run's true nRMS(v) then
     # lands at 0.05-0.25 tol (fig2, fig6 and an off-scene dry point; 0.026 at 0.5 tol: more
@@ -329,7 +339,9 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
             if remaining is not None and remaining < MIN_BUDGET:
                 break
             run_started(len(sequence.records) + 1, sequence.planned())  # for the bar
-            result, spool = runs.take(sequence.step_tol, remaining, sequence.then())
+            # (a first run that vouches runs here, its successor ahead in a child)
+            first_own = sequence.own and not sequence.records
+            result, spool = runs.take(sequence.step_tol, remaining, sequence.then(), here=first_own)
             if spool is not None:
                 held[id(result)] = spool  # closed with the rest unless the run is kept
             sequence.records.append(RunRecord(sequence.step_tol, result.stats["wall_time"],

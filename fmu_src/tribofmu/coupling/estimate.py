@@ -63,8 +63,10 @@ fig6``, 2026-11-27 09:00-09:10 UTC, load 2-6): Fig. 6 3.0 -> 0.51 (per-step 1e-3
 the linearisation cannot see (gamma = -0.3 at 1e-2, 46 % off: 0.008 -> 0.006; gamma = 0 at
 1e-2, 5.2 % off, a melt the run passed over: 1.2 -> 0.046); the solid lubricant (gamma =
 -0.85, K = 2000) 50, 16, 232 -> 9.4, 4.8, 9.9; it under-reads at gamma >= 0 (0.07-0.26, where
-the calibrated weight read 1.2-2.9: after the first cycle the block slides nearly free while
-molten, and the carried error decays while the true one grows cycle by cycle).
+the calibrated weight read 1.2-2.9): the slip steps' local errors it was given had the wrong
+sign. Charged from each slip step's own path (coupling/path_error.py), with the grips inside a
+step halved and the error inside a step in the window's estimate: 0.46-2.1 over the same 27
+runs, 26 in [0.5, 10] (2026-11-27 13:55 UTC; the one below, gamma = -0.3 at 1e-4, 0.46).
 """
 from __future__ import annotations
 
