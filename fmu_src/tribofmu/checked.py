@@ -322,7 +322,9 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     through its parent to the ones given here. prepare(): what every run does first and can
     share (unzipping the FMUs), done once before the first run is forked. vouches: the scene's
     runs carry an estimate that can vouch for them (api.own_estimate_problem): the first run is
-    expected to stand alone, and nothing is started beside it."""
+    expected to stand alone and runs in this process; the run its plan most likely asks for next
+    (CheckSequence.then) starts ahead in a child once the first has run a while
+    (forked_runs.ForkedRuns, ``here``)."""
     begin, cpu_begin = time.perf_counter(), cpu_seconds()
     count = check_workers(workers)
     make_spool = (lambda: Spool()) if sink is not None else (lambda: None)

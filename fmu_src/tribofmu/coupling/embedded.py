@@ -158,18 +158,9 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         start = self.states_at(system, point)
         # (a predicted block steps for real only once the step is to be kept: _committed)
         new = self.solve_step(system, point, h_ns, saved=start, defer=True)
-        if self._landed(system, start, h_ns, new.event):  # a breakaway inside: end the step there
-            return []
-        missed = self.missed_breakaway(point, new)
-        if missed is not None and self._landed(system, start, h_ns, missed):
+        if self._landed_on_event(system, start, point, new, h_ns):
             return []
         h = h_ns / NS
-        grazing = self.grazing(point, new, h)
-        if grazing is not None and self._landed_at_crossing(system, start, h_ns, grazing):
-            return []  # a stick passed over: end the step there
-        # the lubricant gripped inside the step, where is not known: halve it (bisection)
-        if self.passed_phase_change(point, new) and self._landed_at_crossing(system, start, h_ns, 0.5):
-            return []
         local = self.local_error(point, new, h)
         err = self.error_ratio(point, new, local, h)
         # local error ~ h^(order + 1): ramped h^3, held h^2; a stick ramp's breakaway
@@ -186,6 +177,22 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         self.history = self.next_history(point, new, h)
         self.magnitudes.accept(new)
         return [new]
+
+    def _landed_on_event(self, system: CoupledSystem, start, point: Point, new: Point, h_ns: int) -> bool:
+        """Whether the tried step from point to new passed over an event and was rolled back to
+        end where it is (True: the next try is that step): a breakaway inside it, located by
+        the solve or by the force past the friction's bound at its end; a stick or reversal
+        its dense output passes over; a grip of the lubricant inside it, where is not known:
+        halved (bisection)."""
+        if self._landed(system, start, h_ns, new.event):
+            return True
+        missed = self.missed_breakaway(point, new)
+        if missed is not None and self._landed(system, start, h_ns, missed):
+            return True
+        grazing = self.grazing(point, new, h_ns / NS)
+        if grazing is not None and self._landed_at_crossing(system, start, h_ns, grazing):
+            return True
+        return self.passed_phase_change(point, new) and self._landed_at_crossing(system, start, h_ns, 0.5)
 
     @staticmethod
     def next_history(point: Point, new: Point, h: float) -> ForceHistory:
