@@ -93,6 +93,14 @@ EXTRA_POINTS = [
      {"friction.gamma": -0.95, "drive.omega": 80.0, "friction.m": 10.0}),
     ("y pseudoplastic gamma=-0.8 M=1.5 K=2000", "fig5_pseudoplastic",
      {"friction.gamma": -0.8, "block.M": 1.5, "block.K": 2000.0}),
+    # boundary friction, since its runs vouch (issue 36): other blocks, loads, temperatures,
+    # frequencies and viscous terms than the list above
+    ("y boundary M=0.3 K=800", "fig6_boundary", {"block.M": 0.3, "block.K": 800.0}),
+    ("y boundary n=-5e5 T=300", "fig6_boundary", {"conditions.n": -5e5, "conditions.T": 300.0}),
+    ("y boundary omega=45 gamma=-0.5", "fig6_boundary", {"drive.omega": 45.0, "friction.gamma": -0.5}),
+    ("y boundary gamma=0.6 m=0.1", "fig6_boundary", {"friction.gamma": 0.6, "friction.m": 0.1}),
+    ("y boundary A=2e-6 omega=12", "fig6_boundary", {"drive.A": 2e-6, "drive.omega": 12.0}),
+    ("y boundary M=1.5 gamma=-0.8", "fig6_boundary", {"block.M": 1.5, "friction.gamma": -0.8}),
 ]
 
 

@@ -347,6 +347,8 @@ def estimated_error(coupling, audit: WindowError, problem: str | None = None) ->
     value = audit.nrms()
     if problem is None and coupling.estimate.saturated:
         problem = "its carried error reached the motion's own size (past its linearisation)"
+    if problem is None and getattr(coupling.estimate, "passed_event", False):
+        problem = "a step at the shortest length passed over the lubricant's re-solidifying (an event)"
     motion = ("the block's and the lubricant's linearised motion (the law's own slopes)"
               if getattr(coupling.estimate, "law", None) is not None else "the block's linearised motion")
     order = coupling.convergence_order() if hasattr(coupling, "convergence_order") else None

@@ -196,6 +196,7 @@ class CheckSequence:
         # A first run that vouches for itself is: at a per-step tolerance of tol its true error
         # lands at 0.05-0.25 tol (checked_simulation), inside tol over the margin
         self.expected_to_meet = vouches
+        self.ahead = None  # the per-step tolerance of the run started ahead of a first run that vouches
 
     def planned(self) -> int:
         """Runs planned so far, the next one's pair included (for the progress bar)."""
@@ -208,6 +209,13 @@ class CheckSequence:
         likely be stopped unused: Fig. 6 spent half again its CPU time on one)."""
         if len(self.records) + 1 >= MAX_RUNS or self.step_tol <= MIN_STEP_TOL:
             return None
+        if self.own and not self.records:
+            # a first run that vouches: its successor, where the plan sends it when the run's
+            # reported error (ONE_RUN_MARGIN x its estimate) is its per-step tolerance, at the
+            # order of ramped slip steps (p = 2: 2/3), the method's own; the sequence takes it
+            # where its plan lands up to a check ratio looser (_own_tightening)
+            self.ahead = max(self.step_tol / (ONE_RUN_MARGIN / STEP_CONTROL.safety) ** 1.5, MIN_STEP_TOL)
+            return self.ahead
         if self.expected_to_meet and (self.base is not None or self.own):
             return None
         return max(self.step_tol / CHECK_RATIO, MIN_STEP_TOL)
@@ -237,7 +245,10 @@ class CheckSequence:
             factor = self._own_tightening(own, result)
             self.own_last = (self.step_tol, own)
             self.expected_to_meet, self.base = True, None
-            self.step_tol = max(self.step_tol / factor, MIN_STEP_TOL)
+            planned = max(self.step_tol / factor, MIN_STEP_TOL)
+            # the run started ahead, where it is tighter than planned by less than a check ratio
+            ahead, self.ahead = self.ahead, None
+            self.step_tol = ahead if ahead is not None and planned / CHECK_RATIO <= ahead <= planned else planned
             return False
         factor = CHECK_RATIO if math.isnan(error) else next_tightening(error, self.tol)
         self.expected_to_meet = self._expects_to_meet(result, error, factor)
@@ -311,12 +322,13 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     through its parent to the ones given here. prepare(): what every run does first and can
     share (unzipping the FMUs), done once before the first run is forked. vouches: the scene's
     runs carry an estimate that can vouch for them (api.own_estimate_problem): the first run is
-    expected to stand alone, and nothing is started beside it."""
+    expected to stand alone and runs in this process; the run its plan most likely asks for next
+    (CheckSequence.then) starts ahead in a child once the first has run a while
+    (forked_runs.ForkedRuns, ``here``)."""
     begin, cpu_begin = time.perf_counter(), cpu_seconds()
     count = check_workers(workers)
     make_spool = (lambda: Spool()) if sink is not None else (lambda: None)
-    # (runs that vouch for themselves are planned one at a time: nothing ever runs beside them)
-    runs = (InlineRuns(run_once, make_spool) if count == 1 or vouches else
+    runs = (InlineRuns(run_once, make_spool) if count == 1 else
             ForkedRuns(run_once, make_spool, count, progress=progress, notice=notice, prepare=prepare))
     # The first run's per-step tolerance is tol itself: the reported run's true nRMS(v) then
     # lands at 0.05-0.25 tol (fig2, fig6 and an off-scene dry point; 0.026 at 0.5 tol: more
@@ -329,7 +341,9 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
             if remaining is not None and remaining < MIN_BUDGET:
                 break
             run_started(len(sequence.records) + 1, sequence.planned())  # for the bar
-            result, spool = runs.take(sequence.step_tol, remaining, sequence.then())
+            # (a first run that vouches runs here, its successor ahead in a child)
+            first_own = sequence.own and not sequence.records
+            result, spool = runs.take(sequence.step_tol, remaining, sequence.then(), here=first_own)
             if spool is not None:
                 held[id(result)] = spool  # closed with the rest unless the run is kept
             sequence.records.append(RunRecord(sequence.step_tol, result.stats["wall_time"],
@@ -406,7 +420,8 @@ def _method(checked: bool, sequence: CheckSequence) -> str:
                   "estimate of the one before, which had missed tol")
         return (f"own: the run's carried estimate of its error (coupling/estimate.py) times {ONE_RUN_MARGIN:g}; "
                 "it vouches for the run here (its derivation holds: the friction a function of dv alone "
-                f"whose slope is bounded, or a shear-thinning fluid's), so the run was not repeated{before}")
+                "whose slope is bounded, a shear-thinning fluid's, or a lubricant's whose state's error the "
+                f"law's slopes carry), so the run was not repeated{before}")
     if not checked:
         return f"not checked: {sequence.limit} before the run could be repeated at a tighter tolerance"
     order = sequence.order

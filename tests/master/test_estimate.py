@@ -96,7 +96,9 @@ def test_the_carry_vouches_only_for_a_force_of_dv_alone_with_a_bounded_slope(law
     assert (carry_problem_of(law) is None) == vouches
     assert carry_problem_of(law, inputs_vary=True) is not None  # a Load or Thermal FMU moves n, T
     assert carry_problem_of(laws.DryLaw()) is None
-    assert "internal state" in carry_problem_of(laws.BoundaryLaw())
+    # the lubricant's state: its slip steps' path errors carried by the law's slopes (issue 36)
+    assert carry_problem_of(laws.BoundaryLaw()) is None
+    assert carry_problem_of(laws.BoundaryLaw(), inputs_vary=True) is not None  # a Thermal FMU's T
     assert carry_problem_of(laws.MixedLaw(stribeck_exponent=1.0)) is None  # a Stribeck drop: followed
     assert carry_problem_of(laws.MixedLaw(stribeck_exponent=3.0, mu_static=0.9)) is None
     assert "unbounded" in carry_problem_of(laws.MixedLaw(stribeck_exponent=0.5))
@@ -138,6 +140,7 @@ class P:
     a: float = 0.0  # m/s^2, dv/dt: the interpolants' slopes
     aX: float = 0.0
     mode: Contact = Contact.FORWARD
+    inside_error: float = 0.0  # m/s, at the step's middle beyond the line of the carried errors
 
 
 def random_points(seed=3, n=60, span=1.0):
@@ -244,6 +247,19 @@ def test_carried_estimate_is_within_3x_of_the_true_error_of_a_dry_run(omega, tol
 def test_carried_estimate_is_within_3x_of_the_true_error_of_a_mostly_stuck_dry_run(tol):
     true, estimated = dry_run_errors(80.0, tol)
     assert true / 3 < estimated < 3 * true
+
+
+def test_the_error_inside_a_step_adds_its_bubble():
+    """A step whose carried errors are 0 at both ends but e at its middle (a ringing ramp's: the
+    ends agree, the middle does not) adds the bubble 4 e u (1 - u): RMS e sqrt(16/30)."""
+    e, vmax = 2e-6, 0.5
+    points = [P(0, 0.0, vmax), P(1_000_000, 0.0, vmax, inside_error=e)]
+    audit = WindowError((0.0, 1e-3))
+    audit.add(points)
+    assert audit.nrms() == pytest.approx(e * math.sqrt(16.0 / 30.0) / vmax, rel=1e-12)
+    half = WindowError((0.0, 0.5e-3))  # the first half: the bubble's integral to u = 1/2 (1/60)
+    half.add(points)
+    assert half.nrms() == pytest.approx(e * 4.0 * math.sqrt(1.0 / 60.0 / 0.5) / vmax, rel=1e-12)
 
 
 @pytest.mark.xfail(strict=True, reason="WindowError takes max |v| only from points inside the "

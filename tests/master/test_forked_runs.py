@@ -72,12 +72,53 @@ def test_two_workers_take_the_same_vouching_runs_and_report_the_same_result(own)
     assert leftovers() == before
 
 
-def test_a_scene_whose_runs_vouch_for_themselves_runs_them_in_the_calls_process():
-    own = power_law(2.0)  # two runs: the second planned from the first's own error
-    runs = VouchingRuns(own, own=own)
+AHEAD = 1e-3 / (checked.ONE_RUN_MARGIN / checked.STEP_CONTROL.safety) ** 1.5  # tol 1e-3's run ahead
+
+
+class TimedVouchingRuns(VouchingRuns):
+    """VouchingRuns that tell their progress halfway, at ``wall_time`` [s] into the run."""
+
+    def __init__(self, error, own, wall_time, order=None):
+        super().__init__(error, own=own, order=order)
+        self.wall_time = wall_time
+
+    def __call__(self, step_tol=None, max_wall=None, sink=None, progress=None, notice=None):
+        if progress is not None:
+            progress(RunProgress(t=1.0, stop_time=2.0, steps=5, rejected=0, wall_time=self.wall_time))
+        return super().__call__(step_tol, max_wall=max_wall, sink=sink, progress=progress, notice=notice)
+
+
+@pytest.mark.parametrize("own, steps, here, stopped", [
+    (power_law(0.09, 2.0 / 3.0), [1e-3, AHEAD], 1, 0),  # planned at 3.5e-4: the run ahead is taken
+    (power_law(0.2), [1e-3], 1, 1),  # the first meets tol: the run ahead is stopped unused
+    (power_law(2.0), [1e-3, None], 2, 1),  # planned past a check ratio from it: a new run, here
+], ids=["the run ahead taken", "one run", "a second planned elsewhere"])
+def test_a_scene_whose_runs_vouch_runs_the_first_here_and_its_successor_ahead(own, steps, here, stopped):
+    """The first run of a scene whose runs vouch runs in the call's process (most often the
+    last: a fork would only cost), and the run its plan most likely asks for next ahead in a
+    child (CheckSequence.then); the same runs and result as one at a time."""
+    before = leftovers()
+    runs = TimedVouchingRuns(own, own=own, wall_time=2 * forked_runs.PROGRESS_EVERY_S, order=2.0 / 3.0)
+    two = checked.checked_simulation(runs, tol=1e-3, max_wall=None, workers=2, vouches=True)
+    one = checked.checked_simulation(VouchingRuns(own, own=own, order=2.0 / 3.0), tol=1e-3, max_wall=None,
+                                     workers=1, vouches=True)
+    taken = [r["step_tol"] for r in two.stats["check"]["runs"]]
+    assert len(taken) == len(steps) and taken == [r["step_tol"] for r in one.stats["check"]["runs"]]
+    assert all(want is None and got < AHEAD / checked.CHECK_RATIO or got == pytest.approx(want)
+               for got, want in zip(taken, steps))
+    assert np.array_equal(one.v, two.v) and two.ok and one.ok
+    assert len(runs.calls) == here  # (a forked run's call is not recorded here)
+    assert two.stats["check"]["workers"] == 2 and two.stats["check"]["runs_stopped_unused"] == stopped
+    assert leftovers() == before
+
+
+def test_a_first_run_that_vouches_and_ends_before_its_first_progress_report_starts_nothing_ahead():
+    """(A fork costs the parent its copied pages while the child lives: a short run does not
+    wait for one ahead.)"""
+    own = power_law(0.2)
+    runs = TimedVouchingRuns(own, own=own, wall_time=0.5 * forked_runs.PROGRESS_EVERY_S)
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, workers=2, vouches=True)
-    assert len(runs.calls) == 2 and result.ok  # (a forked run's call would not be recorded here)
-    assert result.stats["check"]["workers"] == 1 and result.stats["check"]["runs_stopped_unused"] == 0
+    assert len(runs.calls) == 1 and result.ok and result.stats["check"]["runs_stopped_unused"] == 0
 
 
 def test_the_sink_gets_the_reported_runs_samples_once_from_a_forked_run():

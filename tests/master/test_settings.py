@@ -85,6 +85,8 @@ NOT_TUNING = {
     # exp() overflows a float past EXP_LIMIT; the (1,2) Pade approximant's pole and residue
     "coupling/estimate.py": {"EXP_LIMIT", "PADE_POLE", "PADE_RESIDUE"},
     "coupling/quadrature.py": {"GAUSS_NODES", "GAUSS_WEIGHTS"},  # the three-point Gauss rule
+    # the (2,3) Pade approximant of e^z: its denominator, poles and residues; k! of the cubic's terms
+    "coupling/path_error.py": {"_DENOMINATOR", "PADE_POLES", "PADE_RESIDUES", "_FACTORIAL"},
     # the rule's default (the coupling's is STEP_CONTROL's); the lubricant's sub-steps (physics')
     "physics/stepsize.py": {"MIN_PREVIOUS_ERROR", "KINETICS_SUBSTEPS"},
 }

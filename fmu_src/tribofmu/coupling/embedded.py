@@ -42,7 +42,9 @@ from dataclasses import asdict, dataclass
 
 from .controlled import W2_POSITION_FLOOR, ErrorControlledCoupling
 from .estimate import chord_damping
-from .interpolation import HERMITE_ERROR_DIVISOR, NS, hermite_miss
+from .interpolation import NS
+from .limits import StepLimits
+from .path_error import passed_phase_change, path_local_error
 from .local_errors import (force_curvature, ramp_step, slip_x_error, stick_onset_x_error,
                            unstable_loop_factor)
 from .settings import ERROR_SETTINGS, RESOLUTION
@@ -61,6 +63,9 @@ class LocalError:
     impulse: float = 0.0
     f: float = 0.0  # [1] the friction's state off its predicted path
     stuck: bool = False  # stuck throughout: F is the stick force's miss (the breakaway's timing)
+    # (x [m], v [m/s], f [1], v inside [m/s]) of a slip step of a friction with state: its path's
+    # defect carried to its end and to its middle (coupling/path_error.py); None: not such a step
+    path: tuple[float, float, float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -79,7 +84,7 @@ class ForceHistory:
         object.__setattr__(self, "mode", Contact(self.mode))
 
 
-class EmbeddedCoupling(ErrorControlledCoupling):
+class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
     """Implicit steps under error control by an embedded estimate: one solve per step."""
 
     name = "adaptive"
@@ -123,16 +128,6 @@ class EmbeddedCoupling(ErrorControlledCoupling):
                 h_ns = landing
         return h_ns
 
-    def predicted_breakaway(self, point: Point) -> float | None:
-        """Stuck, with the stick force ramping at F_rate: the time [s] at which the ramp
-        reaches the friction's bound (the last stuck step's probes), or None."""
-        bounds = self.stick_bounds
-        if not point.mode.stuck or bounds is None or point.F_rate == 0.0:
-            return None
-        bound = bounds[1] if point.F_rate > 0.0 else bounds[0]
-        reach = (bound - point.F) / point.F_rate
-        return reach if reach > 0.0 else None
-
     def missed_breakaway(self, point: Point, new: Point) -> float | None:
         """Stuck at the end of the step from point to new, but the force that keeps the block
         on the drive there, new.F + M (aX - a), is past the friction's bound: the fraction of
@@ -163,15 +158,9 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         start = self.states_at(system, point)
         # (a predicted block steps for real only once the step is to be kept: _committed)
         new = self.solve_step(system, point, h_ns, saved=start, defer=True)
-        if self._landed(system, start, h_ns, new.event):  # a breakaway inside: end the step there
-            return []
-        missed = self.missed_breakaway(point, new)
-        if missed is not None and self._landed(system, start, h_ns, missed):
+        if self._landed_on_event(system, start, point, new, h_ns):
             return []
         h = h_ns / NS
-        grazing = self.grazing(point, new, h)
-        if grazing is not None and self._landed_at_crossing(system, start, h_ns, grazing):
-            return []  # a stick passed over: end the step there
         local = self.local_error(point, new, h)
         err = self.error_ratio(point, new, local, h)
         # local error ~ h^(order + 1): ramped h^3, held h^2; a stick ramp's breakaway
@@ -189,6 +178,22 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         self.magnitudes.accept(new)
         return [new]
 
+    def _landed_on_event(self, system: CoupledSystem, start, point: Point, new: Point, h_ns: int) -> bool:
+        """Whether the tried step from point to new passed over an event and was rolled back to
+        end where it is (True: the next try is that step): a breakaway inside it, located by
+        the solve or by the force past the friction's bound at its end; a stick or reversal
+        its dense output passes over; a grip of the lubricant inside it, where is not known:
+        halved (bisection)."""
+        if self._landed(system, start, h_ns, new.event):
+            return True
+        missed = self.missed_breakaway(point, new)
+        if missed is not None and self._landed(system, start, h_ns, missed):
+            return True
+        grazing = self.grazing(point, new, h_ns / NS)
+        if grazing is not None and self._landed_at_crossing(system, start, h_ns, grazing):
+            return True
+        return self.passed_phase_change(point, new) and self._landed_at_crossing(system, start, h_ns, 0.5)
+
     @staticmethod
     def next_history(point: Point, new: Point, h: float) -> ForceHistory:
         jerk = (new.a - point.a) / h
@@ -196,65 +201,6 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             return ForceHistory((new.F - point.F) / h, h, new.mode, jerk, (new.f - point.f) / h)
         # a step into slip from a stick or a reversal: its slope is a transition's, no predictor
         return ForceHistory(0.0, 0.0, new.mode, jerk, stuck_throughout=new.mode.stuck and point.mode.stuck)
-
-    def interpolation_limit(self, point: Point) -> float:
-        """The longest step [s] whose interpolants should stay within tol (see
-        :meth:`interpolation_error`), from the block's jerk over the last step: planned
-        ahead, so that the interpolation bound shortens steps instead of rejecting them; and
-        in any mode the drive's own interpolants' (:meth:`drive_interpolation_limit`)."""
-        drive = self.drive_interpolation_limit(point)
-        w2 = self.estimate.w2
-        if w2 <= 0.0:
-            return drive
-        # (planned from the last step's jerk, not this one's: the controller's safety on the step,
-        # which is on the error to the bound's h^4)
-        room_v = self.controller.safety ** 4 * HERMITE_ERROR_DIVISOR * self.tol * self.velocity_scale(point) / w2
-        room_x = self.controller.safety ** 4 * HERMITE_ERROR_DIVISOR * self.tol * self.position_scale(point) / w2
-        if not point.mode.slipping:
-            breakaway = self.predicted_breakaway(point)
-            if breakaway is None or breakaway > self.h_ns / NS:
-                return drive  # (stuck: v and x move with the drive)
-            # stuck at (or near) the bound: the step will slip from its start, at most a
-            # fraction of the block's period (see error_ratio)
-            return min(drive, self.errors.block_period_fraction * 2.0 * math.pi / math.sqrt(w2))
-        # the ends of a step as long as the block's own period can look alike (a slow dry
-        # drive's slip phases: fig2's rig at omega = 10, 6.4e-2 nRMS(v) without this cap)
-        limits = [drive, self.errors.block_period_fraction * 2.0 * math.pi / math.sqrt(w2)]
-        if self.history.h > 0.0 and self.history.jerk != 0.0:  # a slip step of this mode
-            limits.append((room_v / abs(self.history.jerk)) ** 0.25)
-        if point.a != 0.0:
-            limits.append((room_x / abs(point.a)) ** 0.25)
-        return min(limits)
-
-    def drive_w2(self) -> float:
-        """The drive's angular frequency squared [1/s^2], from the scene's period."""
-        return (2.0 * math.pi / self.scales.period) ** 2
-
-    def drive_interpolation_limit(self, point: Point) -> float:
-        """The longest step [s] whose interpolants of the drive's motion (see
-        :meth:`stuck_interpolation_error`) stay within tol, planned from the point (a harmonic
-        drive's jerk is -w^2 V, the fourth derivative of its X is -w^2 aX): stuck, the block's v
-        and x against its motion; slipping, the drive's V and X against the scene's scales."""
-        w2 = self.drive_w2()
-        room = self.controller.safety ** 4 * HERMITE_ERROR_DIVISOR * self.tol / (w2 * w2)
-        v_scale, x_scale = ((self.velocity_scale(point), self.position_scale(point)) if point.mode.stuck
-                            else (self.scales.velocity, self.scales.position))
-        limits = [math.inf]
-        if point.V != 0.0:
-            limits.append((room * v_scale / abs(point.V)) ** 0.25)
-        if point.aX != 0.0:
-            limits.append((room * w2 * x_scale / abs(point.aX)) ** 0.25)
-        return min(limits)
-
-    def stuck_interpolation_error(self, point: Point, new: Point, h: float, v_scale: float,
-                                  x_scale: float) -> float:
-        """Stuck all through, v is the drive's V interpolated with the drive's acceleration and
-        x moves with the drive's X (slopes V): the cubic Hermite bound, h^4/384 of the fourth
-        derivative (w^2 |d aX/dt| for V, w^2 |aX| for X, w the drive's own frequency),
-        relative to tol. (The breakaway's timing, which bounded these steps too, counts only
-        near the friction's bound: far from it a stick kept its steps at the longest, then T/20, in
-        both runs of a check, which then agreed on 1e-5 of interpolation error and reported 0.)"""
-        return hermite_miss(self.drive_w2(), point.aX, new.aX, h, self.tol * v_scale, self.tol * x_scale)
 
     # -- the embedded estimate --------------------------------------------------------------
     def local_error(self, point: Point, new: Point, h: float) -> LocalError:
@@ -289,6 +235,7 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         gain = self.expected_gain(h)
         filter_ = 1.0 / (1.0 + gain)  # a stiff loop pulls an error back
         history = self.history
+        path = self.path_error(point, new, h)
         if self.curvature_known(point, new):
             curvature = force_curvature(point, new, h, history.slope, history.h)  # the chord misses -F'' h^3 / 12
             miss = -curvature * h ** 3 / 12.0  # N s
@@ -296,14 +243,30 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             f_predicted = point.f + history.f_slope * h
             f_miss = (new.f - f_predicted) * h / (h + history.h)
             x = slip_x_error(point, new, v, h, gain, self.velocity_per_impulse, self.force_course(new), True)
-            return LocalError(x=x, v=v, F=curvature * h * h / 8.0, impulse=impulse, f=f_miss)
+            return LocalError(x=x, v=v, F=curvature * h * h / 8.0, impulse=impulse, f=f_miss, path=path)
         # held (or ramped with no history): the force held at its end value misses -F' h^2 / 2;
         # f's miss filtered as the force's: f follows dv, whose error a stiff loop pulls back
         miss = -0.5 * (new.F - point.F) * h  # N s
         v = miss * self.velocity_per_impulse * filter_
         x = slip_x_error(point, new, v, h, gain, self.velocity_per_impulse, self.force_course(new), False)
         return LocalError(x=x, v=v, F=0.5 * (new.F - point.F) * filter_, impulse=impulse,
-                          f=0.5 * (new.f - point.f) * filter_)
+                          f=0.5 * (new.f - point.f) * filter_, path=path)
+
+    def passed_phase_change(self, point: Point, new: Point) -> bool:
+        """Whether the lubricant re-solidified inside the step and melted again (see
+        :func:`.path_error.passed_phase_change`)."""
+        return passed_phase_change(self.estimate.law, point, new, max(abs(new.F), abs(point.F)), self.tol)
+
+    def path_error(self, point: Point, new: Point, h: float) -> tuple[float, float, float, float] | None:
+        """The slip step's local error (x [m], v [m/s], f [1], v inside [m/s]) from its own path, carried through
+        the law's slopes (coupling/path_error.py), for a friction with state slipping one way
+        all through; None for any other step."""
+        if not (new.mode.slipping and point.mode.slipping):
+            return None
+        slopes = self.estimate.state_slopes(point, new, self.velocity_per_impulse,
+                                            RESOLUTION.zero_velocity * self.scales.velocity)
+        return None if slopes is None else path_local_error(point, new, h, self.estimate.w2, slopes,
+                                                            self.velocity_per_impulse)
 
     def force_course(self, new: Point) -> float:  # N/s, over the last step that slipped as new does
         return self.history.slope if self.history.h > 0.0 and self.history.mode == new.mode else 0.0
@@ -322,6 +285,13 @@ class EmbeddedCoupling(ErrorControlledCoupling):
             error = max(error, self.breakaway_timing_error(point, new, local, h, allowance * v_scale))
         elif new.f != 0.0 or point.f != 0.0:
             error = self.state_force_error(error, point, new, local, h)
+        if local.path is not None:
+            # the path's own error in x and v. (f's is in them, through the lubricant's loop;
+            # charged on its own as well, it cut Fig. 6's solid steps near the melt, where the
+            # loop's solve then took 3 evaluations where it had taken 1: 70 % more per run at
+            # per-step tol 1e-3, at the same accuracy)
+            x, v, _, _ = local.path
+            error = max(error, abs(x) / (allowance * x_scale), abs(v) / (allowance * v_scale))
         if new.mode.slipping and (point.mode == new.mode or point.mode.stuck):
             # (across a transition a jumps and the interpolants take one-sided slopes; stuck,
             # v is the drive's V, interpolated with the drive's acceleration. A stuck step that
@@ -409,18 +379,6 @@ class EmbeddedCoupling(ErrorControlledCoupling):
         reach = self.errors.breakaway_reach * (abs(new.F_rate) * h + abs(F_miss))
         return 1.0 if margin <= reach else (reach / margin) ** 2
 
-    def interpolation_error(self, point: Point, new: Point, h: float, v_scale: float, x_scale: float) -> float:
-        """How far the cubic Hermite interpolants of v (slopes a) and x (slopes v) may miss
-        between the two points, relative to tol: results are sampled between communication
-        points. A cubic Hermite misses by up to h^4/384 of the fourth derivative; for the
-        block (a = F/M - w2 x, w2 = 2K/M as the estimate learned it) with the force changing
-        slowly, d4v/dt4 ~ w2 da/dt ~ w2 (a1 - a0)/h and d4x/dt4 ~ w2 a. (Step doubling compared
-        the interpolant with its computed midpoint; one solve has no midpoint.)"""
-        w2 = self.estimate.w2
-        if w2 <= 0.0:
-            return 0.0
-        return hermite_miss(w2, point.a, new.a, h, self.tol * v_scale, self.tol * x_scale)
-
     def _carry_error(self, point: Point, new: Point, local: LocalError, h: float) -> None:
         """Carry the global error estimate over the accepted step (coupling/estimate.py)."""
         # (a point's dv is the block's real answer, off the dv its force was found at by up to
@@ -438,12 +396,21 @@ class EmbeddedCoupling(ErrorControlledCoupling):
                                             RESOLUTION.zero_velocity * self.scales.velocity)
         gain = self.expected_gain(h)
         loop = unstable_loop_factor(damping, h, new.ramped, gain)  # (1 but on a Stribeck drop)
+        # a slip step of a friction with state: its defect along its own path, carried through
+        # the law's slopes (coupling/path_error.py), in place of the force's divided differences
+        path = local.path
         self.estimate.recentre(  # (then centre the last ramp)
             ramp_step(point, new, h, self.history.slope, self.history.h, local.v * loop, gain)
-            if self.curvature_known(point, new) else None)
-        x = stick_onset_x_error(point, new, h, self.velocity_per_impulse, self.estimate.w2) \
-            if stuck and point.mode.slipping else local.x * loop
-        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, local.v * loop + local.impulse,
+            if path is None and self.curvature_known(point, new) else None)
+        if path is not None:
+            x, v, f, new.inside_error = path
+            if self.passed_phase_change(point, new):  # (taken at the shortest step)
+                self.estimate.passed_event = True
+        else:
+            x = stick_onset_x_error(point, new, h, self.velocity_per_impulse, self.estimate.w2) \
+                if stuck and point.mode.slipping else local.x * loop
+            v, f = local.v * loop + local.impulse, 0.0
+        new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, v,
                                                  stuck, x_scale, v_scale, stuck and point.mode.stuck, slopes,
-                                                 max(self.magnitudes.f, abs(new.f)) or math.inf)
+                                                 max(self.magnitudes.f, abs(new.f)) or math.inf, f)
         new.est_error = abs(local.v)

@@ -95,6 +95,9 @@ class Point:
     mode: Contact = Contact.UNKNOWN
     est_error: float = 0.0  # m/s, the algorithm's own estimate of this step's error in v (0: none)
     global_error: float = 0.0  # m/s, its estimate of the error in v carried to here (0: none)
+    # m/s, its estimate of the error in v at the middle of the step to here beyond the line
+    # between the carried errors at its ends (0: none; coupling/path_error.py)
+    inside_error: float = 0.0
     event: float = 1.0  # fraction of the step at which the contact broke away or stuck (1: none)
     ramped: bool = False  # the step ramped the force while slipping (else held or stuck)
     T: float = math.nan  # K, the friction's temperature input at this point (Thermal's output)
