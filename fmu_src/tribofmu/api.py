@@ -31,7 +31,7 @@ from .api_arguments import (SCENE_MAX_WALL, arguments, check_flag, check_overrid
                             check_run_arguments, refuse)
 from .errors import ArgumentError, FMUError, FMUSetupError  # noqa: F401 (FMUSetupError re-exported)
 from .coupling.algorithms import Scales, make_algorithm
-from .coupling.estimate import WindowError, carry_problem
+from .coupling.estimate import WindowError, carry_needs_verification, carry_problem
 from .coupling.interpolation import INPUT_SIGNALS, NS, SAMPLES_PER_PERIOD, SIGNALS
 from .coupling.system import CoupledSystem
 from .master import FMUCallError, FMUFileError, FMUInstance, GridRecorder, RunLimits, run
@@ -147,8 +147,10 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     if name != "adaptive":
         return run_once(step_tol=None)
     vouches = own_estimate_problem(scenario, inputs_vary(scenario)) is None
+    verify = vouches and "Friction" in scenario.fmus and carry_needs_verification(scenario.friction.law())
     return checked_simulation(run_once, tol if tol is not None else DEFAULT_TOL, budget, sink, workers=workers,
-                              progress=progress, notice=notice, prepare=load_fmus, vouches=vouches)
+                              progress=progress, notice=notice, prepare=load_fmus, vouches=vouches,
+                              verify=verify)
 
 
 def _scenario(scenario: Scenario | str | Path, overrides) -> Scenario:

@@ -179,7 +179,7 @@ class CheckSequence:
     """The decisions of the check over its runs as they come (it makes no run itself): which
     per-step tolerance comes next, which run is reported and with what error, when to stop."""
 
-    def __init__(self, tol: float, step_tol: float, vouches: bool = False):
+    def __init__(self, tol: float, step_tol: float, vouches: bool = False, verify: bool = False):
         self.tol, self.step_tol = tol, step_tol  # the global tol; the next run's per-step tolerance
         self.records: list[RunRecord] = []
         self.base = None  # the looser run of the pair being formed (None: a new pair starts)
@@ -197,6 +197,12 @@ class CheckSequence:
         # lands at 0.05-0.25 tol (checked_simulation), inside tol over the margin
         self.expected_to_meet = vouches
         self.ahead = None  # the per-step tolerance of the run started ahead of a first run that vouches
+        # (result, own error) of the last run that vouched for itself: the next one's is checked
+        # against it (verified). verify: a run that vouches ends the call only once a second one's
+        # estimate agrees with it (a friction with state: its events can move the rest of a run
+        # where the linearised estimate does not see it)
+        self.own_previous = None
+        self.verify = verify
 
     def planned(self) -> int:
         """Runs planned so far, the next one's pair included (for the progress bar)."""
@@ -223,9 +229,19 @@ class CheckSequence:
     def add(self, result) -> bool:
         """Take the next run's (completed) result; True when the sequence ends with it."""
         error, own = math.nan, vouched_error(result)
+        previous = self.own_previous
+        if own is not None and previous is not None and not window_difference(previous[0], result) <= own + previous[1]:
+            # two runs apart by more than their own errors together (each its estimate times the
+            # margin): one of the estimates reads short by more than its margin; the two runs
+            # are a pair, checked as pairs are (a planned pair is further apart than CHECK_RATIO:
+            # its difference over CHECK_RATIO^p - 1 reads high, not low)
+            own, self.base, self.chain_difference, self.own_previous = None, previous[0], None, None
         if own is not None:  # the run vouches for itself: its own estimate is its error
             self.own, self.best, self.best_error = True, result, own
+            self.own_previous = (result, own)
             error = own
+            if self.verify and previous is None and error <= self.tol:  # (verified by the next run)
+                error = math.inf
         elif self.base is not None:
             self.own = False
             difference = window_difference(self.base, result)
@@ -305,7 +321,7 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
                        sink: Callable[[int, dict], None] | None = None,
                        step_tol: float | None = None, *, workers: int | None = None,
                        progress: Callable[[Any], None] | None = None, notice: Callable[[str], None] | None = None,
-                       prepare: Callable[[], None] | None = None, vouches: bool = False):
+                       prepare: Callable[[], None] | None = None, vouches: bool = False, verify: bool = False):
     """Run ``run_once(step_tol=..., max_wall=..., sink=...)`` in check pairs from per-step
     tolerance ``step_tol`` (default tol itself) down, until the tighter run of a
     pair is checked to meet ``tol`` on the window, or the budget ``max_wall`` [s] (None:
@@ -324,7 +340,8 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     runs carry an estimate that can vouch for them (api.own_estimate_problem): the first run is
     expected to stand alone and runs in this process; the run its plan most likely asks for next
     (CheckSequence.then) starts ahead in a child once the first has run a while
-    (forked_runs.ForkedRuns, ``here``)."""
+    (forked_runs.ForkedRuns, ``here``). verify: a run that vouches ends the call only once the
+    next run's estimate agrees with it (:class:`CheckSequence`)."""
     begin, cpu_begin = time.perf_counter(), cpu_seconds()
     count = check_workers(workers)
     make_spool = (lambda: Spool()) if sink is not None else (lambda: None)
@@ -333,7 +350,7 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     # The first run's per-step tolerance is tol itself: the reported run's true nRMS(v) then
     # lands at 0.05-0.25 tol (fig2, fig6 and an off-scene dry point; 0.026 at 0.5 tol: more
     # accuracy than asked, paid in steps)
-    sequence = CheckSequence(tol, max(step_tol if step_tol is not None else tol, MIN_STEP_TOL), vouches)
+    sequence = CheckSequence(tol, max(step_tol if step_tol is not None else tol, MIN_STEP_TOL), vouches, verify)
     held: dict[int, Spool] = {}  # the spooled samples of the runs that may be reported
     try:
         while True:

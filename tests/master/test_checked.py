@@ -317,3 +317,31 @@ def test_a_plan_from_an_observed_order_is_capped_and_an_error_that_never_falls_e
     assert tols[1] / tols[2] == pytest.approx(checked.MAX_JUMP)  # the slowest order, capped
     assert len(tols) == checked.MAX_RUNS or tols[-1] == checked.MIN_STEP_TOL
     assert not result.ok and "tolerance 0.001 not met: the estimated nRMS(v) is 0.004" in result.message
+
+
+def test_a_run_to_be_verified_ends_the_call_only_when_the_next_ones_estimate_agrees():
+    """verify (a friction with state, whose events can move a run where its linearised estimate
+    does not see it): a first run that vouches and meets tol is followed by a second, and the
+    tighter one is reported once their difference is within their own errors."""
+    own = power_law(0.2)  # 4e-4 with the margin at 1e-3: meets tol
+    runs = VouchingRuns(power_law(0.3), own=own)
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, vouches=True, verify=True)
+    assert len(runs.calls) == 2 and result.ok
+    assert result.stats["estimated_error"]["method"].startswith("own")
+    assert result.stats["step_tol"] == runs.calls[1][0] < runs.calls[0][0]
+    alone = VouchingRuns(power_law(0.3), own=own)  # the same without verify: one run
+    assert len(alone.calls) == 0 and checked.checked_simulation(alone, tol=1e-3, max_wall=None, vouches=True).ok
+    assert len(alone.calls) == 1
+
+
+def test_two_vouching_runs_whose_difference_their_estimates_do_not_cover_are_checked_as_a_pair():
+    """Each run's estimate reads a tenth of its true error (0.3 step_tol against 0.03): the two
+    runs differ by more than both estimates together, so neither vouches; the pair's difference
+    decides, as the check's does, and the call reports a checked error."""
+    runs = VouchingRuns(power_law(0.3), own=power_law(0.03))
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, vouches=True, verify=True)
+    error = result.stats["estimated_error"]
+    assert error["method"].startswith("checked"), error
+    assert len(runs.calls) >= 2
+    # the reported error covers the reported run's true error (0.3 step_tol)
+    assert error["nrms_v"] >= 0.3 * result.stats["step_tol"] * 0.5
