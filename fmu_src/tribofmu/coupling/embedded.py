@@ -258,9 +258,10 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         return passed_phase_change(self.estimate.law, point, new, max(abs(new.F), abs(point.F)), self.tol)
 
     def path_error(self, point: Point, new: Point, h: float) -> tuple[float, float, float, float] | None:
-        """The slip step's local error (x [m], v [m/s], f [1], v inside [m/s]) from its own path, carried through
-        the law's slopes (coupling/path_error.py), for a friction with state slipping one way
-        all through; None for any other step."""
+        """The slip step's local error (x [m], v [m/s], f [1], v inside [m/s]) from its own path,
+        carried through the law's slopes (coupling/path_error.py), for a friction with state
+        slipping at both ends (across a reversal too: a lubricant's force is continuous through
+        dv = 0); None for any other step."""
         if not (new.mode.slipping and point.mode.slipping):
             return None
         slopes = self.estimate.state_slopes(point, new, self.velocity_per_impulse,
