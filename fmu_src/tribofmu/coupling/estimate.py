@@ -93,10 +93,11 @@ def carry_problem(law, inputs_vary: bool) -> str | None:
     had to, at the shortest step, cannot vouch (GlobalErrorEstimate.passed_event). (Charged from
     the force's divided differences, the slip steps' local errors had the wrong sign, and the
     estimate read 0.07-0.26x the true error at gamma >= 0; with grips passed over, gamma = -0.3
-    at per-step 1e-2 ran 46 % off and read 0.006x. With both: estimate / true 0.46-1.5 over 24
-    runs at gamma = -0.95 to 2, omega 20 and 30, tol 1e-2 to 1e-4, ``bench_trust.py --one-run
-    --only boundary``, 2026-11-27; a solid lubricant 0.14-0.21, its errors all below tol / 10.)
-    It does not hold for
+    at per-step 1e-2 ran 46 % off and read 0.006x. With both, and the error inside a step in
+    the window's estimate: estimate / true 0.46-2.1 over 27 runs at gamma = -0.95 to 2, omega
+    20 and 30, the solid lubricant, tol 1e-2 to 1e-4, ``bench_trust.py --one-run --only
+    boundary`` and ``--only fig6``, 2026-11-27 13:55 UTC.) Such a run is verified by a second
+    before a call ends on it (:func:`carry_needs_verification`). It does not hold for
     - a force with an unbounded slope at rest (``law.slope_bounded``) other than a shear-thinning
       power law's (``law.shear_thinning``): a Stribeck curve's with delta < 1 at breakaway.
       A shear-thinning force is continuous through dv = 0 and its slope, |dv|^gamma, integrable
