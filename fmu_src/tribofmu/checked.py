@@ -196,7 +196,12 @@ class CheckSequence:
         # A first run that vouches for itself is: at a per-step tolerance of tol its true error
         # lands at 0.05-0.25 tol (checked_simulation), inside tol over the margin
         self.expected_to_meet = vouches
-        self.ahead = None  # the per-step tolerance of the run started ahead of a first run that vouches
+        # the per-step tolerance of the run started ahead of a first run that vouches: its
+        # successor, where the plan sends it when the run's reported error (ONE_RUN_MARGIN x its
+        # estimate) is its per-step tolerance, at the order of ramped slip steps (p = 2: 2/3),
+        # the method's own; the sequence takes it where its plan lands up to a check ratio
+        # looser (add). None: none (a scene whose runs do not vouch, or once passed)
+        self.ahead = max(step_tol / (ONE_RUN_MARGIN / STEP_CONTROL.safety) ** 1.5, MIN_STEP_TOL) if vouches else None
         # (result, own error) of the last run that vouched for itself: the next one's is checked
         # against it (verified). verify: a run that vouches ends the call only once a second one's
         # estimate agrees with it (a friction with state: its events can move the rest of a run
@@ -215,12 +220,7 @@ class CheckSequence:
         likely be stopped unused: Fig. 6 spent half again its CPU time on one)."""
         if len(self.records) + 1 >= MAX_RUNS or self.step_tol <= MIN_STEP_TOL:
             return None
-        if self.own and not self.records:
-            # a first run that vouches: its successor, where the plan sends it when the run's
-            # reported error (ONE_RUN_MARGIN x its estimate) is its per-step tolerance, at the
-            # order of ramped slip steps (p = 2: 2/3), the method's own; the sequence takes it
-            # where its plan lands up to a check ratio looser (_own_tightening)
-            self.ahead = max(self.step_tol / (ONE_RUN_MARGIN / STEP_CONTROL.safety) ** 1.5, MIN_STEP_TOL)
+        if self.own and not self.records:  # a first run that vouches: the run ahead of it
             return self.ahead
         if self.expected_to_meet and (self.base is not None or self.own):
             return None

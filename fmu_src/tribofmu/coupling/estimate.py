@@ -294,16 +294,27 @@ def state_flow(h: float, w2: float, c: float, p: float, q: float, r: float,
     PADE_POLE, PADE_RESIDUE): A h - z1 I is tridiagonal, one complex elimination, no (A h)^2
     whose stiff entries would swamp the rest. (Exact solve: the denominator is 0 only where
     an eigenvalue of A h is z1 itself; then the carry is not finite, as R is not.)"""
-    z1 = PADE_POLE
-    d0, d1, d2 = -z1, -c * h - z1, r * h - z1  # the diagonal of A h - z1 I
+    u = resolvent_solve(h, w2, c, p, q, r, PADE_POLE, ex, ev, ef)
+    if u is None:
+        return math.nan, math.nan, math.nan
+    k = 2.0 * PADE_RESIDUE
+    return (k * u[0]).real, (k * u[1]).real, (k * u[2]).real
+
+
+def resolvent_solve(h: float, w2: float, c: float, p: float, q: float, r: float, z: complex,
+                    ex: complex, ev: complex, ef: complex) -> tuple[complex, complex, complex] | None:
+    """u of (A h - z I) u = (ex, ev, ef) for the variational equations' A = [[0, 1, 0], [-w2, -c,
+    p], [0, q, r]] (:func:`state_flow`) over a step of h [s], at a pole z of a rational
+    approximant of the exponential: A h - z I is tridiagonal, one elimination (None where its
+    pivot is 0, z an eigenvalue of A h itself)."""
+    d0, d1, d2 = -z, -c * h - z, r * h - z  # the diagonal of A h - z I
     a, P, Q = -w2 * h, p * h, q * h
     # rows: d0 u0 + h u1 = ex; a u0 + d1 u1 + P u2 = ev; Q u1 + d2 u2 = ef
     pivot = d1 - a * h / d0 - P * Q / d2
     if pivot == 0.0:
-        return math.nan, math.nan, math.nan
+        return None
     u1 = (ev - a * ex / d0 - P * ef / d2) / pivot
-    k = 2.0 * PADE_RESIDUE
-    return (k * (ex - h * u1) / d0).real, (k * u1).real, (k * (ef - Q * u1) / d2).real
+    return (ex - h * u1) / d0, u1, (ef - Q * u1) / d2
 
 
 def _saturated(value: float, scale: float) -> float:

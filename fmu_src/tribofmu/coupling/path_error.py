@@ -41,6 +41,8 @@ from __future__ import annotations
 import cmath
 import math
 
+from .estimate import resolvent_solve
+
 
 def _cubic_roots(b: float, c: float, d: float) -> tuple[complex, complex, complex]:
     """The roots of z^3 + b z^2 + c z + d (Cardano; this module ships in the TriboPair FMU, which
@@ -82,8 +84,7 @@ def forced_response(h: float, w2: float, c: float, p: float, q: float, r: float,
     [0, 1], Z = [[h A, h k! d_k], [0, shift]]): e(h) = R(Z) e_0, e_0 the term u^0's unit vector,
     R :data:`PADE_POLES`' approximant, sum_i a_i (Z - z_i)^-1 e_0. Per pole the terms' part of
     (Z - z_i)^-1 e_0 is -1 / z_i^(k+1), which leaves (h A - z_i) u = sum_k h k! d_k / z_i^(k+1):
-    one tridiagonal solve (as in :func:`.estimate.state_flow`)."""
-    a, P, Q = -w2 * h, p * h, q * h
+    one tridiagonal solve (:func:`.estimate.resolvent_solve`, as the carry's)."""
     x = v = f = 0.0
     for pole, residue in zip(PADE_POLES, PADE_RESIDUES):
         power, bv, bf = 1.0 / pole, 0.0, 0.0
@@ -91,13 +92,12 @@ def forced_response(h: float, w2: float, c: float, p: float, q: float, r: float,
             bv += _FACTORIAL[k] * force_v[k] * power
             bf += _FACTORIAL[k] * force_f[k] * power
             power /= pole
-        bv, bf = bv * h, bf * h
-        d0, d1, d2 = -pole, -c * h - pole, r * h - pole
-        pivot = d1 - a * h / d0 - P * Q / d2
-        u1 = (bv - P * bf / d2) / pivot
-        x += (residue * (-h * u1 / d0)).real
-        v += (residue * u1).real
-        f += (residue * (bf - Q * u1) / d2).real
+        u = resolvent_solve(h, w2, c, p, q, r, pole, 0.0, bv * h, bf * h)
+        if u is None:
+            raise ZeroDivisionError("a pole of the approximant is an eigenvalue of h A")
+        x += (residue * u[0]).real
+        v += (residue * u[1]).real
+        f += (residue * u[2]).real
     return x, v, f
 
 
