@@ -13,7 +13,8 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from tribofmu.coupling.estimate import GlobalErrorEstimate, state_flow
+from tribofmu.coupling.estimate import GlobalErrorEstimate
+from tribofmu.coupling.variational import state_flow
 from tribofmu.coupling.system import Contact, Point
 from tribofmu.physics.friction import FrictionLaw
 from tribofmu.physics.laws.dry import DryLaw

@@ -76,6 +76,7 @@ from dataclasses import asdict
 
 from .interpolation import NS, velocity_slopes
 from .local_errors import RampStep, centred_ramp_miss, stiff_x_error
+from .variational import state_flow
 
 # exp() of more than this overflows a float: a carry that grows past it has long saturated
 EXP_LIMIT = 700.0
@@ -272,49 +273,6 @@ class GlobalErrorEstimate:
         nx = (e1 * (ax - l2 * ex) - e2 * (ax - l1 * ex)) / d
         nv = (e1 * (av - l2 * ev) - e2 * (av - l1 * ev)) / d
         return nx.real, nv.real
-
-
-# The (1,2) Pade approximant of e^z, R(z) = (1 + z/3) / (1 - 2z/3 + z^2/6), in partial fractions:
-# its poles PADE_POLE and its conjugate, 2 +- i sqrt(2), its residue at the first PADE_RESIDUE
-# (6 (1 + z1/3) / (z1 - conj(z1))), so that R(z) = 2 Re(PADE_RESIDUE / (z - PADE_POLE)) for real z
-PADE_POLE = complex(2.0, math.sqrt(2.0))
-PADE_RESIDUE = complex(1.0, -5.0 / math.sqrt(2.0))
-
-
-def state_flow(h: float, w2: float, c: float, p: float, q: float, r: float,
-               ex: float, ev: float, ef: float) -> tuple[float, float, float]:
-    """R(A h) (ex, ev, ef) over a step of h [s] for the variational equations of
-    :meth:`GlobalErrorEstimate.state_slopes`, A = [[0, 1, 0], [-w2, -c, p], [0, q, r]], with R
-    the (1,2) Pade approximant of the exponential: third order (A h of a non-stiff mode off
-    e^(A h) by (A h)^4 / 72) and L-stable (R(z) ~ 2/z as |z| grows: a stiff mode decays within
-    the step, as it does). The f-mode is stiff (|r| h up to 1e4) and a solid lubricant's
-    c h up to 1e5: an explicit or A-stable-only rule would ring or blow up, e^(A h) in closed
-    form is the 2x2 flow's cubic-in-three-eigenvalues (scipy's expm 130 us, numpy's eig 25
-    us a step). In partial fractions, R(A h) e = 2 Re(alpha (A h - z1 I)^-1 e) (z1, alpha:
-    PADE_POLE, PADE_RESIDUE): A h - z1 I is tridiagonal, one complex elimination, no (A h)^2
-    whose stiff entries would swamp the rest. (Exact solve: the denominator is 0 only where
-    an eigenvalue of A h is z1 itself; then the carry is not finite, as R is not.)"""
-    u = resolvent_solve(h, w2, c, p, q, r, PADE_POLE, ex, ev, ef)
-    if u is None:
-        return math.nan, math.nan, math.nan
-    k = 2.0 * PADE_RESIDUE
-    return (k * u[0]).real, (k * u[1]).real, (k * u[2]).real
-
-
-def resolvent_solve(h: float, w2: float, c: float, p: float, q: float, r: float, z: complex,
-                    ex: complex, ev: complex, ef: complex) -> tuple[complex, complex, complex] | None:
-    """u of (A h - z I) u = (ex, ev, ef) for the variational equations' A = [[0, 1, 0], [-w2, -c,
-    p], [0, q, r]] (:func:`state_flow`) over a step of h [s], at a pole z of a rational
-    approximant of the exponential: A h - z I is tridiagonal, one elimination (None where its
-    pivot is 0, z an eigenvalue of A h itself)."""
-    d0, d1, d2 = -z, -c * h - z, r * h - z  # the diagonal of A h - z I
-    a, P, Q = -w2 * h, p * h, q * h
-    # rows: d0 u0 + h u1 = ex; a u0 + d1 u1 + P u2 = ev; Q u1 + d2 u2 = ef
-    pivot = d1 - a * h / d0 - P * Q / d2
-    if pivot == 0.0:
-        return None
-    u1 = (ev - a * ex / d0 - P * ef / d2) / pivot
-    return (ex - h * u1) / d0, u1, (ef - Q * u1) / d2
 
 
 def _saturated(value: float, scale: float) -> float:

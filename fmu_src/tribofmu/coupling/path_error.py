@@ -41,7 +41,7 @@ from __future__ import annotations
 import cmath
 import math
 
-from .estimate import resolvent_solve
+from .variational import resolvent_solve
 
 
 def _cubic_roots(b: float, c: float, d: float) -> tuple[complex, complex, complex]:
@@ -84,7 +84,7 @@ def forced_response(h: float, w2: float, c: float, p: float, q: float, r: float,
     [0, 1], Z = [[h A, h k! d_k], [0, shift]]): e(h) = R(Z) e_0, e_0 the term u^0's unit vector,
     R :data:`PADE_POLES`' approximant, sum_i a_i (Z - z_i)^-1 e_0. Per pole the terms' part of
     (Z - z_i)^-1 e_0 is -1 / z_i^(k+1), which leaves (h A - z_i) u = sum_k h k! d_k / z_i^(k+1):
-    one tridiagonal solve (:func:`.estimate.resolvent_solve`, as the carry's)."""
+    one tridiagonal solve (:func:`.variational.resolvent_solve`, as the carry's)."""
     x = v = f = 0.0
     for pole, residue in zip(PADE_POLES, PADE_RESIDUES):
         power, bv, bf = 1.0 / pole, 0.0, 0.0
