@@ -25,9 +25,6 @@ is planned from it (:meth:`CheckSequence._own_tightening`) and stands on its own
 from __future__ import annotations
 
 import math
-import os
-import pickle
-import tempfile
 import time
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -37,7 +34,7 @@ import numpy as np
 from .coupling.settings import CHECK_SETTINGS, LIMITS, MAX_ORDER, RESOLUTION, STEP_CONTROL
 from .forked_runs import ForkedRuns, InlineRuns, check_workers, cpu_seconds
 from .progress import run_started
-from .run_folder import run_folder
+from .run_folder import Spool
 
 # The check's tuning, each value with its reason, is coupling/settings.py's CheckSettings (its
 # floor and limits Resolution's and Limits'); the names below are what this module (and a test
@@ -119,44 +116,6 @@ def _window_v(result) -> np.ndarray | None:
         return None
     mask = (t >= start - 1e-12) & (t <= end + 1e-12)
     return np.asarray(result.v[mask], dtype=float)
-
-
-class Spool:
-    """Output samples of one run held on disk until the run is chosen (memory stays bounded
-    whatever the span); :meth:`replay` hands them to the real sink in order."""
-
-    def __init__(self):
-        # in this process's run folder, which goes with it (killed runs' by the next run)
-        fd, self.path = tempfile.mkstemp(prefix="tribofmu-spool-", suffix=".pickle", dir=run_folder())
-        self._file = os.fdopen(fd, "wb")
-
-    def __call__(self, start: int, signals: dict) -> None:
-        pickle.dump((start, {k: np.array(v) for k, v in signals.items()}), self._file,
-                    protocol=pickle.HIGHEST_PROTOCOL)
-
-    def finish(self) -> None:
-        """Everything written reaches the file (a forked run's last act: its parent replays it)."""
-        if not self._file.closed:
-            self._file.close()
-
-    def replay(self, sink: Callable[[int, dict], None]) -> None:
-        if not self._file.closed:
-            self._file.flush()
-        with open(self.path, "rb") as fh:
-            while True:
-                try:
-                    start, signals = pickle.load(fh)
-                except EOFError:
-                    return
-                sink(start, signals)
-
-    def close(self) -> None:
-        if not self._file.closed:
-            self._file.close()
-        try:
-            os.unlink(self.path)
-        except OSError:
-            pass
 
 
 @dataclass(frozen=True)

@@ -14,10 +14,14 @@ from __future__ import annotations
 
 import atexit
 import os
+import pickle
 import shutil
 import tempfile
 import threading
 from pathlib import Path
+from typing import Callable
+
+import numpy as np
 
 from .atomic import left_by_gone_process
 
@@ -64,3 +68,42 @@ def _remove(pid: int, folder: Path) -> None:
     if os.getpid() == pid:  # a forked child inherits the handler, not the folder
         shutil.rmtree(folder, ignore_errors=True)
         remove_gone_runs(folder.parent)  # e.g. the folders of finished worker processes
+
+
+class Spool:
+    """The check's output samples of one run (checked.py), held in this folder until the run is
+    chosen (memory stays bounded whatever the span); :meth:`replay` hands them to the real sink
+    in order."""
+
+    def __init__(self):
+        # in this process's run folder, which goes with it (killed runs' by the next run)
+        fd, self.path = tempfile.mkstemp(prefix="tribofmu-spool-", suffix=".pickle", dir=run_folder())
+        self._file = os.fdopen(fd, "wb")
+
+    def __call__(self, start: int, signals: dict) -> None:
+        pickle.dump((start, {k: np.array(v) for k, v in signals.items()}), self._file,
+                    protocol=pickle.HIGHEST_PROTOCOL)
+
+    def finish(self) -> None:
+        """Everything written reaches the file (a forked run's last act: its parent replays it)."""
+        if not self._file.closed:
+            self._file.close()
+
+    def replay(self, sink: Callable[[int, dict], None]) -> None:
+        if not self._file.closed:
+            self._file.flush()
+        with open(self.path, "rb") as fh:
+            while True:
+                try:
+                    start, signals = pickle.load(fh)
+                except EOFError:
+                    return
+                sink(start, signals)
+
+    def close(self) -> None:
+        if not self._file.closed:
+            self._file.close()
+        try:
+            os.unlink(self.path)
+        except OSError:
+            pass
