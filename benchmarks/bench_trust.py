@@ -4,6 +4,7 @@ run that misses it say so?
     python benchmarks/bench_trust.py [--tols default,1e-3,1e-4] [--only SUBSTRING] [--out FILE.json]
     python benchmarks/bench_trust.py --one-run [--tols default] [--only SUBSTRING]
     python benchmarks/bench_trust.py --extra [--tols ...]   (EXTRA_POINTS instead of POINTS)
+    python benchmarks/bench_trust.py --settings "coupling.max_ramp_gain=inf" ...   (other tuning)
 
 At Fig. 2's and Fig. 6's scenes and at parameter points no scene uses (dry, fluid, boundary and
 mixed friction across docs/model.md's ranges), each run of ``tribofmu.api.simulate`` (whole
@@ -117,7 +118,16 @@ def main(argv=None) -> int:
                         help="the points of EXTRA_POINTS instead (dry, fluid and mixed points off the list)")
     parser.add_argument("--one-run", action="store_true",
                         help="each point's first run only: its propagated estimate against its true error")
+    parser.add_argument("--settings", default="", metavar="VARIANT",
+                        help="run with these tuning values instead of coupling/settings.py's, as "
+                             "benchmarks/bench_settings.py takes them (group.name=value;...)")
     args = parser.parse_args(argv)
+    if args.settings:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from bench_settings import apply
+
+        apply(args.settings)
+        print(f"# settings: {args.settings}", flush=True)
     if args.extra:
         global POINTS
         POINTS = EXTRA_POINTS

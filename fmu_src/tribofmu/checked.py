@@ -19,7 +19,7 @@ kept but not ``ok``. Every run of the sequence counts in the reported ``wall_tim
 
 One run where one is enough: where a run's own carried estimate vouches for it (its derivation
 holds for the scene: coupling/estimate.py ``carry_problem``), the run is reported alone with
-ONE_RUN_MARGIN times that estimate as its error when that meets tol, and otherwise the next run
+ESTIMATE_SAFETY times that estimate as its error when that meets tol, and otherwise the next run
 is planned from it (:meth:`CheckSequence._own_tightening`) and stands on its own estimate in turn.
 """
 from __future__ import annotations
@@ -41,24 +41,23 @@ from .run_folder import Spool
 # that sets one) reads.
 CHECK_RATIO = CHECK_SETTINGS.check_ratio
 MIN_ORDER = CHECK_SETTINGS.min_order
-ORDER_SAFETY = CHECK_SETTINGS.order_safety
 CHAIN_TIGHTENING_MAX = CHECK_SETTINGS.chain_tightening_max
 MAX_JUMP = CHECK_SETTINGS.max_jump
-ONE_RUN_MARGIN = CHECK_SETTINGS.one_run_margin
+ESTIMATE_SAFETY = CHECK_SETTINGS.estimate_safety
 MIN_STEP_TOL = RESOLUTION.min_step_tol
 MAX_RUNS = LIMITS.max_runs
 MIN_BUDGET = LIMITS.min_budget  # s
 
 
 def vouched_error(result) -> float | None:
-    """ONE_RUN_MARGIN times the run's own carried estimate of its error where that estimate
+    """ESTIMATE_SAFETY times the run's own carried estimate of its error where that estimate
     vouches for the run (``stats["estimated_error"]["vouches"]``: its derivation holds for
     the scene, coupling/estimate.py carry_problem); None where it cannot, or has no value."""
     own = result.stats.get("estimated_error") or {}
     value = own.get("nrms_v")
     if not own.get("vouches") or value is None or not math.isfinite(value):
         return None
-    return ONE_RUN_MARGIN * value
+    return ESTIMATE_SAFETY * value
 
 
 def checked_error(difference: float, previous: float | None = None) -> float:
@@ -69,7 +68,7 @@ def checked_error(difference: float, previous: float | None = None) -> float:
     order = observed_order(difference, previous)
     if order is None:
         return two_runs
-    return min(two_runs, ORDER_SAFETY * difference / (CHECK_RATIO ** order - 1.0))
+    return min(two_runs, ESTIMATE_SAFETY * difference / (CHECK_RATIO ** order - 1.0))
 
 
 def observed_order(difference: float, previous: float | None) -> float | None:
@@ -156,11 +155,11 @@ class CheckSequence:
         # lands at 0.05-0.25 tol (checked_simulation), inside tol over the margin
         self.expected_to_meet = vouches
         # the per-step tolerance of the run started ahead of a first run that vouches: its
-        # successor, where the plan sends it when the run's reported error (ONE_RUN_MARGIN x its
+        # successor, where the plan sends it when the run's reported error (ESTIMATE_SAFETY x its
         # estimate) is its per-step tolerance, at the order of ramped slip steps (p = 2: 2/3),
         # the method's own; the sequence takes it where its plan lands up to a check ratio
         # looser (add). None: none (a scene whose runs do not vouch, or once passed)
-        self.ahead = max(step_tol / (ONE_RUN_MARGIN / STEP_CONTROL.safety) ** 1.5, MIN_STEP_TOL) if vouches else None
+        self.ahead = max(step_tol / (ESTIMATE_SAFETY / STEP_CONTROL.safety) ** 1.5, MIN_STEP_TOL) if vouches else None
         # (result, own error) of the last run that vouched for itself: the next one's is checked
         # against it (verified). verify: a run that vouches ends the call only once a second one's
         # estimate agrees with it (a friction with state: its events can move the rest of a run
@@ -394,7 +393,7 @@ def _method(checked: bool, sequence: CheckSequence) -> str:
         runs = len(sequence.records)
         before = ("" if runs == 1 else f"; it is run {runs} of {runs}, each after the first planned from the "
                   "estimate of the one before, which had missed tol")
-        return (f"own: the run's carried estimate of its error (coupling/estimate.py) times {ONE_RUN_MARGIN:g}; "
+        return (f"own: the run's carried estimate of its error (coupling/estimate.py) times {ESTIMATE_SAFETY:g}; "
                 "it vouches for the run here (its derivation holds: the friction a function of dv alone "
                 "whose slope is bounded, a shear-thinning fluid's, or a lubricant's whose state's error the "
                 f"law's slopes carry), so the run was not repeated{before}")
@@ -403,7 +402,7 @@ def _method(checked: bool, sequence: CheckSequence) -> str:
     order = sequence.order
     how = (f"p = {MIN_ORDER:g}, the slowest convergence allowed for" if order is None else
            f"p = {order:.2g}, the order this run and the two looser ones before it showed, times "
-           f"{ORDER_SAFETY:g}, and at most the estimate at p = {MIN_ORDER:g}")
+           f"{ESTIMATE_SAFETY:g}, and at most the estimate at p = {MIN_ORDER:g}")
     return ("checked: the run was repeated at a per-step tolerance "
             f"{CHECK_RATIO:g}x tighter and the two compared on the window (Shampine's rule); the "
             f"tighter run is reported, with their difference over {CHECK_RATIO:g}^p - 1 as its error ({how})")

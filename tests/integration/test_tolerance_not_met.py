@@ -56,7 +56,7 @@ def test_a_run_whose_own_estimate_vouches_is_reported_alone_and_says_so(tmp_path
     assert "estimated nRMS(v)" in captured.stdout and "one run: its own estimate vouches" in captured.stdout
     error = stats["estimated_error"]
     assert stats["ok"] and len(stats["check"]["runs"]) == 1 and error["vouches"]
-    assert error["nrms_v"] == checked.ONE_RUN_MARGIN * error["propagated"] <= 1e-3
+    assert error["nrms_v"] == checked.ESTIMATE_SAFETY * error["propagated"] <= 1e-3
 
 
 def test_a_call_whose_last_run_vouches_after_others_says_how_many_runs(tmp_path, fmu_dir, capsys):

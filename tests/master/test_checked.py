@@ -187,7 +187,7 @@ def test_a_chain_of_three_runs_reports_at_the_order_it_shows_and_never_above_the
     assert result.stats["check"]["observed_order"] == pytest.approx(1.0, rel=1e-3)
     true_error = checked.window_difference(result, FakeRuns(lambda step_tol: 0.0)(1.0))
     reported = result.stats["estimated_error"]["nrms_v"]
-    assert reported == pytest.approx(checked.ORDER_SAFETY * true_error, rel=1e-2)
+    assert reported == pytest.approx(checked.ESTIMATE_SAFETY * true_error, rel=1e-2)
     assert result.ok and reported <= true_error / (checked.CHECK_RATIO ** checked.MIN_ORDER - 1.0)
 
 
@@ -223,7 +223,7 @@ def test_a_run_whose_own_estimate_vouches_and_meets_tol_with_the_margin_is_repor
     assert len(runs.calls) == 1
     assert result.ok and result.stats["tolerance_met"]
     error = result.stats["estimated_error"]
-    assert error["nrms_v"] == pytest.approx(checked.ONE_RUN_MARGIN * 2e-4)
+    assert error["nrms_v"] == pytest.approx(checked.ESTIMATE_SAFETY * 2e-4)
     assert error["method"].startswith("own") and error["vouches"] and error["propagated"] == pytest.approx(2e-4)
     assert len(result.stats["check"]["runs"]) == 1
 
@@ -237,7 +237,7 @@ def test_an_own_estimate_past_tol_over_the_margin_plans_the_next_run_from_it_wit
     factor = 4.0 / SAFETY
     assert tols == pytest.approx([1e-3, 1e-3 / factor])
     assert result.ok and result.stats["step_tol"] == pytest.approx(1e-3 / factor)
-    assert result.stats["estimated_error"]["nrms_v"] == pytest.approx(checked.ONE_RUN_MARGIN * 2.0 / factor * 1e-3)
+    assert result.stats["estimated_error"]["nrms_v"] == pytest.approx(checked.ESTIMATE_SAFETY * 2.0 / factor * 1e-3)
 
 
 @pytest.mark.parametrize("order", [0.5, 0.6, 2.0 / 3.0, 0.75])
@@ -273,7 +273,7 @@ def test_the_third_run_is_planned_at_the_order_the_first_two_own_errors_showed()
     assert len(tols) == 3
     shown = math.log(own(tols[0]) / own(tols[1])) / math.log(tols[0] / tols[1])
     assert shown == pytest.approx(0.5)
-    wanted = (checked.ONE_RUN_MARGIN * own(tols[1]) / (SAFETY * 1e-3)) ** (1.0 / shown)
+    wanted = (checked.ESTIMATE_SAFETY * own(tols[1]) / (SAFETY * 1e-3)) ** (1.0 / shown)
     assert tols[1] / tols[2] == pytest.approx(wanted) and wanted > 2.5
 
 
@@ -284,7 +284,7 @@ def test_an_own_estimate_that_falls_slower_than_planned_takes_one_more_run_not_a
     tols = [c[0] for c in runs.calls]
     assert len(tols) >= 3 and all(a / b >= checked.CHECK_RATIO for a, b in zip(tols, tols[1:]))
     if result.ok:
-        assert checked.ONE_RUN_MARGIN * own(result.stats["step_tol"]) <= 1e-3
+        assert checked.ESTIMATE_SAFETY * own(result.stats["step_tol"]) <= 1e-3
     else:
         assert "estimated nRMS(v)" in result.message
 
@@ -307,7 +307,7 @@ def test_an_own_estimate_far_from_tol_jumps_as_far_as_it_asks_in_one_plan():
     result = checked.checked_simulation(runs, tol=1e-3, max_wall=None)
     tols = [c[0] for c in runs.calls]
     assert len(tols) == 2 and result.ok  # a planned pair's cap (MAX_JUMP) would have taken three
-    assert tols[0] / tols[1] == pytest.approx(30.0 * checked.ONE_RUN_MARGIN / SAFETY)
+    assert tols[0] / tols[1] == pytest.approx(30.0 * checked.ESTIMATE_SAFETY / SAFETY)
 
 
 def test_a_plan_from_an_observed_order_is_capped_and_an_error_that_never_falls_ends_not_ok():

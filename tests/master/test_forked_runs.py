@@ -72,7 +72,7 @@ def test_two_workers_take_the_same_vouching_runs_and_report_the_same_result(own)
     assert leftovers() == before
 
 
-AHEAD = 1e-3 / (checked.ONE_RUN_MARGIN / checked.STEP_CONTROL.safety) ** 1.5  # tol 1e-3's run ahead
+AHEAD = 1e-3 / (checked.ESTIMATE_SAFETY / checked.STEP_CONTROL.safety) ** 1.5  # tol 1e-3's run ahead
 
 
 class TimedVouchingRuns(VouchingRuns):

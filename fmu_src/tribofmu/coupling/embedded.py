@@ -363,9 +363,11 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
     def breakaway_reach(self, point: Point, new: Point, F_miss: float, h: float) -> float:
         """How much the breakaway's timing counts for the stuck step from point to new, its
         stick force ramping at new.F_rate [N/s] and off its curve by about F_miss [N]: 1 where
-        the force can reach the friction's bound within errors.breakaway_reach steps of h [s] (along
-        its ramp or by its curvature), falling as the square of that reach over the distance
-        to the bound farther off. The stick ramp is exact in x and v whatever its force: its
+        the force can reach the friction's bound within the next step at its longest,
+        controller.max_factor steps of h [s] (along its ramp or by its curvature): a breakaway
+        the next step may hold; falling as the square of that reach over the distance to the
+        bound farther off. (The tuning value breakaway_reach = 4 until 2026-11-27, the same
+        number: max_factor is 4.) The stick ramp is exact in x and v whatever its force: its
         miss matters only through the breakaway's timing, which divides by the force's rate.
         Far from the bound, counted in full, it read the ramp's round-off as error: from rest
         (rate ~0) it forced the steps to their floor (mixed friction, delta = 1, at per-step
@@ -377,7 +379,7 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         if bounds is None:
             return 1.0
         margin = min(min(bounds[1] - F, F - bounds[0]) for F in (point.F, new.F))
-        reach = self.errors.breakaway_reach * (abs(new.F_rate) * h + abs(F_miss))
+        reach = self.controller.max_factor * (abs(new.F_rate) * h + abs(F_miss))
         return 1.0 if margin <= reach else (reach / margin) ** 2
 
     def _carry_error(self, point: Point, new: Point, local: LocalError, h: float) -> None:
