@@ -113,3 +113,29 @@ def test_the_miss_carries_to_the_next_point_of_its_mode_only():
     assert cache.slope_fit(3_000_000, 1, -1.0)[2] == 0.0  # (two points on)
     cache.guess_miss = (3_000_000, 1, -800.0)
     assert cache.slope_fit(4_000_000, -1, 1.0) is None  # (another mode)
+
+
+def test_a_ramped_try_rolled_back_to_be_solved_held_restores_no_friction_that_only_read_trials():
+    """A ramped step that meets a reversal is rolled back and solved again held (RETRY_HELD): its
+    friction only read trials at its start state (set dv, get F), which move no state, so the
+    held solve starts from it unrestored (every evaluation sets dv again) and gives the held
+    step's answer in the held step's own friction calls (the try's trial is kept, KnownTrials;
+    before: a restore more); the block, which stepped, is restored."""
+    from test_contact import reversing_rig
+
+    from tribofmu.coupling.algorithms import Scales
+    from tribofmu.coupling.implicit import ImplicitCoupling
+
+    answers, friction_calls, block_restores = {}, {}, {}
+    for ramp_allowed in (True, False):
+        system, start = reversing_rig()
+        coupling = ImplicitCoupling(step=1e-3, tol=1e-3)
+        coupling.prepare(system, Scales(1e-3, 1e-2, 0.1))
+        friction_log, block_log = call_log(system.friction), call_log(system.block)
+        new = coupling.solve_step(system, start, 1_000_000, ramp_allowed=ramp_allowed)
+        answers[ramp_allowed] = (new.ramped, new.mode, new.x, new.v, new.F, new.f)
+        friction_calls[ramp_allowed], block_restores[ramp_allowed] = friction_log, block_log.count("restore")
+    assert answers[True] == answers[False] and answers[True][1] == Contact.BACKWARD
+    assert "restore" not in friction_calls[True] and "doStep" in friction_calls[True]
+    assert friction_calls[True] == friction_calls[False]
+    assert block_restores[True] == block_restores[False] + 1

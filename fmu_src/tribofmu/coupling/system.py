@@ -287,6 +287,15 @@ class CoupledSystem:
         for slave, handle in states.handles.values():
             slave.restore(handle)
 
+    def restore_in_step(self, held) -> None:
+        """Inside a step, the load (if any) stepped to its end already: the given (slave, state
+        handle) pairs, the block's and the friction's, back at the step's start, the friction's
+        n again the load's n(t + h) the step solves at (a restored state holds the start's)."""
+        for slave, handle in held:
+            slave.restore(handle)
+            if slave is self.friction and self.load is not None:
+                slave.set_reals(self._friction_n, [self._n])
+
     def free(self, states: States) -> None:
         for slave, handle in states.handles.values():
             slave.free_state(handle)
