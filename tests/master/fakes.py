@@ -38,6 +38,7 @@ class FakeSlave:
             raise FMUCallError(self.instance, "fmi2DoStep", 2, [f"{self.instance}: scripted failure"])
         self.advance(t, h)
         self.time = t + h
+        self.refresh()  # (its outputs at the step's end, as an FMU's doStep leaves them)
 
     def save(self):
         self.calls += 1

@@ -27,6 +27,7 @@ from enum import IntEnum
 from typing import Any, Protocol, Sequence
 
 from .quadrature import step_dissipation  # the energy audit's own quadrature
+from .step_log import StepLog
 
 
 # The kinds of call a coupling step makes, as a slave's ``calls_by_kind`` counts them: get and
@@ -115,7 +116,8 @@ class Point:
 
 @dataclass
 class States:
-    """Saved FMU states of every slave (opaque handles)."""
+    """Saved FMU states of every slave (opaque handles; a :class:`~.step_log.Logged` for a
+    slave whose steps the system replays)."""
 
     handles: dict[str, Any] = field(default_factory=dict)
 
@@ -141,10 +143,16 @@ class CoupledSystem:
         self.law = law
         self.load, self.thermal = load, thermal
         self.slaves = [s for s in (drive, load, block, friction, thermal) if s is not None]
+        # the saved states of the slaves only the system steps, replayed from checkpoints
+        # (StepLog), but for a slave whose states are plain copies (cheaper than a replay)
+        self._logs = {id(s): StepLog(s, inputs) for s, inputs in ((drive, None), (block, ()))
+                      if s is not None and not getattr(s, "states_are_copies", False)}
         # (each call's value references a tuple, built once: a slave may key what it prepared
         # for them on it)
         b = block.refs
         self._block_in = (b["F"], b["F_rate"])
+        if id(block) in self._logs:
+            self._logs[id(block)].inputs = self._block_in
         self._block_out = (b["x"], b["v"], b["a"])
         if drive is not None:
             self._drive_out = tuple(drive.refs[k] for k in ("X", "V", "a"))
@@ -221,12 +229,18 @@ class CoupledSystem:
         if self.drive is None:
             return 0.0, 0.0, 0.0
         self.drive.do_step(t, h)
+        log = self._logs.get(id(self.drive))
+        if log is not None:
+            log.stepped(None, t, h)
         return self.drive_outputs()
 
     def step_block(self, F: float, F_rate: float, t: float, h: float) -> tuple[float, float, float]:
         """Step the block under the force F + F_rate s [N]; returns x, v, a at t + h."""
         self.block.set_reals(self._block_in, [F, F_rate])
         self.block.do_step(t, h)
+        log = self._logs.get(id(self.block))
+        if log is not None:
+            log.stepped((F, F_rate), t, h)
         return self.block_outputs()
 
     def step_friction(self, dv: float, t: float, h: float,
@@ -264,18 +278,33 @@ class CoupledSystem:
 
     # -- rollback -----------------------------------------------------------------------
     def save(self, *slaves: SlaveLike) -> States:
-        return States({s.instance: (s, s.save()) for s in (slaves or self.slaves) if s is not None})
+        return States({s.instance: (s, self._save(s)) for s in (slaves or self.slaves) if s is not None})
+
+    def _save(self, slave: SlaveLike) -> Any:
+        log = self._logs.get(id(slave))
+        return slave.save() if log is None else log.save()
 
     def save_over(self, states: States) -> States:
         """The slaves' current states in place of ``states`` (saved by this system before):
         overwritten where a slave can (an optional ``save_into(handle) -> bool``: one call),
         else freed and saved anew. Returns ``states``."""
         for name, (slave, handle) in list(states.handles.items()):
+            log = self._logs.get(id(slave))
+            if log is not None:
+                states.handles[name] = (slave, log.save_over(handle))
+                continue
             save_into = getattr(slave, "save_into", None)
             if save_into is None or not save_into(handle):
                 slave.free_state(handle)
                 states.handles[name] = (slave, slave.save())
         return states
+
+    def _restore(self, slave: SlaveLike, handle: Any) -> None:
+        log = self._logs.get(id(slave))
+        if log is None:
+            slave.restore(handle)
+        else:
+            log.restore(handle)
 
     def loop_states(self, states: States) -> States:
         """The part of states an implicit step restores between its evaluations: the block's
@@ -285,20 +314,24 @@ class CoupledSystem:
 
     def restore(self, states: States) -> None:
         for slave, handle in states.handles.values():
-            slave.restore(handle)
+            self._restore(slave, handle)
 
     def restore_in_step(self, held) -> None:
         """Inside a step, the load (if any) stepped to its end already: the given (slave, state
         handle) pairs, the block's and the friction's, back at the step's start, the friction's
         n again the load's n(t + h) the step solves at (a restored state holds the start's)."""
         for slave, handle in held:
-            slave.restore(handle)
+            self._restore(slave, handle)
             if slave is self.friction and self.load is not None:
                 slave.set_reals(self._friction_n, [self._n])
 
     def free(self, states: States) -> None:
         for slave, handle in states.handles.values():
-            slave.free_state(handle)
+            log = self._logs.get(id(slave))
+            if log is None:
+                slave.free_state(handle)
+            else:
+                log.free(handle)
         states.handles.clear()
 
     def start_point(self) -> Point:
