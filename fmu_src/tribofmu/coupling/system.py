@@ -143,17 +143,12 @@ class CoupledSystem:
         self.law = law
         self.load, self.thermal = load, thermal
         self.slaves = [s for s in (drive, load, block, friction, thermal) if s is not None]
-        # the saved states of the slaves only the system steps, replayed from checkpoints
-        # (StepLog), but for a slave whose states are plain copies (cheaper than a replay)
-        self._logs = {id(s): StepLog(s, inputs) for s, inputs in ((drive, None), (block, ()))
-                      if s is not None and not getattr(s, "states_are_copies", False)}
         # (each call's value references a tuple, built once: a slave may key what it prepared
         # for them on it)
         b = block.refs
         self._block_in = (b["F"], b["F_rate"])
-        if id(block) in self._logs:
-            self._logs[id(block)].inputs = self._block_in
         self._block_out = (b["x"], b["v"], b["a"])
+        self._logs = self._step_logs(drive, block)
         if drive is not None:
             self._drive_out = tuple(drive.refs[k] for k in ("X", "V", "a"))
         if friction is not None:
@@ -162,6 +157,13 @@ class CoupledSystem:
             self._wire_load()
         if thermal is not None:
             self._wire_thermal()
+
+    def _step_logs(self, drive: SlaveLike | None, block: SlaveLike) -> dict[int, StepLog]:
+        """The saved states of the slaves only the system steps, replayed from checkpoints
+        (StepLog), by id(slave); none for a slave whose states are plain copies (an optional
+        ``states_are_copies``: cheaper saved than replayed)."""
+        return {id(s): StepLog(s, inputs) for s, inputs in ((drive, None), (block, self._block_in))
+                if s is not None and not getattr(s, "states_are_copies", False)}
 
     def _wire_friction(self, conditions: dict[str, float]) -> None:
         """The friction's references, and its constant inputs (those no load or thermal slave feeds)."""
@@ -287,7 +289,8 @@ class CoupledSystem:
     def save_over(self, states: States) -> States:
         """The slaves' current states in place of ``states`` (saved by this system before):
         overwritten where a slave can (an optional ``save_into(handle) -> bool``: one call),
-        else freed and saved anew. Returns ``states``."""
+        else freed and saved anew (a logged slave's: :meth:`.StepLog.save_over`). Returns
+        ``states``."""
         for name, (slave, handle) in list(states.handles.items()):
             log = self._logs.get(id(slave))
             if log is not None:
