@@ -80,6 +80,20 @@ class FakeDrive(FakeSlave):
         self.values.update(X=X, V=V, a=a)
 
 
+class SwingingLoad(FakeSlave):
+    """A Load whose n [Pa] swings between -15 and -75 at the drive's frequency (omega = 30)."""
+
+    names = ("n",)
+
+    def __init__(self):
+        super().__init__("load", n=-45.0)
+
+    def advance(self, t, h):
+        import math
+
+        self.values["n"] = -45.0 - 30.0 * math.sin(30.0 * (t + h))
+
+
 class FakeBlock(FakeSlave):
     names = ("F", "F_rate", "V", "x", "v", "a", "dv")
 

@@ -613,21 +613,10 @@ def test_a_step_restored_inside_evaluates_the_friction_at_the_load_s_normal_stre
     solved again held) holds the start's n(t) in its saved state, and gets n(t + h) again. Fig.
     2's rig under a load that swings between 15 and 75 N every drive period: every friction step
     and trial at the step's n (before: 83 of 1209 friction steps of dry_load_oscillation at n(t))."""
-    import math
-
-    from fakes import FakeSlave, drive_scales, fig2_system
+    from fakes import SwingingLoad, drive_scales, fig2_system
     from tribofmu.coupling.algorithms import make_algorithm
     from tribofmu.coupling.system import CoupledSystem
     from tribofmu.master.run import run
-
-    class SwingingLoad(FakeSlave):
-        names = ("n",)
-
-        def __init__(self):
-            super().__init__("load", n=-45.0)
-
-        def advance(self, t, h):
-            self.values["n"] = -45.0 - 30.0 * math.sin(30.0 * (t + h))
 
     fig2 = fig2_system()
     system = CoupledSystem(fig2.block, fig2.drive, fig2.friction, {"T": 290.0}, load=SwingingLoad())

@@ -16,7 +16,7 @@ class Logged:
 
 
 class StepLog:
-    """The saved states of a slave that only the system steps (the drive, the block), each a
+    """The saved states of a slave that only the system steps (all but the friction), each a
     checkpoint (a real FMU state) and the steps made from it since (its input values, t, h),
     which a restore replays: the same calls from the same state, so the same state to the bit
     (an FMU is deterministic). A slave the coupling saves at every point and restores at few

@@ -148,7 +148,6 @@ class CoupledSystem:
         b = block.refs
         self._block_in = (b["F"], b["F_rate"])
         self._block_out = (b["x"], b["v"], b["a"])
-        self._logs = self._step_logs(drive, block)
         if drive is not None:
             self._drive_out = tuple(drive.refs[k] for k in ("X", "V", "a"))
         if friction is not None:
@@ -157,13 +156,22 @@ class CoupledSystem:
             self._wire_load()
         if thermal is not None:
             self._wire_thermal()
+        self._logs = self._step_logs()
 
-    def _step_logs(self, drive: SlaveLike | None, block: SlaveLike) -> dict[int, StepLog]:
-        """The saved states of the slaves only the system steps, replayed from checkpoints
-        (StepLog), by id(slave); none for a slave whose states are plain copies (an optional
-        ``states_are_copies``: cheaper saved than replayed)."""
-        return {id(s): StepLog(s, inputs) for s, inputs in ((drive, None), (block, self._block_in))
+    def _step_logs(self) -> dict[int, StepLog]:
+        """The saved states of the slaves only the system steps (all but the friction), replayed
+        from checkpoints (StepLog), by id(slave); none for a slave whose states are plain copies
+        (an optional ``states_are_copies``: cheaper saved than replayed)."""
+        stepped = ((self.drive, None), (self.block, self._block_in), (self.load, None),
+                   (self.thermal, getattr(self, "_thermal_P", None)))
+        return {id(s): StepLog(s, inputs) for s, inputs in stepped
                 if s is not None and not getattr(s, "states_are_copies", False)}
+
+    def _logged_step(self, slave: SlaveLike, values, t: float, h: float) -> None:
+        """The slave was stepped by h from t [s] with these input values (set just before)."""
+        log = self._logs.get(id(slave))
+        if log is not None:
+            log.stepped(values, t, h)
 
     def _wire_friction(self, conditions: dict[str, float]) -> None:
         """The friction's references, and its constant inputs (those no load or thermal slave feeds)."""
@@ -226,23 +234,20 @@ class CoupledSystem:
         load's n(t + h). Returns X, V, drive acceleration at t + h."""
         if self.load is not None:
             self.load.do_step(t, h)
+            self._logged_step(self.load, None, t, h)
             self._n = self.load.get_reals(self._load_n)[0]
             self.friction.set_reals(self._friction_n, [self._n])
         if self.drive is None:
             return 0.0, 0.0, 0.0
         self.drive.do_step(t, h)
-        log = self._logs.get(id(self.drive))
-        if log is not None:
-            log.stepped(None, t, h)
+        self._logged_step(self.drive, None, t, h)
         return self.drive_outputs()
 
     def step_block(self, F: float, F_rate: float, t: float, h: float) -> tuple[float, float, float]:
         """Step the block under the force F + F_rate s [N]; returns x, v, a at t + h."""
         self.block.set_reals(self._block_in, [F, F_rate])
         self.block.do_step(t, h)
-        log = self._logs.get(id(self.block))
-        if log is not None:
-            log.stepped((F, F_rate), t, h)
+        self._logged_step(self.block, (F, F_rate), t, h)
         return self.block_outputs()
 
     def step_friction(self, dv: float, t: float, h: float,
@@ -274,6 +279,7 @@ class CoupledSystem:
             power = step_dissipation(start, end) / h
             self.thermal.set_reals(self._thermal_P, [power])
             self.thermal.do_step(t, h)
+            self._logged_step(self.thermal, (power,), t, h)
             self._T, self._Q = self.thermal.get_reals(self._thermal_out)
             self.friction.set_reals(self._friction_T, [self._T])
         end.T, end.n, end.Q = self._T, self._n, self._Q if self.thermal is not None else 0.0
