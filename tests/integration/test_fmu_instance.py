@@ -72,3 +72,32 @@ def test_a_closed_instance_makes_the_next_and_closing_it_again_leaves_that_one_a
     finally:
         second.close()
         third.close()
+
+
+def test_a_restore_of_the_state_the_instance_holds_makes_no_call_and_any_change_makes_it_one(block):
+    """Restoring the state the FMU stands in (saved or restored, and neither set nor stepped
+    since; a get only reads) is no call, as a rejected try's block that never stepped; a set, a
+    step or a refused call in between makes the restore a call, which puts the state back."""
+    r = block.refs
+    restores = lambda: block.calls_by_kind["restore"]  # noqa: E731
+    start = block.save()
+    x0 = block.get_reals([r["x"], r["v"]])
+    block.restore(start)
+    assert restores() == 0
+    block.set_reals([r["F"], r["F_rate"]], [3.0, 0.0])
+    block.restore(start)
+    block.restore(start)  # (it holds start again)
+    assert restores() == 1
+    block.set_reals([r["F"], r["F_rate"]], [3.0, 0.0])
+    block.do_step(0.0, 1e-2)
+    assert block.get_reals([r["x"], r["v"]]) != x0
+    block.restore(start)
+    assert restores() == 2 and block.get_reals([r["x"], r["v"]]) == x0
+    later = block.save()
+    block.restore(start)
+    assert restores() == 3
+    refused(block.get_reals, [max(r.values()) + 1000])
+    block.restore(start)
+    assert restores() == 4
+    for state in (start, later):
+        block.free_state(state)

@@ -38,6 +38,7 @@ class FakeSlave:
             raise FMUCallError(self.instance, "fmi2DoStep", 2, [f"{self.instance}: scripted failure"])
         self.advance(t, h)
         self.time = t + h
+        self.refresh()  # (its outputs at the step's end, as an FMU's doStep leaves them)
 
     def save(self):
         self.calls += 1
@@ -77,6 +78,20 @@ class FakeDrive(FakeSlave):
     def refresh(self):
         X, V, a = drive(self.time, self.A, self.omega)
         self.values.update(X=X, V=V, a=a)
+
+
+class SwingingLoad(FakeSlave):
+    """A Load whose n [Pa] swings between -15 and -75 at the drive's frequency (omega = 30)."""
+
+    names = ("n",)
+
+    def __init__(self):
+        super().__init__("load", n=-45.0)
+
+    def advance(self, t, h):
+        import math
+
+        self.values["n"] = -45.0 - 30.0 * math.sin(30.0 * (t + h))
 
 
 class FakeBlock(FakeSlave):

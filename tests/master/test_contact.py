@@ -605,3 +605,31 @@ def test_stick_ramp_with_the_last_ramps_jacobian_is_as_exact_in_two_block_steps(
     assert new.x - new.X == pytest.approx(x0, abs=1e-12 * 1e-3)
     assert new.F_start == pytest.approx(first.F_start, rel=1e-9)
     assert new.F_rate == pytest.approx(first.F_rate, rel=1e-6)
+
+
+def test_a_step_restored_inside_evaluates_the_friction_at_the_load_s_normal_stress_at_its_end():
+    """With a Load slave the friction's n is the load's n(t + h) all through a step (set when the
+    drive and load step): the friction restored inside the step (a secant round, a ramped try
+    solved again held) holds the start's n(t) in its saved state, and gets n(t + h) again. Fig.
+    2's rig under a load that swings between 15 and 75 N every drive period: every friction step
+    and trial at the step's n (before: 83 of 1209 friction steps of dry_load_oscillation at n(t))."""
+    from fakes import SwingingLoad, drive_scales, fig2_system
+    from tribofmu.coupling.algorithms import make_algorithm
+    from tribofmu.coupling.system import CoupledSystem
+    from tribofmu.master.run import run
+
+    fig2 = fig2_system()
+    system = CoupledSystem(fig2.block, fig2.drive, fig2.friction, {"T": 290.0}, load=SwingingLoad())
+    friction, seen = system.friction, []
+    for name in ("get_reals", "do_step"):
+        original = getattr(friction, name)
+
+        def checked(*args, _original=original):
+            seen.append(friction.values["n"] == system.friction_n)
+            return _original(*args)
+
+        setattr(friction, name, checked)
+    scales = drive_scales()
+    out = run(system, make_algorithm("adaptive", tol=1e-3), 2 * scales.period, scales)
+    assert out.ok, out.message
+    assert len(seen) > 1000 and all(seen), seen.count(False)

@@ -113,3 +113,63 @@ def test_the_miss_carries_to_the_next_point_of_its_mode_only():
     assert cache.slope_fit(3_000_000, 1, -1.0)[2] == 0.0  # (two points on)
     cache.guess_miss = (3_000_000, 1, -800.0)
     assert cache.slope_fit(4_000_000, -1, 1.0) is None  # (another mode)
+
+
+def test_a_ramped_try_rolled_back_to_be_solved_held_restores_no_friction_that_only_read_trials():
+    """A ramped step that meets a reversal is rolled back and solved again held (RETRY_HELD): its
+    friction only read trials at its start state (set dv, get F), which move no state, so the
+    held solve starts from it unrestored (every evaluation sets dv again) and gives the held
+    step's answer in the held step's own friction calls (the try's trial is kept, KnownTrials;
+    before: a restore more); the block, which stepped, is restored."""
+    from test_contact import reversing_rig
+
+    from tribofmu.coupling.algorithms import Scales
+    from tribofmu.coupling.implicit import ImplicitCoupling
+
+    answers, friction_calls, block_restores = {}, {}, {}
+    for ramp_allowed in (True, False):
+        system, start = reversing_rig()
+        coupling = ImplicitCoupling(step=1e-3, tol=1e-3)
+        coupling.prepare(system, Scales(1e-3, 1e-2, 0.1))
+        friction_log, block_log = call_log(system.friction), call_log(system.block)
+        new = coupling.solve_step(system, start, 1_000_000, ramp_allowed=ramp_allowed)
+        answers[ramp_allowed] = (new.ramped, new.mode, new.x, new.v, new.F, new.f)
+        friction_calls[ramp_allowed], block_restores[ramp_allowed] = friction_log, block_log.count("restore")
+    assert answers[True] == answers[False] and answers[True][1] == Contact.BACKWARD
+    assert "restore" not in friction_calls[True] and "doStep" in friction_calls[True]
+    assert friction_calls[True] == friction_calls[False]
+    assert block_restores[True] == block_restores[False] + 1
+
+
+def test_the_block_the_drive_and_the_load_saved_at_checkpoints_replay_to_the_same_run_in_fewer_calls():
+    """The drive, the block and the load are stepped by the system only, so a state of theirs is a
+    checkpoint and the steps made since, which a restore replays (coupling/step_log.py): the
+    same run to the bit (an FMU is deterministic) as with a real save of each at every point,
+    the block saved at fewer than half the points (its predicted answers step it once a point,
+    after the step is kept, and it is restored where a stick ramp steps it in the solve), all
+    slaves' calls fewer; every state freed."""
+    from fakes import FakeBlock, FakeDrive, FakeFriction, SwingingLoad, drive_scales
+    from tribofmu.coupling.algorithms import make_algorithm
+    from tribofmu.coupling.system import CoupledSystem
+    from tribofmu.master.run import run
+
+    points, calls, saves = {}, {}, {}
+    for replayed in (True, False):
+        block, drive, friction = FakeBlock(M=0.6, K=7000.0), FakeDrive(A=2e-3, omega=30.0), FakeFriction(DRY_LAW)
+        load = SwingingLoad()
+        if not replayed:  # (as slaves whose states are plain copies: saved at every point)
+            block.states_are_copies = drive.states_are_copies = load.states_are_copies = True
+        slaves = (block, drive, friction, load)
+        logs = {slave.instance: call_log(slave) for slave in slaves}
+        system = CoupledSystem(block, drive, friction, {"T": 290.0}, load=load)
+        scales = drive_scales()
+        out = run(system, make_algorithm("adaptive", tol=1e-3), 2 * scales.period, scales)
+        assert out.ok, out.message
+        points[replayed] = [repr(p) for p in out.points]
+        calls[replayed] = sum(len(log) for log in logs.values())
+        saves[replayed] = {name: logs[name].count("save") / out.counters["steps"] for name in ("block", "load")}
+        assert all(slave.live_states == 0 for slave in slaves)
+    assert points[True] == points[False]
+    assert saves[False]["block"] >= 1.0 and saves[True]["block"] <= 0.5  # (0.45 on this rig: its stick ramps step the block in the solve)
+    assert saves[True]["load"] < saves[False]["load"]
+    assert calls[True] < calls[False]  # (6234 against 6664)

@@ -9,17 +9,17 @@ in none yet (as Modelica's ``PartialFriction`` starts ``Unknown``):
     FORWARD <--> BACKWARD   (a reversal passes through one stuck step, or none for a law
                              without a jump at dv = 0)
 
-One step (:class:`ImplicitStep`) first *classifies* the step from the friction at +-delta
-(or from the slip it predicts), then runs the solver of that mode (coupling/solvers.py): the
-slip root, the stick force, or the stick ramp. The block's answers are predicted by its learned
-model where the coupling has one (coupling/blocks.py's BlockPrediction: the block then steps
-once, at the answer, which checks the prediction; a miss is the outcome RETRY_UNPREDICTED, and
-the caller solves the step again without it), else modelled where they can be (BlockResponse,
-the step's own; the last steps' slope and Jacobian come in from the coupling's ReuseCache). A ramped step (the force ramping over the step) that meets
-stiffness, a stick or a reversal ends in the explicit outcome :data:`RETRY_HELD`: the caller
-rolls back and solves the step again with the force held. The step reports what it measured
-(:class:`StepReport`: loop gain, the block's velocity per unit impulse, evaluations) instead
-of writing into the algorithm.
+One step (:class:`ImplicitStep`) first *classifies* the step from the friction at +-delta (or
+from the slip it predicts), then runs the solver of that mode (coupling/solvers.py): the slip
+root, the stick force, or the stick ramp. The block's answers are predicted by its learned model
+where the coupling has one (coupling/blocks.py's BlockPrediction: the block then steps once, at
+the answer, which checks the prediction; a miss is the outcome RETRY_UNPREDICTED, and the caller
+solves the step again without it), else modelled where they can be (BlockResponse, the step's
+own; the last steps' slope and Jacobian come in from the coupling's ReuseCache). A ramped step
+(the force ramping over the step) that meets stiffness, a stick or a reversal ends in the
+explicit outcome :data:`RETRY_HELD`, rolled back: the caller solves the step again with the
+force held. The step reports what it measured (:class:`StepReport`: loop gain, the block's
+velocity per unit impulse, evaluations) instead of writing into the algorithm.
 
 The loop function H(dv) = (the block's relative velocity after the step under the friction
 at dv) - dv is decreasing, so the coupled answer is its single root, found on a bracket; on
@@ -175,8 +175,7 @@ class ImplicitStep:
     def loop(self, dv: float) -> float:
         """H(dv): how far the block's answer is from the assumed dv."""
         self.report.iterations += 1
-        F, _ = self.friction.at(dv)
-        return self.block.under(F) - dv
+        return self.block.under(self.friction.at(dv)[0]) - dv
 
     def probe(self, side: float) -> float:
         """H at side * delta, the held step under the friction there (:class:`Probe`); stuck
@@ -199,19 +198,18 @@ class ImplicitStep:
 
     # -- the machine ----------------------------------------------------------------------
     def solve(self) -> Point | RetryHeld | RetryUnpredicted:
-        """The new point, or RETRY_HELD where a ramped step turns out stuck, reversing or stiff,
-        or RETRY_UNPREDICTED where the block's real step disagreed with its prediction."""
+        """The new point, or RETRY_HELD (rolled back) where a ramped step turns out stuck, reversing
+        or stiff, or RETRY_UNPREDICTED where the block's real step disagreed with its prediction."""
         classified = self.classify()
         if isinstance(classified, RetryHeld):
-            return classified
+            return self.rolled_back(classified)
         mode, slip, event = classified
         ended = self.end_stuck(event) if mode == Contact.STUCK else self.end_slip(slip, mode, event)
         if isinstance(ended, (RetryHeld, RetryUnpredicted)):
-            return ended
+            return ended if isinstance(ended, RetryUnpredicted) else self.rolled_back(ended)
         event, f, F_mean = ended
-        response = self.block.response
-        ramped = self.block.ramp
-        self.report.block_slope = self.block.response.measured_slope(ramped)
+        response, ramped = self.block.response, self.block.ramp
+        self.report.block_slope = response.measured_slope(ramped)
         if response.prediction is not None:
             # one real step, no secant of two: the learned 1/M (a secant of two held steps
             # measured sin(w h)/(w h M), of two ramped 2 (1 - cos(w h))/(w h)^2 M, of a stick
@@ -221,6 +219,12 @@ class ImplicitStep:
         F, x, v, a, F0, F_rate = self.block.last
         return Point(self.point.t_ns + self.h_ns, self.X, self.V, self.aX, x, v, a, F, f, F_start=F0,
                      F_rate=F_rate, mode=mode, event=event, ramped=ramped, F_mean=F_mean)
+
+    def rolled_back(self, retry: RetryHeld) -> RetryHeld:
+        """retry, the block and the friction back at the step's start (each where it moved)."""
+        self.block.restore()
+        self.friction.restore()  # (one that only read trials holds its start state: no call)
+        return retry
 
     def end_stuck(self, event: float) -> tuple[float, float, None] | RetryUnpredicted:
         """Stuck at the end: the stick ramp or force, the block there (or left to the report's
@@ -318,12 +322,8 @@ class ImplicitStep:
                 # The ramp's rate was 0 in every real step so far (a force that did not move,
                 # as dry friction's in slip): they are the held step's own, so the solve goes
                 # on held instead of starting again (which stepped the same probe twice).
-                self.hold()
+                self.block.hold()  # (the force held at its end value from here)
         return Contact.STUCK, None, 1.0
-
-    def hold(self) -> None:
-        """Go on as a held step (the force held at its end value) from here."""
-        self.block.hold()
 
     def solve_stuck(self, event: float) -> float:
         """Stuck at the step's end: the stick ramp (stuck all through), or the stick force
@@ -439,7 +439,7 @@ def solve_step(settings: StepSettings, system: CoupledSystem, point: Point, save
                ) -> tuple[Point | RetryHeld | RetryUnpredicted, StepReport]:
     """One implicit step from ``point`` over ``h_ns`` [ns] (the drive already at its end,
     ``drive`` = X, V, aX; the block and friction saved in ``saved``): the new point (every
-    slave standing there), RETRY_HELD or RETRY_UNPREDICTED, and what the step measured.
+    slave standing there), RETRY_HELD (rolled back) or RETRY_UNPREDICTED, and what it measured.
     ``block_slope``, ``stick_jacobian`` and ``block_model``: the last steps' (blocks.ReuseCache),
     to save real block steps (with a model, the block steps once, at the answer); ``known_trials``:
     the friction's probe answers read at its state before (evaluations.KnownTrials); ``defer``:

@@ -88,9 +88,12 @@ class FrictionSide:
         self.last = self.stepped = FrictionAnswer(dv, F, f, F_mean)
 
     def restore(self) -> None:
-        """The friction back at the step's start (state and input)."""
-        for slave, handle in self.saved:
-            slave.restore(handle)
+        """The friction back at the step's start: restored where it stepped (with the step's
+        inputs, :meth:`~.system.CoupledSystem.restore_in_step`); a friction that only read
+        trials holds its start state already but for its dv input, which from here is unknown
+        (each evaluation sets it)."""
+        if self.stepped is not None:
+            self.system.restore_in_step(self.saved)
         self.stepped = self.input = None
 
 
@@ -112,13 +115,17 @@ class BlockSide:
         self.ramp = False
         self.response.hold()
 
+    def restore(self) -> None:
+        """The block back at the step's start where it stepped (a modelled answer moves nothing)."""
+        if self.real is not None:
+            self.system.restore_in_step(self.saved)
+
     def at(self, F0: float, rate: float) -> tuple[float, float]:
         """The block's relative velocity and position after the step under F0 + rate s
         (a real step of the block)."""
         last, h = self.real, self.h
         if last is not None:
-            for slave, handle in self.saved:
-                slave.restore(handle)
+            self.restore()
         x, v, a = self.system.step_block(F0, rate, self.t, h)
         if last is not None:
             # the block's velocity per unit impulse (1/M for a lone mass), from the secant

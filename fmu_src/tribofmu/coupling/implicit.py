@@ -119,7 +119,7 @@ class ImplicitCoupling(CouplingAlgorithm):
             # the learned block missed its real step: forget it, and solve the step as if there
             # were none (its measurements, made on the prediction, are dropped)
             reuse.block.forget()
-            system.restore(saved)
+            system.restore_in_step(saved.handles.values())
             return self._solve(system, point, saved, h_ns, drive, ramp, predict=False, defer=defer)
         self.counters.stick_steps += report.stuck and not isinstance(new, RetryHeld)
         if report.loop_gain is not None:
@@ -187,8 +187,7 @@ class ImplicitCoupling(CouplingAlgorithm):
                         and self.expected_gain(h) < self.settings.max_ramp_gain)
                 defer = defer and not own
                 new = self._solve(system, point, saved, h_ns, drive, ramp, defer=defer)
-                if isinstance(new, RetryHeld):  # the ramp met stiffness or a transition
-                    system.restore(saved)
+                if isinstance(new, RetryHeld):  # the ramp met stiffness or a transition (rolled back)
                     new = self._solve(system, point, saved, h_ns, drive, False, defer=defer)
             finally:
                 if own:

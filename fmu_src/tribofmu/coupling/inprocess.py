@@ -31,6 +31,7 @@ class InProcessSlave:
 
     variables: tuple[str, ...] = ()
     state: tuple[str, ...] = ()
+    states_are_copies = True  # (a save is a copy of a few values: kept at every point, CoupledSystem)
 
     def __init__(self, instance: str):
         self.instance = instance

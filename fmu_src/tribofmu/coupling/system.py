@@ -27,6 +27,7 @@ from enum import IntEnum
 from typing import Any, Protocol, Sequence
 
 from .quadrature import step_dissipation  # the energy audit's own quadrature
+from .step_log import StepLog
 
 
 # The kinds of call a coupling step makes, as a slave's ``calls_by_kind`` counts them: get and
@@ -115,7 +116,8 @@ class Point:
 
 @dataclass
 class States:
-    """Saved FMU states of every slave (opaque handles)."""
+    """Saved FMU states of every slave (opaque handles; a :class:`~.step_log.Logged` for a
+    slave whose steps the system replays)."""
 
     handles: dict[str, Any] = field(default_factory=dict)
 
@@ -154,6 +156,22 @@ class CoupledSystem:
             self._wire_load()
         if thermal is not None:
             self._wire_thermal()
+        self._logs = self._step_logs()
+
+    def _step_logs(self) -> dict[int, StepLog]:
+        """The saved states of the slaves only the system steps (all but the friction), replayed
+        from checkpoints (StepLog), by id(slave); none for a slave whose states are plain copies
+        (an optional ``states_are_copies``: cheaper saved than replayed)."""
+        stepped = ((self.drive, None), (self.block, self._block_in), (self.load, None),
+                   (self.thermal, getattr(self, "_thermal_P", None)))
+        return {id(s): StepLog(s, inputs) for s, inputs in stepped
+                if s is not None and not getattr(s, "states_are_copies", False)}
+
+    def _logged_step(self, slave: SlaveLike, values, t: float, h: float) -> None:
+        """The slave was stepped by h from t [s] with these input values (set just before)."""
+        log = self._logs.get(id(slave))
+        if log is not None:
+            log.stepped(values, t, h)
 
     def _wire_friction(self, conditions: dict[str, float]) -> None:
         """The friction's references, and its constant inputs (those no load or thermal slave feeds)."""
@@ -216,17 +234,20 @@ class CoupledSystem:
         load's n(t + h). Returns X, V, drive acceleration at t + h."""
         if self.load is not None:
             self.load.do_step(t, h)
+            self._logged_step(self.load, None, t, h)
             self._n = self.load.get_reals(self._load_n)[0]
             self.friction.set_reals(self._friction_n, [self._n])
         if self.drive is None:
             return 0.0, 0.0, 0.0
         self.drive.do_step(t, h)
+        self._logged_step(self.drive, None, t, h)
         return self.drive_outputs()
 
     def step_block(self, F: float, F_rate: float, t: float, h: float) -> tuple[float, float, float]:
         """Step the block under the force F + F_rate s [N]; returns x, v, a at t + h."""
         self.block.set_reals(self._block_in, [F, F_rate])
         self.block.do_step(t, h)
+        self._logged_step(self.block, (F, F_rate), t, h)
         return self.block_outputs()
 
     def step_friction(self, dv: float, t: float, h: float,
@@ -258,24 +279,41 @@ class CoupledSystem:
             power = step_dissipation(start, end) / h
             self.thermal.set_reals(self._thermal_P, [power])
             self.thermal.do_step(t, h)
+            self._logged_step(self.thermal, (power,), t, h)
             self._T, self._Q = self.thermal.get_reals(self._thermal_out)
             self.friction.set_reals(self._friction_T, [self._T])
         end.T, end.n, end.Q = self._T, self._n, self._Q if self.thermal is not None else 0.0
 
     # -- rollback -----------------------------------------------------------------------
     def save(self, *slaves: SlaveLike) -> States:
-        return States({s.instance: (s, s.save()) for s in (slaves or self.slaves) if s is not None})
+        return States({s.instance: (s, self._save(s)) for s in (slaves or self.slaves) if s is not None})
+
+    def _save(self, slave: SlaveLike) -> Any:
+        log = self._logs.get(id(slave))
+        return slave.save() if log is None else log.save()
 
     def save_over(self, states: States) -> States:
         """The slaves' current states in place of ``states`` (saved by this system before):
         overwritten where a slave can (an optional ``save_into(handle) -> bool``: one call),
-        else freed and saved anew. Returns ``states``."""
+        else freed and saved anew (a logged slave's: :meth:`.StepLog.save_over`). Returns
+        ``states``."""
         for name, (slave, handle) in list(states.handles.items()):
+            log = self._logs.get(id(slave))
+            if log is not None:
+                states.handles[name] = (slave, log.save_over(handle))
+                continue
             save_into = getattr(slave, "save_into", None)
             if save_into is None or not save_into(handle):
                 slave.free_state(handle)
                 states.handles[name] = (slave, slave.save())
         return states
+
+    def _restore(self, slave: SlaveLike, handle: Any) -> None:
+        log = self._logs.get(id(slave))
+        if log is None:
+            slave.restore(handle)
+        else:
+            log.restore(handle)
 
     def loop_states(self, states: States) -> States:
         """The part of states an implicit step restores between its evaluations: the block's
@@ -285,11 +323,24 @@ class CoupledSystem:
 
     def restore(self, states: States) -> None:
         for slave, handle in states.handles.values():
-            slave.restore(handle)
+            self._restore(slave, handle)
+
+    def restore_in_step(self, held) -> None:
+        """Inside a step, the load (if any) stepped to its end already: the given (slave, state
+        handle) pairs, the block's and the friction's, back at the step's start, the friction's
+        n again the load's n(t + h) the step solves at (a restored state holds the start's)."""
+        for slave, handle in held:
+            self._restore(slave, handle)
+            if slave is self.friction and self.load is not None:
+                slave.set_reals(self._friction_n, [self._n])
 
     def free(self, states: States) -> None:
         for slave, handle in states.handles.values():
-            slave.free_state(handle)
+            log = self._logs.get(id(slave))
+            if log is None:
+                slave.free_state(handle)
+            else:
+                log.free(handle)
         states.handles.clear()
 
     def start_point(self) -> Point:

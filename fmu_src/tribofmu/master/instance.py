@@ -109,6 +109,9 @@ class FMUInstance:
         # the hot path's calls by kind (CALL_KINDS: get/set reals, doStep, get/set/free FMU
         # state); the rest of ``calls`` is setup and teardown
         self.calls_by_kind = dict.fromkeys(CALL_KINDS, 0)
+        # the FMU state handle the instance holds exactly (saved into or restored from, no set
+        # or step since; None: none): restoring it again is no call (see restore)
+        self._holds = None
         self.messages: list[str] = []
         try:
             digest = content_digest(path)
@@ -256,7 +259,9 @@ class FMUInstance:
 
     def _failed(self, key: str, status: int, mark: int) -> FMUCallError:
         """The error of a hot-path call whose status is above Warning, with the messages the
-        FMU logged during the call."""
+        FMU logged during the call (the state it holds is then unknown: a refused call may
+        have put it in its error state)."""
+        self._holds = None
         return FMUCallError(self.instance, self._names[key], status, self.messages[mark:])
 
     @property
@@ -269,6 +274,7 @@ class FMUInstance:
         from fmpy.fmi1 import FMICallException
 
         self._setup_calls += 1
+        self._holds = None
         mark = len(self.messages)
         try:
             return getattr(self._fmu, function)(*args, **kwargs)
@@ -298,6 +304,7 @@ class FMUInstance:
     def set_reals(self, refs: Sequence[int], values: Sequence[float]) -> None:
         """fmi2SetReal / fmi3SetFloat64."""
         self.calls_by_kind["set"] += 1
+        self._holds = None
         vr, n, buf = self._buffer(refs)
         buf[:] = values
         mark = len(self.messages)  # before the call: its messages explain a bad status
@@ -322,6 +329,7 @@ class FMUInstance:
         afterwards: FMI 3.0 gets noSetFMUStatePriorToCurrentPoint = false (the FMI 2.0 call
         keeps passing true, which pythonfmu ignores)."""
         self.calls_by_kind["doStep"] += 1
+        self._holds = None
         mark = len(self.messages)
         status = self._step_c(self._component, t, h, False, *self._step_refs) if self.fmi_version == 3 else \
             self._step_c(self._component, t, h, 1)
@@ -348,16 +356,26 @@ class FMUInstance:
         status = self._save_c(self._component, ctypes.byref(state))
         if status > WARNING:
             raise self._failed("save", status, mark)
+        self._holds = state
 
     def restore(self, state) -> None:
+        """FMI's set FMU state: no call where the instance holds that state already (saved
+        into or restored from it, and neither set nor stepped since: a get reads, it does not
+        move the state), as a rejected try's block that its deferred step never moved."""
+        if state is self._holds:
+            return
         self.calls_by_kind["restore"] += 1
+        self._holds = None  # (a failed restore leaves the state unknown)
         mark = len(self.messages)
         status = self._restore_c(self._component, state)
         if status > WARNING:
             raise self._failed("restore", status, mark)
+        self._holds = state
 
     def free_state(self, state) -> None:
         self.calls_by_kind["free"] += 1
+        if state is self._holds:
+            self._holds = None  # (the handle may be reused for another state)
         mark = len(self.messages)
         status = self._free_c(self._component, ctypes.byref(state))
         if status > WARNING:
