@@ -232,10 +232,22 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
             # let onsets early in a step pass: fig2's rig at omega = 30, 4e-4 -> 2.6e-2 nRMS(v).)
             dv_impulse = -0.5 * (new.F - point.F) * h * self.velocity_per_impulse
             return LocalError(x=dv_impulse * 2.0 * h / 3.0, F=0.5 * (new.F - point.F), impulse=impulse)
+        path = self.path_error(point, new, h)
+        if point.mode == Contact.UNKNOWN and path is not None:
+            # The run's first step, slipping from the start: no force history, and the start's
+            # force is the law's at the start's dv, before any solve. Held, its estimate read
+            # the force's settling onto the loop's answer (a stiff loop's, within M / F_dv:
+            # 11 ns for a solid lubricant creeping at |dv| ~ 2e-12 m/s) as a slope over the
+            # whole step, and the lubricant's relaxation from its start value as f's miss:
+            # errors that do not fall with h against the block's motion from rest, which does,
+            # and the step fell to its floor (fig6's rig at gamma = -0.85, K = 2000, per-step
+            # 3e-5: 167 steps shorter than 1e-6 of the drive's period). Its local error is its
+            # own path's, carried through the law's slopes (coupling/path_error.py), which
+            # answer a stiff loop quasi-statically, as the block does.
+            return LocalError(impulse=impulse, path=path)
         gain = self.expected_gain(h)
         filter_ = 1.0 / (1.0 + gain)  # a stiff loop pulls an error back
         history = self.history
-        path = self.path_error(point, new, h)
         if self.curvature_known(point, new):
             curvature = force_curvature(point, new, h, history.slope, history.h)  # the chord misses -F'' h^3 / 12
             miss = -curvature * h ** 3 / 12.0  # N s
@@ -261,8 +273,8 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         """The slip step's local error (x [m], v [m/s], f [1], v inside [m/s]) from its own path,
         carried through the law's slopes (coupling/path_error.py), for a friction with state
         slipping at both ends (across a reversal too: a lubricant's force is continuous through
-        dv = 0); None for any other step."""
-        if not (new.mode.slipping and point.mode.slipping):
+        dv = 0) or from the run's start into slip; None for any other step."""
+        if not (new.mode.slipping and (point.mode.slipping or point.mode == Contact.UNKNOWN)):
             return None
         slopes = self.estimate.state_slopes(point, new, self.velocity_per_impulse,
                                             RESOLUTION.zero_velocity * self.scales.velocity)
