@@ -232,22 +232,14 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
             # let onsets early in a step pass: fig2's rig at omega = 30, 4e-4 -> 2.6e-2 nRMS(v).)
             dv_impulse = -0.5 * (new.F - point.F) * h * self.velocity_per_impulse
             return LocalError(x=dv_impulse * 2.0 * h / 3.0, F=0.5 * (new.F - point.F), impulse=impulse)
-        path = self.path_error(point, new, h)
-        if point.mode == Contact.UNKNOWN and path is not None:
-            # The run's first step, slipping from the start: no force history, and the start's
-            # force is the law's at the start's dv, before any solve. Held, its estimate read
-            # the force's settling onto the loop's answer (a stiff loop's, within M / F_dv:
-            # 11 ns for a solid lubricant creeping at |dv| ~ 2e-12 m/s) as a slope over the
-            # whole step, and the lubricant's relaxation from its start value as f's miss:
-            # errors that do not fall with h against the block's motion from rest, which does,
-            # and the step fell to its floor (fig6's rig at gamma = -0.85, K = 2000, per-step
-            # 3e-5: 167 steps shorter than 1e-6 of the drive's period). Its local error is its
-            # own path's, carried through the law's slopes (coupling/path_error.py), which
-            # answer a stiff loop quasi-statically, as the block does.
-            return LocalError(impulse=impulse, path=path)
+        if point.mode == Contact.UNKNOWN:
+            first = self.first_step_path_error(point, new, h)
+            if first is not None:
+                return LocalError(impulse=impulse, path=first)
         gain = self.expected_gain(h)
         filter_ = 1.0 / (1.0 + gain)  # a stiff loop pulls an error back
         history = self.history
+        path = self.path_error(point, new, h)
         if self.curvature_known(point, new):
             curvature = force_curvature(point, new, h, history.slope, history.h)  # the chord misses -F'' h^3 / 12
             miss = -curvature * h ** 3 / 12.0  # N s
@@ -269,12 +261,36 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         :func:`.path_error.passed_phase_change`)."""
         return passed_phase_change(self.estimate.law, point, new, max(abs(new.F), abs(point.F)), self.tol)
 
+    def first_step_path_error(self, point: Point, new: Point, h: float) -> tuple[float, float, float, float] | None:
+        """The run's first step, from the start into slip, as :meth:`path_error` charges a slip
+        step (x [m], v [m/s], f [1], v inside [m/s]), where the held estimate cannot be read: the
+        loop is stiff over the step by the law's own slope (its gain g = F_dv h / M, of the
+        block's share of the end force, past 1) and the gain the step's solve measured, the
+        secant from its first guess, under-reads it. The held estimate then takes the force's
+        settling from the law's force at the start onto the loop's answer (within M / F_dv) for
+        a slope over the whole step, and the lubricant's relaxation from its start value for
+        f's miss, and filters them by the under-read gain: errors that do not fall with h,
+        against the block's motion from rest, which does. The step fell to its floor and the
+        next ones crept up from it (a solid lubricant, fig6's rig at gamma = -0.85, K = 2000:
+        gain 10.9 measured for 1.7e4, per-step 3e-5: 167 steps shorter than 1e-6 of the drive's
+        period, 10 forced). The path's error, through the law's slopes, answers a stiff loop
+        quasi-statically, as the block does. None for any other first step (it is charged as
+        held: where the gain was read, as at gamma = -0.3, runs are as they were)."""
+        slopes = self.estimate.state_slopes(point, new, self.velocity_per_impulse,
+                                            RESOLUTION.zero_velocity * self.scales.velocity)
+        if slopes is None or not new.mode.slipping:
+            return None
+        law_gain = slopes[0] * h * (0.5 if new.ramped else 1.0)
+        if law_gain <= max(1.0, self.expected_gain(h)):
+            return None
+        return path_local_error(point, new, h, self.estimate.w2, slopes, self.velocity_per_impulse)
+
     def path_error(self, point: Point, new: Point, h: float) -> tuple[float, float, float, float] | None:
         """The slip step's local error (x [m], v [m/s], f [1], v inside [m/s]) from its own path,
         carried through the law's slopes (coupling/path_error.py), for a friction with state
         slipping at both ends (across a reversal too: a lubricant's force is continuous through
-        dv = 0) or from the run's start into slip; None for any other step."""
-        if not (new.mode.slipping and (point.mode.slipping or point.mode == Contact.UNKNOWN)):
+        dv = 0); None for any other step."""
+        if not (new.mode.slipping and point.mode.slipping):
             return None
         slopes = self.estimate.state_slopes(point, new, self.velocity_per_impulse,
                                             RESOLUTION.zero_velocity * self.scales.velocity)
