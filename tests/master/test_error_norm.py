@@ -9,7 +9,8 @@ from tribofmu.physics import BoundaryLaw
 def solid_lubricant(tol, law_known=False):
     """Fig. 6's rig with a lubricant that stays solid (gamma = -0.85, K = 2000 N/m each), its
     drive X = A cos(w t) from rest for the first milliseconds (V = 0, aX = -A w^2): the block
-    creeps on the lubricant at |dv| ~ 1e-12 m/s where the viscous slope is ~6.5e7 N/(m/s)."""
+    creeps on the lubricant at |dv| ~ 1e-12 m/s where the viscous slope is ~6.5e7 N/(m/s).
+    law_known: the system is told its law, as a scene's run is (the estimate then has its slopes)."""
     A, omega, n = 1.4e-6, 30.0, -1e6
     law = BoundaryLaw(m=0.05, gamma=-0.85, S=3e-9)
     system = CoupledSystem(BlockPart("block", 0.7, 2000.0, 0.0, 0.0), FollowedDrive("drive", 0.0, 0.0, -A * omega ** 2),
