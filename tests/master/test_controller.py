@@ -34,13 +34,16 @@ def test_factor_is_clipped_to_its_growth_and_shrink_limits():
 
 
 def test_growth_is_capped_right_after_a_rejection():
-    """The coupling's step does not grow just after a rejection (the kinetics' sub-steps
-    may); shrinking is not affected."""
+    """No step grows just after a rejection, whatever the rule's values (scipy's rk.py's rule:
+    the step just failed at a larger size); shrinking is not affected. (The kinetics' sub-steps
+    never ask after a rejection: their factor_function is the rule outside one.)"""
     assert COUPLING_STEPS.factor(1e-3, 2, after_reject=True) == 1.0
     assert PLAIN.factor(8.0, 2, after_reject=True) == pytest.approx(0.45, rel=1e-15)
-    assert KINETICS_SUBSTEPS.factor(0.01, 1, after_reject=True) == pytest.approx(9.0, rel=1e-15)
-    custom = StepSizeController(safety=0.8, min_factor=0.2, max_factor=5.0, max_factor_after_reject=1.5)
-    assert custom.factor(1e-6, 1, after_reject=True) == 1.5
+    assert KINETICS_SUBSTEPS.factor(0.01, 1, after_reject=True) == 1.0
+    assert KINETICS_SUBSTEPS.factor(0.01, 1) == pytest.approx(9.0, rel=1e-15)
+    custom = StepSizeController(safety=0.8, min_factor=0.2, max_factor=5.0)
+    assert custom.factor(1e-6, 1, after_reject=True) == 1.0
+    assert StepSizeController(max_factor=0.5).factor(1e-6, 1, after_reject=True) == 0.5
     assert custom.factor(1e-6, 1) == 5.0
     assert custom.factor(1e6, 1) == 0.2
     assert custom.factor(0.25, 1) == pytest.approx(1.6, rel=1e-15)

@@ -95,20 +95,23 @@ class ErrorSettings:
 #   planned from the interpolation bound's (embedded.py interpolation_limit), for the same
 #   reason: the jerk it is planned from is the last step's, not this one's;
 # - max_factor 4: growth of 4 per accepted step (a slip phase after a transition);
-# - max_factor_after_reject 1: no growth right after a rejection (the step just failed at a
-#   larger size: growing again at once invites another);
+# - (no growth right after a rejection is the rule's own, as in scipy's rk.py: the step just
+#   failed at a larger size, growing again at once invites another. It was a value,
+#   max_factor_after_reject = 1, that only this rule set: the lubricant's sub-steps, whose
+#   value was 10, never ask after a rejection, physics/laws/boundary.py.)
 # - beta 0.06, the PI term (DOPRI5's default is 0.04): rejected steps went from up to 28 % of
 #   accepted (mixed friction; 22-23 % on boundary_heating and fig2's rig at omega = 3) to at
 #   most 18 % on the shipped scenes and bench_floor's off-scene points, with 12 % fewer FMU
 #   calls in all (0.04 left mixed friction at 20 %): `python benchmarks/bench_floor.py
 #   --rejections --betas 0,0.06`, 2026-11-26;
 # - min_previous_error 1e-4: a step far within its tolerance does not grow the next by more
-#   through the PI term. (Derived from the rule instead, where it grows by max_factor,
-#   (safety / max_factor)^(order + 1), boundary_heating's reported run took 87 % more FMU
-#   calls; at the round-off, mixed friction rejected 20.3 %: kept, 2026-11-27.)
+#   through the PI term. (At the round-off, 9.1e-13, pseudoplastic gamma = -0.9 rejected
+#   20.2 %, `python benchmarks/bench_settings.py "step.min_previous_error=9.1e-13"`; derived
+#   from the rule, where it grows by max_factor, (safety / max_factor)^(order + 1),
+#   boundary_heating's reported run took 87 % more FMU calls, on a scratch copy: kept,
+#   2026-11-27.)
 # (The breakaway's reach is max_factor steps, derived: EmbeddedCoupling.breakaway_reach.)
-STEP_CONTROL = StepSizeController(safety=0.9, min_factor=0.1, max_factor=4.0, max_factor_after_reject=1.0,
-                                  beta=0.06, min_previous_error=1e-4)
+STEP_CONTROL = StepSizeController(safety=0.9, min_factor=0.1, max_factor=4.0, beta=0.06, min_previous_error=1e-4)
 
 
 @dataclass(frozen=True)

@@ -17,8 +17,8 @@ MIN_PREVIOUS_ERROR = 1e-4
 @dataclass(frozen=True)
 class StepSizeController:
     """Next step = this step x factor, factor = safety (1 / error)^(1 / (order + 1)) clipped to
-    [min_factor, max_factor], and to at most max_factor_after_reject right after a rejection
-    (the step just failed at a larger size: growing again at once invites another).
+    [min_factor, max_factor], and to at most 1 right after a rejection (the step just failed
+    at a larger size: growing again at once invites another; scipy's rk.py's rule).
 
     error: the step's error relative to what is allowed (<= 1: accept); order: the
     method's order, its local error ~ h^(order + 1).
@@ -33,13 +33,12 @@ class StepSizeController:
     safety: float = 0.9
     min_factor: float = 0.1
     max_factor: float = 4.0
-    max_factor_after_reject: float = 1.0
     beta: float = 0.0
     min_previous_error: float = MIN_PREVIOUS_ERROR
 
     def factor(self, error: float, order: int, after_reject: bool = False,
                previous_error: float = 1.0) -> float:
-        grow = self.max_factor_after_reject if after_reject else self.max_factor
+        grow = min(1.0, self.max_factor) if after_reject else self.max_factor
         exponent = 1.0 / (order + 1) - 0.75 * self.beta
         raw = self.safety * max(error, 1e-300) ** -exponent
         if self.beta:
@@ -69,5 +68,5 @@ class StepSizeController:
 # The kinetics': sub-steps grow tenfold where f settles on its equilibrium (rates fall from
 # 1e7 to nothing within a step), and a rejection does not hold growth back (sub-steps are
 # cheap: the next one may grow at once).
-KINETICS_SUBSTEPS = StepSizeController(max_factor=10.0, max_factor_after_reject=10.0)
+KINETICS_SUBSTEPS = StepSizeController(max_factor=10.0)
 
