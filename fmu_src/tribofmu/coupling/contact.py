@@ -9,22 +9,22 @@ in none yet (as Modelica's ``PartialFriction`` starts ``Unknown``):
     FORWARD <--> BACKWARD   (a reversal passes through one stuck step, or none for a law
                              without a jump at dv = 0)
 
-One step (:class:`ImplicitStep`) first *classifies* the step from the friction at +-delta (or
-from the slip it predicts), then runs the solver of that mode (coupling/solvers.py): the slip
-root, the stick force, or the stick ramp. The block's answers are predicted by its learned model
-where the coupling has one (coupling/blocks.py's BlockPrediction: the block then steps once, at
-the answer, which checks the prediction; a miss is the outcome RETRY_UNPREDICTED, and the caller
-solves the step again without it), else modelled where they can be (BlockResponse, the step's
-own; the last steps' slope and Jacobian come in from the coupling's ReuseCache). A ramped step
-(the force ramping over the step) that meets stiffness, a stick or a reversal ends in the
-explicit outcome :data:`RETRY_HELD`, rolled back: the caller solves the step again with the
-force held. The step reports what it measured (:class:`StepReport`: loop gain, the block's
-velocity per unit impulse, evaluations) instead of writing into the algorithm.
+One step (:class:`ImplicitStep`) first *classifies* the step from the friction at +-delta (or from
+the slip it predicts), then runs the solver of that mode (coupling/solvers.py): the slip root, the
+stick force, or the stick ramp. The block's answers are predicted by its learned model where the
+coupling has one (coupling/blocks.py's BlockPrediction: the block then steps once, at the answer,
+which checks the prediction; a miss is the outcome RETRY_UNPREDICTED, and the caller solves the
+step again without it), else modelled where they can be (BlockResponse, the step's own; the last
+steps' slope and Jacobian come in from the coupling's ReuseCache). A ramped step (the force ramping
+over the step) that meets stiffness, a stick or a reversal ends in the explicit outcome
+:data:`RETRY_HELD`, rolled back: the caller solves the step again with the force held. The step
+reports what it measured (:class:`StepReport`: loop gain, the block's velocity per unit impulse,
+evaluations) instead of writing into the algorithm.
 
-The loop function H(dv) = (the block's relative velocity after the step under the friction
-at dv) - dv is decreasing, so the coupled answer is its single root, found on a bracket; on
-the jump of a discontinuous law (dry friction at dv = 0) there is no root: the blocks are
-stuck and the force is the one that keeps dv = 0.
+The loop function H(dv) = (the block's relative velocity after the step under the friction at dv) -
+dv is decreasing, so the coupled answer is its single root, found on a bracket; on the jump of a
+discontinuous law (dry friction at dv = 0) there is no root: the blocks are stuck and the force is
+the one that keeps dv = 0.
 """
 from __future__ import annotations
 
@@ -88,13 +88,12 @@ class StepReport:
 @dataclass(frozen=True)
 class StepSettings:
     """How one step solves: ``expected_gain`` the loop gain a slip step of this length should
-    meet (0: unknown), ``root_tol`` [m/s] how far the slip root may miss, ``delta`` [m/s] the
-    "zero" relative velocity, ``position_scale`` [m] for the stick ramp's fit;
-    ``stepped_trials``: a slip going on is sought with the friction stepped from its first
-    trial (:meth:`ImplicitStep.stepped_slip`), for a law that has not stuck; ``tuning``: the
-    coupling's tuning (max_ramp_gain above which a ramp would ring, the solvers' own);
-    ``dv_slope_fit``: for the slip's predicted dv, d(dv)/dt's
-    course over the last steps and the last one's miss (blocks.ReuseCache.slope_fit)."""
+    meet (0: unknown), ``gain_miss`` [1] the last one's relative miss of it (the root's first
+    iterate is aimed that far beyond), ``root_tol`` [m/s] how far the slip root may miss,
+    ``delta`` [m/s] the "zero" relative velocity, ``position_scale`` [m] for the stick ramp's
+    fit; ``stepped_trials``: a slip going on is sought with the friction stepped from its first
+    trial (:meth:`ImplicitStep.stepped_slip`), for a law that has not stuck; ``dv_slope_fit``:
+    the slip's predicted dv's course and miss (blocks.ReuseCache.slope_fit)."""
 
     expected_gain: float
     root_tol: float
@@ -103,6 +102,7 @@ class StepSettings:
     stepped_trials: bool = False
     tuning: CouplingSettings = SETTINGS  # (coupling/settings.py)
     dv_slope_fit: tuple[float, float, float] | None = None
+    gain_miss: float = 0.0
 
 
 class ImplicitStep:
@@ -409,7 +409,7 @@ class ImplicitStep:
         settings = self.settings
         return solvers.slip_root(self.loop, lo, h_lo, direction, delta=self.delta, root_tol=self.root_tol,
                                  expected_gain=settings.expected_gain, max_iterations=LIMITS.max_iterations,
-                                 aim_beyond=settings.tuning.root_aim_beyond, hi=hi, h_hi=h_hi)
+                                 aim_beyond=settings.gain_miss, hi=hi, h_hi=h_hi)
 
     def stick_force(self) -> float:
         """:func:`~.solvers.stick_force` between the probes: the held force that keeps dv = 0."""

@@ -24,6 +24,9 @@ class LoopState:
 
     loop_gain: float = 0.0  # |d(block dv)/dF * dF/d(dv)| of the last slip step ...
     loop_gain_step: float = 1.0  # ... whose length this was [s]
+    # [1] how far that gain was from the one expected of that step (expected_gain), relative:
+    # how far the next is likely off (the slip root aims its first iterate that far beyond)
+    gain_miss: float = 0.0
     velocity_per_impulse: float = 0.0  # [m/s / (N s)] the block's, last measured (0: not yet)
     # [N] (low, high): the friction's force range at the last stick (None: no stick yet)
     stick_bounds: tuple[float, float] | None = None
@@ -104,7 +107,8 @@ class ImplicitCoupling(CouplingAlgorithm):
                                 self.scales.position, stepped_trials=self.switches.stepped_trials and self.stick_bounds is None,
                                 tuning=tuning)
         reuse = self.reuse
-        settings = replace(settings, dv_slope_fit=reuse.slope_fit(point.t_ns, int(point.mode), point.aX - point.a))
+        settings = replace(settings, dv_slope_fit=reuse.slope_fit(point.t_ns, int(point.mode), point.aX - point.a),
+                           gain_miss=self.gain_miss)
         model = reuse.block.model() if predict else None
         known = self.trials.at((system.friction_n, point.T, point.f))  # (where the friction stands)
         new, report = solve_step(settings, system, point, saved, h_ns, drive, ramp, reuse.block_slopes.get(ramp),
@@ -123,6 +127,8 @@ class ImplicitCoupling(CouplingAlgorithm):
             return self._solve(system, point, saved, h_ns, drive, ramp, predict=False, defer=defer)
         self.counters.stick_steps += report.stuck and not isinstance(new, RetryHeld)
         if report.loop_gain is not None:
+            expected = settings.expected_gain
+            self.gain_miss = abs(report.loop_gain / expected - 1.0) if expected > 0.0 else 0.0
             self.loop_gain, self.loop_gain_step = report.loop_gain, h
         if report.velocity_per_impulse is not None:
             self.velocity_per_impulse = report.velocity_per_impulse
