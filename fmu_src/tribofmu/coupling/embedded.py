@@ -276,14 +276,18 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         period, 10 forced). The path's error, through the law's slopes, answers a stiff loop
         quasi-statically, as the block does. None for any other first step (it is charged as
         held: where the gain was read, as at gamma = -0.3, runs are as they were)."""
-        slopes = self.estimate.state_slopes(point, new, self.velocity_per_impulse,
-                                            RESOLUTION.zero_velocity * self.scales.velocity)
+        slopes = self.law_slopes(point, new)
         if slopes is None or not new.mode.slipping:
             return None
         law_gain = slopes[0] * h * (0.5 if new.ramped else 1.0)
         if law_gain <= max(1.0, self.expected_gain(h)):
             return None
         return path_local_error(point, new, h, self.estimate.w2, slopes, self.velocity_per_impulse)
+
+    def law_slopes(self, point: Point, new: Point) -> tuple[float, float, float, float] | None:
+        """The friction law's slopes over the step from point to new (estimate.state_slopes, dv
+        no nearer 0 than the solve's resolution): the path error's and the carry's."""
+        return self.estimate.state_slopes(point, new, self.velocity_per_impulse, RESOLUTION.zero_velocity * self.scales.velocity)
 
     def path_error(self, point: Point, new: Point, h: float) -> tuple[float, float, float, float] | None:
         """The slip step's local error (x [m], v [m/s], f [1], v inside [m/s]) from its own path,
@@ -292,8 +296,7 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         dv = 0); None for any other step."""
         if not (new.mode.slipping and point.mode.slipping):
             return None
-        slopes = self.estimate.state_slopes(point, new, self.velocity_per_impulse,
-                                            RESOLUTION.zero_velocity * self.scales.velocity)
+        slopes = self.law_slopes(point, new)
         return None if slopes is None else path_local_error(point, new, h, self.estimate.w2, slopes,
                                                             self.velocity_per_impulse)
 
@@ -423,8 +426,7 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         x_scale, v_scale = self.position_scale(point, new), self.velocity_scale(point, new)
         self.estimate.observe(new.x, new.a, new.F, self.velocity_per_impulse, W2_POSITION_FLOOR * x_scale)
         stuck = new.mode.stuck  # (a friction with state: its error carried by the law's slopes, estimate.py)
-        slopes = self.estimate.state_slopes(point, new, self.velocity_per_impulse,
-                                            RESOLUTION.zero_velocity * self.scales.velocity)
+        slopes = self.law_slopes(point, new)
         gain = self.expected_gain(h)
         loop = unstable_loop_factor(damping, h, new.ramped, gain)  # (1 but on a Stribeck drop)
         # a slip step of a friction with state: its defect along its own path, carried through
