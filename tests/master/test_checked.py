@@ -345,3 +345,40 @@ def test_two_vouching_runs_whose_difference_their_estimates_do_not_cover_are_che
     assert len(runs.calls) >= 2
     # the reported error covers the reported run's true error (0.3 step_tol)
     assert error["nrms_v"] >= 0.3 * result.stats["step_tol"] * 0.5
+
+
+def test_a_run_planned_far_from_one_whose_estimate_read_short_is_verified_by_its_neighbour():
+    """A first run far off tol whose estimate reads short (a quarter of its true error: past its
+    linearisation) plans its successor over a thousand times tighter. The two differ by about
+    the first run's error, more than their estimates cover; charged to the tighter run as a
+    pair's difference, that read 0.72 where the true error was 2.2e-4 (a boundary point no scene
+    uses) and the next run went MAX_JUMP tighter. Runs that far apart are no pair: the tighter
+    run's own estimate is verified by the next run, a check ratio tighter, and the call ends
+    there with an error that covers the reported run's."""
+    def true(step_tol):
+        return 0.165 * (step_tol / 1e-3) ** 0.9
+
+    def own(step_tol):  # a quarter of the truth at the first run's 1e-3, right below it
+        return true(step_tol) * (0.25 if step_tol >= 1e-3 else 1.0)
+
+    runs = VouchingRuns(true, own=own, order=2.0 / 3.0)
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, vouches=True, verify=True)
+    tols = [c[0] for c in runs.calls]
+    assert tols[0] / tols[1] > checked.MAX_JUMP  # the plan from the first run's estimate
+    assert len(tols) == 3 and tols[1] / tols[2] == pytest.approx(checked.CHECK_RATIO)
+    assert result.ok and result.stats["step_tol"] == tols[2]
+    reported = result.stats["estimated_error"]["nrms_v"]
+    truth = checked.window_difference(FakeRuns(true)(tols[2]), FakeRuns(lambda step_tol: 0.0)(tols[2]))
+    assert 1.0 <= reported / truth <= 10.0
+
+
+def test_a_run_awaiting_its_verification_when_the_budget_ends_is_not_reported_as_met():
+    """A first run that meets tol by its own estimate but is to be verified (verify), with no
+    time left for the verifying run: the call keeps the run but does not say ok on an
+    estimate nothing verified."""
+    runs = VouchingRuns(power_law(0.3), own=power_law(0.2))
+    runs.fail_at = 2  # the second run runs out of time
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, vouches=True, verify=True)
+    assert len(runs.calls) == 2 and not result.ok
+    assert result.stats["step_tol"] == runs.calls[0][0]
+    assert "not checked" in result.message
