@@ -5,6 +5,7 @@ run that misses it say so?
     python benchmarks/bench_trust.py --one-run [--tols default] [--only SUBSTRING]
     python benchmarks/bench_trust.py --extra [--tols ...]   (EXTRA_POINTS instead of POINTS)
     python benchmarks/bench_trust.py --settings "coupling.max_ramp_gain=inf" ...   (other tuning)
+    python benchmarks/bench_trust.py --random 901:12 [--kinds boundary]   (seeded random points)
 
 At Fig. 2's and Fig. 6's scenes and at parameter points no scene uses (dry, fluid, boundary and
 mixed friction across docs/model.md's ranges), each run of ``tribofmu.api.simulate`` (whole
@@ -105,6 +106,48 @@ EXTRA_POINTS = [
 ]
 
 
+# --random: the ranges points are drawn from (log-uniform where a value spans decades), the four
+# laws in turn. Wider than any scene or list above, inside docs/model.md's declared ranges and
+# the paper's regimes (a compressive load; a Stribeck drop mu_s > mu_c; gamma > -1).
+RANDOM_SCENES = {"dry": "fig2_dry", "fluid": "fig5_newtonian", "boundary": "fig6_boundary", "mixed": "mixed_stribeck"}
+
+
+def random_points(seed: int, count: int, kinds: list[str]) -> list[tuple[str, str, dict]]:
+    """count points (label, scene, overrides) drawn with random.Random(seed), cycling through
+    kinds (of RANDOM_SCENES): the same seed gives the same points on any machine."""
+    import math
+    import random
+
+    rng = random.Random(seed)
+
+    def log_uniform(low: float, high: float) -> float:
+        return float(f"{10 ** rng.uniform(math.log10(low), math.log10(high)):.4g}")
+
+    def uniform(low: float, high: float) -> float:
+        return float(f"{rng.uniform(low, high):.3g}")
+
+    points = []
+    for i in range(count):
+        kind = kinds[i % len(kinds)]
+        overrides = {"drive.omega": log_uniform(5.0, 80.0), "block.M": log_uniform(0.1, 1.5),
+                     "block.K": log_uniform(500.0, 15000.0)}
+        if kind == "dry":
+            overrides |= {"friction.mu_friction": uniform(0.15, 0.9), "conditions.n": -log_uniform(5.0, 60.0)}
+        elif kind == "fluid":
+            overrides |= {"friction.gamma": uniform(-0.9, 1.8), "friction.m": log_uniform(3.0, 80.0)}
+        elif kind == "boundary":
+            overrides |= {"friction.gamma": uniform(-0.9, 1.8), "conditions.T": uniform(250.0, 350.0),
+                          "block.K": log_uniform(500.0, 8000.0)}
+        else:
+            mu = uniform(0.2, 0.5)
+            overrides |= {"friction.mu_friction": mu, "friction.mu_static": float(f"{mu + uniform(0.05, 0.4):.3g}"),
+                          "friction.v_stribeck": log_uniform(0.003, 0.05),
+                          "friction.stribeck_exponent": uniform(0.8, 3.0), "friction.m": uniform(0.0, 10.0)}
+        label = f"r{seed}.{i} {kind} " + " ".join(f"{key.split('.')[1]}={value:g}" for key, value in overrides.items())
+        points.append((label, RANDOM_SCENES[kind], overrides))
+    return points
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tols", default="default,1e-3,1e-4")
@@ -116,6 +159,10 @@ def main(argv=None) -> int:
                              "replaces its row in an earlier one), run nothing")
     parser.add_argument("--extra", action="store_true",
                         help="the points of EXTRA_POINTS instead (dry, fluid and mixed points off the list)")
+    parser.add_argument("--random", default=None, metavar="SEED:N",
+                        help="N points drawn at random (seeded: the same points on any machine) instead")
+    parser.add_argument("--kinds", default=",".join(RANDOM_SCENES),
+                        help="--random's frictions, drawn in turn (default: all four)")
     parser.add_argument("--one-run", action="store_true",
                         help="each point's first run only: its propagated estimate against its true error")
     parser.add_argument("--settings", default="", metavar="VARIANT",
@@ -128,9 +175,12 @@ def main(argv=None) -> int:
 
         apply(args.settings)
         print(f"# settings: {args.settings}", flush=True)
+    global POINTS
     if args.extra:
-        global POINTS
         POINTS = EXTRA_POINTS
+    if args.random:
+        seed, count = (int(part) for part in args.random.split(":"))
+        POINTS = random_points(seed, count, args.kinds.split(","))
     if args.one_run:
         return one_run([None if t == "default" else float(t) for t in args.tols.split(",")], args.only)
     if args.table:
