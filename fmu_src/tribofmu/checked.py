@@ -403,7 +403,8 @@ def _method(checked: bool, sequence: CheckSequence) -> str:
     if checked and sequence.own:
         runs = len(sequence.records)
         before = ("" if runs == 1 else f"; it is run {runs} of {runs}, each after the first planned from the "
-                  "estimate of the one before, which had missed tol")
+                  "estimate of the one before, which had missed tol or, meeting it, was to be verified by "
+                  "the next")
         return (f"own: the run's carried estimate of its error (coupling/estimate.py) times {ESTIMATE_SAFETY:g}; "
                 "it vouches for the run here (its derivation holds: the friction a function of dv alone "
                 "whose slope is bounded, a shear-thinning fluid's, or a lubricant's whose state's error the "
