@@ -357,18 +357,19 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
 
     def force_resolution(self, new: Point, h: float) -> float:
         """The force [N] the slip solve of a step of h [s] ending at new cannot tell from its
-        root: it resolves dv to delta (RESOLUTION.zero_velocity x the velocity scale, the root's
-        bracket), and the friction answers a change of dv at its slope dF/d(dv) = g / (c h
-        vpi) (g the loop gain, vpi the block's velocity per impulse, c the block's share of
-        the end force: 1/2 ramped, 1 held). A solid lubricant creeping at |dv| ~ 1e-12 m/s
-        with a slope of 6.5e7 N/(m/s) gives 2.7e-7 N: its force jitters by that from step to
-        step whatever h, and the force term read it as error (fig6 at gamma = -0.85, K = 2000,
-        per-step 5e-5: 241,063 steps at the 20 ns floor)."""
+        root: it resolves dv to delta (the root's bracket) or, looser, the root's tolerance (a
+        point's dv is off by that, as the carry's chord reads it: _carry_error), and the friction
+        answers a change of dv at its slope dF/d(dv) = g / (c h vpi) (g the loop gain, vpi the
+        block's velocity per impulse, c the block's share of the end force: 1/2 ramped, 1 held).
+        A solid lubricant creeping at |dv| ~ 1e-12 m/s with a slope of 6.5e7 N/(m/s) gives
+        2.7e-7 N at delta: its force jitters by that from step to step whatever h, and the force
+        term read it as error (fig6 at gamma = -0.85, K = 2000, per-step 5e-5: 241,063 steps at
+        the 20 ns floor; with delta alone, per-step 1e-5 stalled at 0.14 us steps)."""
         if self.velocity_per_impulse <= 0.0 or h <= 0.0 or not new.mode.slipping:
             return 0.0
         share = 0.5 if new.ramped else 1.0
         slope = self.expected_gain(h) / (share * h * self.velocity_per_impulse)
-        return slope * RESOLUTION.zero_velocity * self.scales.velocity
+        return slope * max(RESOLUTION.zero_velocity * self.scales.velocity, self.root_tolerance())
 
     def curvature_known(self, point: Point, new: Point) -> bool:
         """Whether the ramped step from point to new has its force's curvature estimated from
