@@ -227,13 +227,16 @@ class CheckSequence:
                           else f"{MAX_RUNS} runs, the most one sequence makes")
             return True
         if own is not None:  # the next run, planned from this one's error, vouches for itself too
-            factor = self._own_tightening(own, result)
+            planned = max(self.step_tol / self._own_tightening(own, result), MIN_STEP_TOL)
+            # the run started ahead, where it is tighter than planned by less than a check ratio,
+            # or looser but still expected to meet tol (the plan aims at the rule's safety x
+            # tol, as for a run yet to start; one running is taken where the same model says
+            # it meets tol, and its own estimate says whether it did)
+            loosest = self.step_tol / self._own_tightening(own, result, aim=1.0)
             self.own_last = (self.step_tol, own)
             self.expected_to_meet, self.base = True, None
-            planned = max(self.step_tol / factor, MIN_STEP_TOL)
-            # the run started ahead, where it is tighter than planned by less than a check ratio
             ahead, self.ahead = self.ahead, None
-            self.step_tol = ahead if ahead is not None and planned / CHECK_RATIO <= ahead <= planned else planned
+            self.step_tol = ahead if ahead is not None and planned / CHECK_RATIO <= ahead <= loosest else planned
             return False
         factor = CHECK_RATIO if math.isnan(error) else next_tightening(error, self.tol)
         self.expected_to_meet = self._expects_to_meet(result, error, factor)
@@ -243,9 +246,9 @@ class CheckSequence:
         self.step_tol = max(self.step_tol / factor, MIN_STEP_TOL)
         return False
 
-    def _own_tightening(self, own: float, result) -> float:
+    def _own_tightening(self, own: float, result, aim: float = STEP_CONTROL.safety) -> float:
         """How much tighter the run after ``result``, whose own error ``own`` missed tol, is:
-        planned to land at the step-size rule's safety x tol (as the rule aims a step: the next
+        planned to land at aim x tol, the step-size rule's safety (as the rule aims a step: the next
         run's error is predicted from this one's, not known), at least CHECK_RATIO, at the
         order the last two runs' own errors showed or, before there are two, the order the run
         itself expects of its error (``estimated_error.order``: its steps' orders,
@@ -264,7 +267,7 @@ class CheckSequence:
             # (an error that did not fall: the slowest order allowed for, the longest jump)
             shown = math.log(previous / own) / math.log(previous_tol / self.step_tol) if own < previous else 0.0
             order, cap = min(max(shown, MIN_ORDER), MAX_ORDER), MAX_JUMP
-        wanted = (own / (STEP_CONTROL.safety * self.tol)) ** (1.0 / order)
+        wanted = (own / (aim * self.tol)) ** (1.0 / order)
         return min(cap, max(CHECK_RATIO, wanted))
 
     def _expects_to_meet(self, result, error: float, factor: float) -> bool:
