@@ -36,7 +36,6 @@ No physics here: the models live in :mod:`tribofmu.physics`.
 """
 from __future__ import annotations
 
-import copy
 import math
 import uuid
 from typing import Any, Callable, Iterable
@@ -46,7 +45,7 @@ from .description import ModelDescriptionMixin, _parse_start, _start_values
 from .fmi import (_KINDS, _PREFIX, _TYPE_NAMES, AUTHOR, CALL_STATUS_CATEGORY, FMI_VERSION, INITIALIZATION,
                   INPUT, INSTANTIATED, LICENSE, OUTPUT, PARAMETER, STEP, TERMINATED, VERSION,
                   Causality, DefaultExperiment, Initial, Real, Status, Variability, _PythonFMUSlave)
-from .fmu_state import FMUStateMixin
+from .fmu_state import FMUStateMixin, attribute_reader
 from .values import ValueAccessMixin
 
 if FMI_VERSION == 3:  # fmi.py has it from pythonfmu3 only
@@ -83,8 +82,10 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         # every call that changes what it is computed from (_forget_outputs).
         self._output_values: dict[str, Any] = {}
         self._initialized = False  # initialize() ran (it is skipped while values are bad)
-        self._real_output_getters: list | None = None  # caches: variables are declared once
-        self._dynamic_state_names: list[str] | None = None
+        # caches (variables are declared once): the Real outputs' getters, and how the finite
+        # check reads them (_output_checks)
+        self._real_output_getters: list | None = None
+        self._output_check_readers: tuple | None = None
         self._parameter_names: list[str] = []
         self._parameter_set: set[str] = set()
         self._scalar_state_names: list[str] | None = None
@@ -312,10 +313,7 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         try:
             problems = self._step_problems(current_time, step_size)
             if not problems:
-                # Only what a step can change: parameters and inputs change through setters.
-                saved = {name: getattr(self, name) for name in self._dynamic_state_names or self._dynamic_names()}
-                if self.internal_state_names:
-                    saved.update({name: copy.copy(getattr(self, name)) for name in self.internal_state_names})
+                saved = self._save_step_state()
                 problems, misuse = self._step(current_time, step_size)
         except Exception as exc:
             misuse = False
@@ -324,8 +322,7 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         if not problems:
             return True
         if saved is not None:
-            for name, value in saved.items():
-                setattr(self, name, value)
+            self._restore_step_state(saved)
         self._forget_outputs()  # the check may have kept values of the state just undone
         # misuse and bad values: fmi2Error through the native loader; a numerical failure
         # stays fmi2Discard (a smaller step may succeed)
@@ -361,6 +358,29 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         self.time = t + h
         # A step whose outputs would not be finite is refused (all or nothing), so each output
         # is computed here; what is computed is kept for the host's reads of this state.
+        if self._outputs_finite():
+            return [], False
+        return self._output_problems(h), False
+
+    def _outputs_finite(self) -> bool:
+        """Whether every Real output is finite, each computed one kept: the common case,
+        checked with the least work (stored values read at once); False where any is not, or
+        raises, for :meth:`_output_problems` to name."""
+        getters, read_stored = self._output_check_readers or self._output_checks()
+        computed = self._output_values
+        try:
+            for name, getter in getters:
+                value = getter()
+                if not math.isfinite(value):
+                    return False
+                computed[name] = value
+            return all(map(math.isfinite, read_stored(self)))
+        except Exception:
+            return False
+
+    def _output_problems(self, h: float) -> list[str]:
+        """Why the outputs refuse the step: each output that is not finite or raises, named
+        (none: every output is finite, each computed one kept)."""
         bad = []
         computed = self._output_values
         for name, getter in self._real_output_getters or self._real_outputs():
@@ -375,8 +395,8 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
                     continue
             bad.append(f"{name}={value}")
         if bad:
-            return [f"outputs would not be finite ({', '.join(bad)}) at {self._inputs_text()}, h={h}"], False
-        return [], False
+            return [f"outputs would not be finite ({', '.join(bad)}) at {self._inputs_text()}, h={h}"]
+        return []
 
     def _real_outputs(self) -> list[tuple[str, Callable[[], Any] | None]]:
         """Each Real output's name and its getter (None: a stored value)."""
@@ -385,15 +405,12 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
                                          if v.causality == Causality.output and isinstance(v, Real)]
         return self._real_output_getters
 
-    def _dynamic_names(self) -> list[str]:
-        """Scalars advance() and initialize() may change: stored outputs, time (the internal
-        state, which may be mutable, is saved apart)."""
-        if self._dynamic_state_names is None:
-            self._dynamic_state_names = [
-                v.name for v in self.vars.values()
-                if v.causality == Causality.output and v.name not in self._getters
-            ] + ["time", "_initialized"]
-        return self._dynamic_state_names
+    def _output_checks(self) -> tuple[list[tuple[str, Callable[[], Any]]], Callable[[Any], tuple]]:
+        """The Real outputs' getters by name, and the reader of the stored ones' values."""
+        outputs = self._real_outputs()
+        self._output_check_readers = ([(name, getter) for name, getter in outputs if getter is not None],
+                                      attribute_reader([name for name, getter in outputs if getter is None]))
+        return self._output_check_readers
 
     def problems(self) -> list[str]:
         """Every refused value and every parameter combination the model rejects."""
