@@ -42,7 +42,7 @@ from typing import Any, Callable, Iterable
 
 from .description import ModelDescriptionMixin, _parse_start, _start_values
 # the adapters import the FMI names they declare with from here (DefaultExperiment, the causalities)
-from .fmi import (_KINDS, _PREFIX, _TYPE_NAMES, AUTHOR, CALL_STATUS_CATEGORY, FMI_VERSION, INITIALIZATION,
+from .fmi import (_KINDS, _PREFIX, AUTHOR, CALL_STATUS_CATEGORY, FMI_VERSION, INITIALIZATION,
                   INPUT, INSTANTIATED, LICENSE, OUTPUT, PARAMETER, STEP, TERMINATED, VERSION,
                   Causality, DefaultExperiment, Initial, Real, Status, Variability, _PythonFMUSlave)
 from .fmu_state import FMUStateMixin, attribute_reader
@@ -50,8 +50,6 @@ from .values import ValueAccessMixin
 
 if FMI_VERSION == 3:  # fmi.py has it from pythonfmu3 only
     from .fmi import Fmi3StepResult
-
-_UNKNOWN = object()  # an output not computed for the present state
 
 __all__ = ["TriboModel", "DefaultExperiment", "PARAMETER", "INPUT", "OUTPUT", "positive", "non_negative"]
 
@@ -164,37 +162,6 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
                       f"{type(start).__name__}; using {start}", Status.error)
             return start
 
-    def _value_problem(self, name: str, kind: type, value: Any) -> str | None:
-        if kind is float and not math.isfinite(value):
-            return f"must be finite, got {value}"
-        check = self._checks.get(name)
-        return check(value) if check else None
-
-    def _setter(self, name: str, kind: type, is_parameter: bool) -> Callable[[Any], None]:
-        def setter(value: Any) -> None:
-            value = kind(value)
-            # (_forget_outputs, inline: the hot path of a master) even for a refused value:
-            # the outputs read as refused now
-            self._output_values.clear()
-            why = self._value_problem(name, kind, value)
-            if why:
-                self._bad[name] = f"{name} {why}"
-                if kind is float and not math.isfinite(value):
-                    # refused: never stored, so nothing computes with it; every step and
-                    # every output that depends on the values is refused until it is replaced
-                    self._log(f"{_PREFIX}Set{_TYPE_NAMES[_KINDS[kind]]}: {name} {why}: refused",
-                              Status.error, CALL_STATUS_CATEGORY)
-                    return
-                # in range is checked when initialization ends (parameters) or at the step
-            elif self._bad:
-                self._bad.pop(name, None)
-            setattr(self, name, value)
-            if is_parameter:
-                self._parameters_changed(name)
-            else:
-                self.changed(name)
-        return setter
-
     def _parameters_changed(self, name: str) -> None:
         uid, count = self._parameter_token.rsplit(":", 1)
         self._new_parameters(f"{uid}:{int(count) + 1}")
@@ -204,36 +171,6 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         """Parameter values changed: drop what was derived from them."""
         self._model_problems = None
         self._parameter_token = token
-
-    def _safe_getter(self, name: str, getter: Callable[[], Any]) -> Callable[[], Any]:
-        # An exception escaping a getter would make fmi2GetReal return fmi2Fatal.
-        def get() -> Any:
-            value = self._output_values.get(name, _UNKNOWN)
-            if value is not _UNKNOWN:
-                return value
-            if self._describing:
-                return getter()
-            # the model's own validation runs once per parameter set: usually nothing to join
-            problems = self.problems() if self._bad or self._model_problems != [] else None
-            if problems:
-                why = "; ".join(problems)
-                self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} cannot be evaluated while {why}; "
-                          f"reads as NaN", Status.error, CALL_STATUS_CATEGORY)
-                return math.nan
-            try:
-                value = getter()
-            except Exception as exc:
-                self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} cannot be evaluated "
-                          f"({type(exc).__name__}: {exc}) at {self._inputs_text()}; reads as NaN",
-                          Status.error, CALL_STATUS_CATEGORY)
-                return math.nan
-            if isinstance(value, float) and not math.isfinite(value):
-                self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} is not finite ({value}) at "
-                          f"{self._inputs_text()}", Status.error, CALL_STATUS_CATEGORY)
-            else:  # a refusal is not kept: every read of it logs it again
-                self._output_values[name] = value
-            return value
-        return get
 
     def _forget_outputs(self) -> None:
         """The state, an input or a parameter changed: the outputs are computed again when read."""
