@@ -36,6 +36,7 @@ No physics here: the models live in :mod:`tribofmu.physics`.
 """
 from __future__ import annotations
 
+import functools
 import math
 import uuid
 from typing import Any, Callable, Iterable
@@ -134,8 +135,10 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         if getter is not None:
             self._getters[name] = getter
             kwargs["getter"] = self._safe_getter(name, getter)
-        elif causality == Causality.output:
-            setattr(self, name, start)
+        else:  # the attribute, read in C (pythonfmu's own getter is a Python lambda)
+            kwargs["getter"] = functools.partial(getattr, self, name)
+            if causality == Causality.output:
+                setattr(self, name, start)
         self.register_variable(kind(name, **kwargs))
         if kind is Real:
             self._units[name] = unit
