@@ -61,17 +61,19 @@ _idle_slaves: dict[tuple, list] = {}  # under _instances_lock
 WARNING = 1
 
 
-def hot_path_functions(dll, fmi_version: int) -> tuple[dict[str, str], dict[str, Any]]:
+def hot_path_functions(dll, fmi_version: int) -> tuple[dict[str, str], dict[str, Any], list]:
     """The FMI functions a coupling step calls, under version-neutral names (set and get
     reals, doStep, get, set and free the FMU state): their FMI names, and each as a ctypes
     function of ``dll`` (a new function object, so nothing else's ``argtypes`` are changed)
     with its C signature from the FMI headers (the types are fmpy's).
 
-    The functions are taken from a ``PyDLL`` view of the loaded library: called without
-    releasing the GIL. The binary is the FMU's native loader over pythonfmu's, which takes
-    the GIL at once to run the model in Python: released by ctypes and taken back twice
-    around every call, it cost 0.1 us of a 2 us fmi2GetReal (2026-11-27). (PyDLL also raises
-    a Python error the call left set; pythonfmu clears its own.)"""
+    From a ``PyDLL`` view of the loaded library: called without releasing the GIL, which the
+    binary (the native loader over pythonfmu's) takes at once to run the model in Python
+    (released and taken back around every call: 0.1 us of a 2 us fmi2GetReal, 2026-11-27).
+    Get and set reals come without ``argtypes``, their signature returned beside: called only
+    with arguments made once per set of references, each an object of its C type, checked
+    then (:func:`check_arguments`), ctypes passes them as they are (converting each on every
+    call: 0.36 us of the 2)."""
     from ctypes import POINTER, PyDLL, c_int, c_size_t
 
     if fmi_version == 3:
@@ -95,9 +97,23 @@ def hot_path_functions(dll, fmi_version: int) -> tuple[dict[str, str], dict[str,
     library = PyDLL(dll._name, handle=dll._handle)  # the same loaded library, not loaded again
     for key, name, types in zip(keys, names, argtypes):
         function = library[name]
-        function.argtypes, function.restype = types, c_int
+        function.argtypes, function.restype = (None if key in ("set", "get") else types), c_int
         functions[key] = function
-    return dict(zip(keys, names)), functions
+    return dict(zip(keys, names)), functions, values
+
+
+def check_arguments(signature: list, args: tuple) -> None:
+    """Raise TypeError unless ``args`` are, one for each parameter of ``signature`` (ctypes
+    types), objects of exactly that type, or for a pointer an array of what it points to:
+    what a function without ``argtypes`` may be called with (ctypes passes them as they are;
+    a Python int would go as a C int)."""
+    import ctypes
+
+    if len(args) != len(signature):
+        raise TypeError(f"{len(args)} arguments for {len(signature)} parameters")
+    for ctype, arg in zip(signature, args):
+        if type(arg) is not ctype and not (isinstance(arg, ctypes.Array) and ctype is ctypes.POINTER(arg._type_)):
+            raise TypeError(f"{arg!r} is not a {ctype.__name__}")
 
 
 class FMUInstance:
@@ -227,9 +243,8 @@ class FMUInstance:
         with its C signature (:func:`hot_path_functions`), called with the value-reference and
         value arrays built once per set of references, its status checked here (above
         Warning: :class:`FMUCallError`). What does not change between calls (the instance
-        handle, the counts, doStep's flags) is passed as an object of its C type, made once:
-        ctypes converts a Python int or bool anew on every call (0.24 us of a 2.3 us
-        fmi2GetReal, 2026-11-27).
+        handle, the counts, doStep's flags) is an object of its C type, made once (ctypes
+        converts a Python int or bool anew on every call: 0.24 us of 2.3, 2026-11-27).
 
         fmpy's public per-function methods (``fmi2GetReal(component, vr, n, values)``, which
         this called before) wrap the same C call in two Python calls and a status check of
@@ -245,7 +260,7 @@ class FMUInstance:
         # the operations under version-neutral names (set/get reals, do step, get/set/free state)
         if self._hot is None:
             self._hot = hot_path_functions(self._fmu.dll, self.fmi_version)
-        self._names, functions = self._hot
+        self._names, functions, self._real_signature = self._hot
         self._set_c, self._get_c, self._step_c, self._save_c, self._restore_c, self._free_c = (
             functions[key] for key in ("set", "get", "step", "save", "restore", "free"))
         if self.fmi_version == 3:
@@ -276,6 +291,7 @@ class FMUInstance:
             n = len(key)
             values, count = (self._real * n)(), self._size(n)
             args = (self._component, (self._vr * n)(*key), count, values) + ((count,) if self.fmi_version == 3 else ())
+            check_arguments(self._real_signature, args)  # (the calls on them check none)
             buf = self._buffers[key] = (values, args)
         return buf
 
