@@ -89,11 +89,11 @@ class FMUStateMixin:
     """The FMU-state calls of :class:`.base.TriboModel`."""
 
     def _get_fmu_state(self) -> OwnState:
-        names = self._variable_names()
+        names = self._variable_state_names or self._variable_names()
         internal_names = self.internal_state_names
+        read_internal = (self._step_state_readers or self._step_state_reader())[1]
         return OwnState(self._parameter_values(), names, self._variable_values(self),
-                        internal_names, tuple([copy.copy(getattr(self, name)) for name in internal_names])
-                        if internal_names else (),
+                        internal_names, tuple(map(copy.copy, read_internal(self))) if internal_names else (),
                         dict(self._bad) if self._bad else _NO_PROBLEMS, self._initialized,
                         self._parameter_token, self._model_id, self._mode, self._error)
 
@@ -127,7 +127,7 @@ class FMUStateMixin:
                          enter_error=True)
 
     def _restore_own(self, state: OwnState) -> None:
-        self._forget_outputs()
+        self._output_values.clear()  # (_forget_outputs, inline: the hot path of a master)
         self._bad = dict(state.bad) if state.bad else {}
         self._initialized, self._mode, self._error = state.initialized, state.mode, state.error
         same_parameters = state.token == self._parameter_token
