@@ -8,11 +8,12 @@ Integration tier: the FMUs are built from the working tree (``fmu_dir``, ``fmu3_
 """
 from __future__ import annotations
 
+import ctypes
 import math
 
 import pytest
 
-from tribofmu.master.instance import FMUCallError, FMUInstance
+from tribofmu.master.instance import FMUCallError, FMUInstance, check_arguments
 
 pytestmark = pytest.mark.integration
 
@@ -101,3 +102,20 @@ def test_a_restore_of_the_state_the_instance_holds_makes_no_call_and_any_change_
     assert restores() == 4
     for state in (start, later):
         block.free_state(state)
+
+
+def test_get_and_set_reals_take_only_arguments_of_their_c_types(block):
+    """Get and set reals are called without ctypes' per-call conversion, with arguments made
+    once per set of references and checked then against the C signature: a Python int for the
+    instance handle or the count (ctypes would pass it as a C int), an array of another type or
+    a missing FMI 3.0 nValues is refused by name."""
+    r = block.refs
+    assert block.get_reals((r["x"], r["v"])) == block.get_reals([r["x"], r["v"]])  # tuple or list
+    signature, made = block._real_signature, block._buffer((r["x"],))[1]
+    check_arguments(signature, made)  # what the calls are made with
+    wrong = {0: block._fmu.component, 1: (ctypes.c_int64 * 1)(r["x"]), 2: 1}
+    for index, arg in wrong.items():
+        with pytest.raises(TypeError, match="is not a"):
+            check_arguments(signature, made[:index] + (arg,) + made[index + 1:])
+    with pytest.raises(TypeError, match="arguments for"):
+        check_arguments(signature, made[:-1])

@@ -36,23 +36,21 @@ No physics here: the models live in :mod:`tribofmu.physics`.
 """
 from __future__ import annotations
 
-import copy
+import functools
 import math
 import uuid
 from typing import Any, Callable, Iterable
 
 from .description import ModelDescriptionMixin, _parse_start, _start_values
 # the adapters import the FMI names they declare with from here (DefaultExperiment, the causalities)
-from .fmi import (_KINDS, _PREFIX, _TYPE_NAMES, AUTHOR, CALL_STATUS_CATEGORY, FMI_VERSION, INITIALIZATION,
+from .fmi import (_KINDS, _PREFIX, AUTHOR, CALL_STATUS_CATEGORY, FMI_VERSION, INITIALIZATION,
                   INPUT, INSTANTIATED, LICENSE, OUTPUT, PARAMETER, STEP, TERMINATED, VERSION,
                   Causality, DefaultExperiment, Initial, Real, Status, Variability, _PythonFMUSlave)
-from .fmu_state import FMUStateMixin
+from .fmu_state import FMUStateMixin, attribute_reader
 from .values import ValueAccessMixin
 
 if FMI_VERSION == 3:  # fmi.py has it from pythonfmu3 only
     from .fmi import Fmi3StepResult
-
-_UNKNOWN = object()  # an output not computed for the present state
 
 __all__ = ["TriboModel", "DefaultExperiment", "PARAMETER", "INPUT", "OUTPUT", "positive", "non_negative"]
 
@@ -83,8 +81,10 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         # every call that changes what it is computed from (_forget_outputs).
         self._output_values: dict[str, Any] = {}
         self._initialized = False  # initialize() ran (it is skipped while values are bad)
-        self._real_output_getters: list | None = None  # caches: variables are declared once
-        self._dynamic_state_names: list[str] | None = None
+        # caches (variables are declared once): the Real outputs' getters, and how the finite
+        # check reads them (_output_checks)
+        self._real_output_getters: list | None = None
+        self._output_check_readers: tuple | None = None
         self._parameter_names: list[str] = []
         self._parameter_set: set[str] = set()
         self._scalar_state_names: list[str] | None = None
@@ -135,8 +135,10 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         if getter is not None:
             self._getters[name] = getter
             kwargs["getter"] = self._safe_getter(name, getter)
-        elif causality == Causality.output:
-            setattr(self, name, start)
+        else:  # the attribute, read in C (pythonfmu's own getter is a Python lambda)
+            kwargs["getter"] = functools.partial(getattr, self, name)
+            if causality == Causality.output:
+                setattr(self, name, start)
         self.register_variable(kind(name, **kwargs))
         if kind is Real:
             self._units[name] = unit
@@ -163,37 +165,6 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
                       f"{type(start).__name__}; using {start}", Status.error)
             return start
 
-    def _value_problem(self, name: str, kind: type, value: Any) -> str | None:
-        if kind is float and not math.isfinite(value):
-            return f"must be finite, got {value}"
-        check = self._checks.get(name)
-        return check(value) if check else None
-
-    def _setter(self, name: str, kind: type, is_parameter: bool) -> Callable[[Any], None]:
-        def setter(value: Any) -> None:
-            value = kind(value)
-            # (_forget_outputs, inline: the hot path of a master) even for a refused value:
-            # the outputs read as refused now
-            self._output_values.clear()
-            why = self._value_problem(name, kind, value)
-            if why:
-                self._bad[name] = f"{name} {why}"
-                if kind is float and not math.isfinite(value):
-                    # refused: never stored, so nothing computes with it; every step and
-                    # every output that depends on the values is refused until it is replaced
-                    self._log(f"{_PREFIX}Set{_TYPE_NAMES[_KINDS[kind]]}: {name} {why}: refused",
-                              Status.error, CALL_STATUS_CATEGORY)
-                    return
-                # in range is checked when initialization ends (parameters) or at the step
-            elif self._bad:
-                self._bad.pop(name, None)
-            setattr(self, name, value)
-            if is_parameter:
-                self._parameters_changed(name)
-            else:
-                self.changed(name)
-        return setter
-
     def _parameters_changed(self, name: str) -> None:
         uid, count = self._parameter_token.rsplit(":", 1)
         self._new_parameters(f"{uid}:{int(count) + 1}")
@@ -203,36 +174,6 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         """Parameter values changed: drop what was derived from them."""
         self._model_problems = None
         self._parameter_token = token
-
-    def _safe_getter(self, name: str, getter: Callable[[], Any]) -> Callable[[], Any]:
-        # An exception escaping a getter would make fmi2GetReal return fmi2Fatal.
-        def get() -> Any:
-            value = self._output_values.get(name, _UNKNOWN)
-            if value is not _UNKNOWN:
-                return value
-            if self._describing:
-                return getter()
-            # the model's own validation runs once per parameter set: usually nothing to join
-            problems = self.problems() if self._bad or self._model_problems != [] else None
-            if problems:
-                why = "; ".join(problems)
-                self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} cannot be evaluated while {why}; "
-                          f"reads as NaN", Status.error, CALL_STATUS_CATEGORY)
-                return math.nan
-            try:
-                value = getter()
-            except Exception as exc:
-                self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} cannot be evaluated "
-                          f"({type(exc).__name__}: {exc}) at {self._inputs_text()}; reads as NaN",
-                          Status.error, CALL_STATUS_CATEGORY)
-                return math.nan
-            if isinstance(value, float) and not math.isfinite(value):
-                self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} is not finite ({value}) at "
-                          f"{self._inputs_text()}", Status.error, CALL_STATUS_CATEGORY)
-            else:  # a refusal is not kept: every read of it logs it again
-                self._output_values[name] = value
-            return value
-        return get
 
     def _forget_outputs(self) -> None:
         """The state, an input or a parameter changed: the outputs are computed again when read."""
@@ -312,10 +253,7 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         try:
             problems = self._step_problems(current_time, step_size)
             if not problems:
-                # Only what a step can change: parameters and inputs change through setters.
-                saved = {name: getattr(self, name) for name in self._dynamic_state_names or self._dynamic_names()}
-                if self.internal_state_names:
-                    saved.update({name: copy.copy(getattr(self, name)) for name in self.internal_state_names})
+                saved = self._save_step_state()
                 problems, misuse = self._step(current_time, step_size)
         except Exception as exc:
             misuse = False
@@ -324,8 +262,7 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         if not problems:
             return True
         if saved is not None:
-            for name, value in saved.items():
-                setattr(self, name, value)
+            self._restore_step_state(saved)
         self._forget_outputs()  # the check may have kept values of the state just undone
         # misuse and bad values: fmi2Error through the native loader; a numerical failure
         # stays fmi2Discard (a smaller step may succeed)
@@ -361,6 +298,29 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
         self.time = t + h
         # A step whose outputs would not be finite is refused (all or nothing), so each output
         # is computed here; what is computed is kept for the host's reads of this state.
+        if self._outputs_finite():
+            return [], False
+        return self._output_problems(h), False
+
+    def _outputs_finite(self) -> bool:
+        """Whether every Real output is finite, each computed one kept: the common case,
+        checked with the least work (stored values read at once); False where any is not, or
+        raises, for :meth:`_output_problems` to name."""
+        getters, read_stored = self._output_check_readers or self._output_checks()
+        computed = self._output_values
+        try:
+            for name, getter in getters:
+                value = getter()
+                if not math.isfinite(value):
+                    return False
+                computed[name] = value
+            return all(map(math.isfinite, read_stored(self)))
+        except Exception:
+            return False
+
+    def _output_problems(self, h: float) -> list[str]:
+        """Why the outputs refuse the step: each output that is not finite or raises, named
+        (none: every output is finite, each computed one kept)."""
         bad = []
         computed = self._output_values
         for name, getter in self._real_output_getters or self._real_outputs():
@@ -375,8 +335,8 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
                     continue
             bad.append(f"{name}={value}")
         if bad:
-            return [f"outputs would not be finite ({', '.join(bad)}) at {self._inputs_text()}, h={h}"], False
-        return [], False
+            return [f"outputs would not be finite ({', '.join(bad)}) at {self._inputs_text()}, h={h}"]
+        return []
 
     def _real_outputs(self) -> list[tuple[str, Callable[[], Any] | None]]:
         """Each Real output's name and its getter (None: a stored value)."""
@@ -385,15 +345,12 @@ class TriboModel(ValueAccessMixin, FMUStateMixin, ModelDescriptionMixin, _Python
                                          if v.causality == Causality.output and isinstance(v, Real)]
         return self._real_output_getters
 
-    def _dynamic_names(self) -> list[str]:
-        """Scalars advance() and initialize() may change: stored outputs, time (the internal
-        state, which may be mutable, is saved apart)."""
-        if self._dynamic_state_names is None:
-            self._dynamic_state_names = [
-                v.name for v in self.vars.values()
-                if v.causality == Causality.output and v.name not in self._getters
-            ] + ["time", "_initialized"]
-        return self._dynamic_state_names
+    def _output_checks(self) -> tuple[list[tuple[str, Callable[[], Any]]], Callable[[Any], tuple]]:
+        """The Real outputs' getters by name, and the reader of the stored ones' values."""
+        outputs = self._real_outputs()
+        self._output_check_readers = ([(name, getter) for name, getter in outputs if getter is not None],
+                                      attribute_reader([name for name, getter in outputs if getter is None]))
+        return self._output_check_readers
 
     def problems(self) -> list[str]:
         """Every refused value and every parameter combination the model rejects."""

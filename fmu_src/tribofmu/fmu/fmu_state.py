@@ -9,7 +9,7 @@ import functools
 import json
 import operator
 import uuid
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 from .fmi import (_STATE, INITIALIZATION, INSTANTIATED, STEP, TERMINATED, Boolean, Causality, Integer,
                   Real)
@@ -29,6 +29,17 @@ def parameter_cached(method):
             setattr(self, slot, (token, value))
         return value
     return cached
+
+
+def attribute_reader(names: Sequence[str]) -> Callable[[Any], tuple]:
+    """A function reading the attributes ``names`` of an object as a tuple, in this order: one
+    C call (``operator.attrgetter``), for what is read on every step or state save."""
+    if len(names) > 1:
+        return operator.attrgetter(*names)
+    if names:  # (attrgetter of one name gives the value itself, not a tuple of one)
+        read = operator.attrgetter(names[0])
+        return lambda model: (read(model),)
+    return lambda model: ()
 
 
 class OwnState:
@@ -78,11 +89,11 @@ class FMUStateMixin:
     """The FMU-state calls of :class:`.base.TriboModel`."""
 
     def _get_fmu_state(self) -> OwnState:
-        names = self._variable_names()
+        names = self._variable_state_names or self._variable_names()
         internal_names = self.internal_state_names
+        read_internal = (self._step_state_readers or self._step_state_reader())[1]
         return OwnState(self._parameter_values(), names, self._variable_values(self),
-                        internal_names, tuple([copy.copy(getattr(self, name)) for name in internal_names])
-                        if internal_names else (),
+                        internal_names, tuple(map(copy.copy, read_internal(self))) if internal_names else (),
                         dict(self._bad) if self._bad else _NO_PROBLEMS, self._initialized,
                         self._parameter_token, self._model_id, self._mode, self._error)
 
@@ -116,7 +127,7 @@ class FMUStateMixin:
                          enter_error=True)
 
     def _restore_own(self, state: OwnState) -> None:
-        self._forget_outputs()
+        self._output_values.clear()  # (_forget_outputs, inline: the hot path of a master)
         self._bad = dict(state.bad) if state.bad else {}
         self._initialized, self._mode, self._error = state.initialized, state.mode, state.error
         same_parameters = state.token == self._parameter_token
@@ -196,9 +207,35 @@ class FMUStateMixin:
         names = self._variable_state_names
         if names is None:
             names = self._variable_state_names = [n for n in self._scalar_names() if n not in self._parameter_set]
-            read = operator.attrgetter(*names)  # (one name: the value itself, not a tuple of one)
-            self._variable_values = read if len(names) > 1 else (lambda model: (read(model),))
+            self._variable_values = attribute_reader(names)
         return names
+
+    # -- what a step may change: saved before it, restored where it is refused ----------------
+    _step_scalar_names: list[str] | None = None
+    _step_state_readers: tuple[Callable[[Any], tuple], Callable[[Any], tuple]] | None = None
+
+    def _save_step_state(self) -> tuple[tuple, tuple]:
+        """What advance() and initialize() may change: the stored outputs, time, whether
+        initialized, and the internal state (copied: it may be mutable). Parameters and inputs
+        change through their setters only."""
+        read_scalars, read_internal = self._step_state_readers or self._step_state_reader()
+        return read_scalars(self), (tuple(map(copy.copy, read_internal(self))) if self.internal_state_names else ())
+
+    def _restore_step_state(self, saved: tuple[tuple, tuple]) -> None:
+        """Back to what :meth:`_save_step_state` saved (a refused step)."""
+        scalars, internal = saved
+        for name, value in zip(self._step_scalar_names, scalars):
+            setattr(self, name, value)
+        for name, value in zip(self.internal_state_names, internal):
+            setattr(self, name, value)
+
+    def _step_state_reader(self) -> tuple[Callable[[Any], tuple], Callable[[Any], tuple]]:
+        self._step_scalar_names = [v.name for v in self.vars.values()
+                                   if v.causality == Causality.output and v.name not in self._getters]
+        self._step_scalar_names += ["time", "_initialized"]
+        self._step_state_readers = (attribute_reader(self._step_scalar_names),
+                                    attribute_reader(self.internal_state_names))
+        return self._step_state_readers
 
     def _scalar_names(self) -> list[str]:
         if self._scalar_state_names is None:

@@ -1,13 +1,17 @@
 """The typed getters and setters of :class:`.base.TriboModel` (FMI 2.0 ``fmi2GetReal`` ...,
 FMI 3.0 ``fmi3GetFloat64`` ...): an unknown value reference, a variable of another type, an
-output or a fixed parameter after initialization is refused by name, never a crash."""
+output or a fixed parameter after initialization is refused by name, never a crash. Also each
+variable's own setter (checks the value) and computed output's getter (computes it once per
+state, never raises), which :meth:`.base.TriboModel.declare` gives pythonfmu."""
 from __future__ import annotations
 
 import math
 from typing import Any, Callable
 
-from .fmi import (_PREFIX, _TYPE_NAMES, FMI_VERSION, INSTANTIATED, STEP, TERMINATED, Boolean, Causality,
-                  Integer, Real, String, UInt64, Variability)
+from .fmi import (_KINDS, _PREFIX, _TYPE_NAMES, CALL_STATUS_CATEGORY, FMI_VERSION, INSTANTIATED, STEP,
+                  TERMINATED, Boolean, Causality, Integer, Real, Status, String, UInt64, Variability)
+
+_UNKNOWN = object()  # an output not computed for the present state
 
 
 class ValueAccessMixin:
@@ -18,6 +22,69 @@ class ValueAccessMixin:
     _real_input_setter_cache: dict | None = None
     _real_getter_cache: dict | None = None
 
+    # -- each variable's setter and computed getter (declared with TriboModel.declare) --------
+    def _value_problem(self, name: str, kind: type, value: Any) -> str | None:
+        if kind is float and not math.isfinite(value):
+            return f"must be finite, got {value}"
+        check = self._checks.get(name)
+        return check(value) if check else None
+
+    def _setter(self, name: str, kind: type, is_parameter: bool) -> Callable[[Any], None]:
+        def setter(value: Any) -> None:
+            value = kind(value)
+            # (_forget_outputs, inline: the hot path of a master) even for a refused value:
+            # the outputs read as refused now
+            self._output_values.clear()
+            why = self._value_problem(name, kind, value)
+            if why:
+                self._bad[name] = f"{name} {why}"
+                if kind is float and not math.isfinite(value):
+                    # refused: never stored, so nothing computes with it; every step and
+                    # every output that depends on the values is refused until it is replaced
+                    self._log(f"{_PREFIX}Set{_TYPE_NAMES[_KINDS[kind]]}: {name} {why}: refused",
+                              Status.error, CALL_STATUS_CATEGORY)
+                    return
+                # in range is checked when initialization ends (parameters) or at the step
+            elif self._bad:
+                self._bad.pop(name, None)
+            setattr(self, name, value)
+            if is_parameter:
+                self._parameters_changed(name)
+            else:
+                self.changed(name)
+        return setter
+
+    def _safe_getter(self, name: str, getter: Callable[[], Any]) -> Callable[[], Any]:
+        # An exception escaping a getter would make fmi2GetReal return fmi2Fatal.
+        def get() -> Any:
+            value = self._output_values.get(name, _UNKNOWN)
+            if value is not _UNKNOWN:
+                return value
+            if self._describing:
+                return getter()
+            # the model's own validation runs once per parameter set: usually nothing to join
+            problems = self.problems() if self._bad or self._model_problems != [] else None
+            if problems:
+                why = "; ".join(problems)
+                self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} cannot be evaluated while {why}; "
+                          f"reads as NaN", Status.error, CALL_STATUS_CATEGORY)
+                return math.nan
+            try:
+                value = getter()
+            except Exception as exc:
+                self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} cannot be evaluated "
+                          f"({type(exc).__name__}: {exc}) at {self._inputs_text()}; reads as NaN",
+                          Status.error, CALL_STATUS_CATEGORY)
+                return math.nan
+            if isinstance(value, float) and not math.isfinite(value):
+                self._log(f"{_PREFIX}Get{_TYPE_NAMES[Real]}: {name} is not finite ({value}) at "
+                          f"{self._inputs_text()}", Status.error, CALL_STATUS_CATEGORY)
+            else:  # a refusal is not kept: every read of it logs it again
+                self._output_values[name] = value
+            return value
+        return get
+
+    # -- by value reference ----------------------------------------------------------------
     def _set(self, kind: type, vrs, values) -> None:
         call = f"Set{_TYPE_NAMES[kind]}"
         for vr, value in zip(vrs, values):

@@ -244,7 +244,7 @@ class BoundaryLaw(FrictionLaw):
         z = slope(f0) * h
         f_exp = None
         if z < 30.0:  # beyond, the linearisation grows without bound: leave it to Euler
-            if abs(z) < 1e-5:
+            if -1e-5 < z < 1e-5:  # (abs(z) < 1e-5 without the builtin's call, NaN included)
                 phi1, phi2 = 1.0 + z / 2.0, 0.5 + z / 6.0
             else:
                 em1 = math.expm1(z)
