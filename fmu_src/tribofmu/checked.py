@@ -184,25 +184,30 @@ class CheckSequence:
             return None
         return max(self.step_tol / CHECK_RATIO, MIN_STEP_TOL)
 
+    def _agreement(self, own: float | None, result) -> tuple[float | None, tuple | None, bool]:
+        """The run's own error (None: it does not vouch), the last run that vouched for itself
+        (None: none this one's estimate is to agree with) and whether this one, meeting tol, is
+        still to be verified by the next. Two vouching runs apart by more than their own errors
+        together (each its estimate times the margin): one of the estimates reads short by
+        more than its margin, and the two runs are a pair, checked as pairs are (its difference
+        over CHECK_RATIO^p - 1, at a ratio above CHECK_RATIO, reads high, not low). No pair,
+        though, where they are further apart than the longest jump a planned pair makes: they
+        differ by about the looser one's error, which that rule charges to the tighter one (a
+        boundary point at 1e-3 planned 1660x tighter: 0.72 reported, 2.2e-4 true, and the
+        call said not met). The looser run's estimate, far from tol, is the likelier to read
+        short; this run's stands to be verified by the next one, a check ratio tighter."""
+        previous = self.own_previous
+        if own is None or previous is None or window_difference(previous[0], result) <= own + previous[1]:
+            return own, previous, self.verify
+        if previous[2] / self.step_tol > MAX_JUMP:
+            return own, None, True
+        self.base, self.chain_difference, self.own_previous = previous[0], None, None
+        return None, previous, self.verify
+
     def add(self, result) -> bool:
         """Take the next run's (completed) result; True when the sequence ends with it."""
-        error, own = math.nan, vouched_error(result)
-        previous = self.own_previous
-        verify = self.verify
-        if own is not None and previous is not None and not window_difference(previous[0], result) <= own + previous[1]:
-            # two runs apart by more than their own errors together (each its estimate times the
-            # margin): one of the estimates reads short by more than its margin
-            if previous[2] / self.step_tol > MAX_JUMP:
-                # No pair: runs further apart than the longest jump a planned pair makes differ
-                # by about the looser one's error, which their difference over CHECK_RATIO^p - 1
-                # charges to the tighter one (a boundary point at 1e-3 planned 1660x tighter:
-                # 0.72 reported, 2.2e-4 true, and the call said not met). The looser run's
-                # estimate, far from tol, is the likelier to read short; this run's stands to
-                # be verified by the next one, a check ratio tighter.
-                previous, verify = None, True
-            else:  # the two runs are a pair, checked as pairs are (its difference over
-                # CHECK_RATIO^p - 1, at a ratio above CHECK_RATIO, reads high, not low)
-                own, self.base, self.chain_difference, self.own_previous = None, previous[0], None, None
+        error = math.nan
+        own, previous, verify = self._agreement(vouched_error(result), result)
         if own is not None:  # the run vouches for itself: its own estimate is its error
             self.own, self.best, self.best_error = True, result, own
             self.own_previous = (result, own, self.step_tol)
