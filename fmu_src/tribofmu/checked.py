@@ -158,7 +158,8 @@ class CheckSequence:
         # successor, where the plan sends it when the run's reported error (ESTIMATE_SAFETY x its
         # estimate) is its per-step tolerance, at the order of ramped slip steps (p = 2: 2/3),
         # the method's own; the sequence takes it where its plan lands up to a check ratio
-        # looser (add). None: none (a scene whose runs do not vouch, or once passed)
+        # looser, or a little tighter where the plan's model still expects it to meet tol (add).
+        # None: none (a scene whose runs do not vouch, or once passed)
         self.ahead = max(step_tol / (ESTIMATE_SAFETY / STEP_CONTROL.safety) ** 1.5, MIN_STEP_TOL) if vouches else None
         # (result, own error, per-step tolerance) of the last run that vouched for itself: the
         # next one's is checked against it (verified). verify: a run that vouches ends the call
