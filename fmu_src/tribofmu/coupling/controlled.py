@@ -82,6 +82,11 @@ class ErrorControlledCoupling(ImplicitCoupling):
     def root_tolerance(self) -> float:
         return self.settings.root_tol_fraction * self.tol * self.velocity_scale()
 
+    def dv_resolution(self) -> float:
+        """How far [m/s] a point's dv may be off the dv its force was found at: the slip root's
+        bracket (delta) or, looser, the root's tolerance, to which the block's model is held."""
+        return max(RESOLUTION.zero_velocity * self.scales.velocity, self.root_tolerance())
+
     # -- the bookkeeping of one tried step ---------------------------------------------------
     def states_at(self, system: CoupledSystem, point: Point) -> States:
         """Every slave's state at point, saved once however many tries a step from it takes

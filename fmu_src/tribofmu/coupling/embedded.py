@@ -357,8 +357,8 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
 
     def force_resolution(self, new: Point, h: float) -> float:
         """The force [N] the slip solve of a step of h [s] ending at new cannot tell from its
-        root: it resolves dv to delta (the root's bracket) or, looser, the root's tolerance (a
-        point's dv is off by that, as the carry's chord reads it: _carry_error), and the friction
+        root: it resolves dv to its resolution (:meth:`dv_resolution`, as the carry's chord reads
+        a point's dv: _carry_error), delta or the root's tolerance, and the friction
         answers a change of dv at its slope dF/d(dv) = g / (c h vpi) (g the loop gain, vpi the
         block's velocity per impulse, c the block's share of the end force: 1/2 ramped, 1 held).
         A solid lubricant creeping at |dv| ~ 1e-12 m/s with a slope of 6.5e7 N/(m/s) gives
@@ -369,7 +369,7 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
             return 0.0
         share = 0.5 if new.ramped else 1.0
         slope = self.expected_gain(h) / (share * h * self.velocity_per_impulse)
-        return slope * max(RESOLUTION.zero_velocity * self.scales.velocity, self.root_tolerance())
+        return slope * self.dv_resolution()
 
     def curvature_known(self, point: Point, new: Point) -> bool:
         """Whether the ramped step from point to new has its force's curvature estimated from
@@ -416,12 +416,10 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
 
     def _carry_error(self, point: Point, new: Point, local: LocalError, h: float) -> None:
         """Carry the global error estimate over the accepted step (coupling/estimate.py)."""
-        # (a point's dv is the block's real answer, off the dv its force was found at by up to
-        # the root's tolerance, which the block's model is held to: a chord over less is that,
-        # not the slope; a fluid creeping at |dv| ~ 1e-9 m/s read chords of either sign:
-        # gamma = -0.9, 0.56 estimated, 1.3e-3 true)
-        resolution = max(RESOLUTION.zero_velocity * self.scales.velocity, self.root_tolerance())
-        damping = chord_damping(point, new, self.velocity_per_impulse, resolution)
+        # (a chord over less than a point's dv resolution is that, not the slope; a fluid
+        # creeping at |dv| ~ 1e-9 m/s read chords of either sign: gamma = -0.9, 0.56
+        # estimated, 1.3e-3 true)
+        damping = chord_damping(point, new, self.velocity_per_impulse, self.dv_resolution())
         if damping is None:  # (the loop gain: the slope's size, of the block's share of the end force)
             damping = self.loop_gain / self.loop_gain_step * (2.0 if new.ramped else 1.0)
         x_scale, v_scale = self.position_scale(point, new), self.velocity_scale(point, new)
