@@ -22,7 +22,8 @@ ratio, ``ok``, the wall time, the per-step tolerances run. Then the targets:
 ``--one-run`` asks instead whether one run could vouch for itself (issue 36): each point's
 first run of a call (per-step tolerance = tol, no check), its own propagated estimate
 (``coupling/estimate.py``) against its true error. A call could skip its check only where that
-ratio stays within [0.5, 10] at every point.
+ratio stays within [0.5, 10] at every point. Its last column, ``near_melt``, is the run's
+closest passage near a melt it did not take (``coupling/passages.py``; 1 or more: it cannot vouch).
 
 Not collected by pytest (no test_ prefix). Timings are of a shared machine: see the load
 printed at the start and the end.
@@ -268,7 +269,8 @@ def one_run(tols: list, only: str | None) -> int:
     fmu_dir = find_fmus(("Drive", "BlockSpring", "Friction"))
     print(f"# bench_trust --one-run {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
           f"load {os.getloadavg()[0]:.1f}", flush=True)
-    print(f"{'point':36s} {'tol':>7s} {'propagated':>10s} {'true':>9s} {'prop/true':>9s} {'wall s':>7s}", flush=True)
+    print(f"{'point':36s} {'tol':>7s} {'propagated':>10s} {'true':>9s} {'prop/true':>9s} {'wall s':>7s} "
+          f"{'near_melt':>9s}", flush=True)
     ratios = []
     for label, scene, overrides in POINTS:
         if only is not None and only not in label:
@@ -287,8 +289,11 @@ def one_run(tols: list, only: str | None) -> int:
             propagated = result.stats["estimated_error"]["nrms_v"]
             ratio = propagated / true if propagated is not None and true > 0 else float("nan")
             ratios.append(ratio)
+            # (its closest passage near a melt it did not take: >= 1 cannot vouch, coupling/passages.py)
+            near = result.stats["estimated_error"].get("near_melt")
             print(f"{label:36s} {step_tol:7.0e} {propagated if propagated is not None else float('nan'):10.2e} "
-                  f"{true:9.2e} {ratio:9.3g} {wall:7.1f}", flush=True)
+                  f"{true:9.2e} {ratio:9.3g} {wall:7.1f} {near if near is not None else float('nan'):9.3g}",
+                  flush=True)
     finite = [q for q in ratios if q == q]
     inside = [q for q in finite if 0.5 <= q <= 10.0]
     if finite:

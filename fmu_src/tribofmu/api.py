@@ -351,10 +351,16 @@ def estimated_error(coupling, audit: WindowError, problem: str | None = None) ->
         problem = "its carried error reached the motion's own size (past its linearisation)"
     if problem is None and getattr(coupling.estimate, "passed_event", False):
         problem = "a step at the shortest length passed over the lubricant's re-solidifying (an event)"
+    near = getattr(coupling.estimate, "near_runaways", None)
+    if problem is None and near is not None and near.undecided:
+        problem = (f"it passed near a melt it did not take, by less than its own error in f "
+                   f"({near.ratio:.3g}x the rise of f there, with the estimate's margin): which way that "
+                   "passage goes is past its linearisation (coupling/passages.py)")
     motion = ("the block's and the lubricant's linearised motion (the law's own slopes)"
               if getattr(coupling.estimate, "law", None) is not None else "the block's linearised motion")
     order = coupling.convergence_order() if hasattr(coupling, "convergence_order") else None
     return {"nrms_v": value if math.isfinite(value) else None, "vouches": problem is None, "order": order,
+            "near_melt": near.ratio if near is not None else None,
             "method": f"propagated: the {coupling.name} coupling's local error estimates (and the "
                       f"friction's impulse misses) carried through {motion} to the "
                       "window (coupling/estimate.py); "

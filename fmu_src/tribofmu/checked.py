@@ -60,10 +60,18 @@ def vouched_error(result) -> float | None:
     return ESTIMATE_SAFETY * value
 
 
+def near_melt(result) -> float:
+    """The run's error in f over f's rise where it turned back near a melt (``near_melt``,
+    coupling/passages.py) where >= 1, else 0. A call does not end on such a run, alone or in a
+    pair: a run that turned back too agrees whichever way the exact motion went (two hot
+    dilatant films: runs at per-step 1e-2 to 1e-4 agreed on a motion 0.12 and 0.47 off)."""
+    ratio = (result.stats.get("estimated_error") or {}).get("near_melt")
+    return ratio if ratio is not None and ratio >= 1.0 else 0.0
+
+
 def checked_error(difference: float, previous: float | None = None) -> float:
     """The tighter run's error from its pair's difference on the window (see CHECK_RATIO);
-    previous: the difference of the pair before it in the same chain (its looser run and
-    this pair's looser run), when there is one (see MAX_ORDER)."""
+    previous: the difference of the pair before it in its chain, if any (see MAX_ORDER)."""
     two_runs = difference / (CHECK_RATIO ** MIN_ORDER - 1.0)
     order = observed_order(difference, previous)
     if order is None:
@@ -146,13 +154,10 @@ class CheckSequence:
         self.chain_difference = None  # the last pair's difference, while the next run continues its chain
         self.order = None  # the order the reported pair's chain showed (None: two runs only)
         self.limit = "the time budget ran out"  # why a sequence short of tol ended
-        # the runs stand on their own estimates (they vouch): no pairs. Before the first run,
-        # what the scene says (vouches), which a run without an estimate overrules
-        self.own = vouches
+        self.own = vouches  # the runs stand on their own estimates: no pairs (a run without one overrules)
         self.own_last = None  # (per-step tolerance, own error) of the last run that vouched for itself
-        # the pair being formed is expected to meet tol (its plan says so): nothing runs ahead of it.
-        # A first run that vouches for itself is: at a per-step tolerance of tol its true error
-        # lands at 0.05-0.25 tol (checked_simulation), inside tol over the margin
+        # the pair being formed is expected to meet tol: nothing runs ahead of it. A first run that
+        # vouches is: at a per-step tol of tol it lands at 0.05-0.25 tol (checked_simulation)
         self.expected_to_meet = vouches
         # the per-step tolerance of the run started ahead of a first run that vouches: its
         # successor, where the plan sends it when the run's reported error (ESTIMATE_SAFETY x its
@@ -226,11 +231,15 @@ class CheckSequence:
             self.chain_difference = difference
         elif self.best is None:
             self.best, self.own = result, False
+        undecided = near_melt(result)
+        if undecided:  # no checked error, whatever its pair says (near_melt)
+            error, self.best_error = math.nan, math.nan
         if error <= self.tol:
             return True
         if self.step_tol <= MIN_STEP_TOL or len(self.records) >= MAX_RUNS:
             self.limit = (f"the per-step tolerance reached its floor {MIN_STEP_TOL:g}" if self.step_tol <= MIN_STEP_TOL
-                          else f"{MAX_RUNS} runs, the most one sequence makes")
+                          else f"{MAX_RUNS} runs, the most one sequence makes") + (
+                "; the last passed near a melt by less than its own error" if undecided else "")
             return True
         if own is not None:  # the next run, planned from this one's error, vouches for itself too
             planned = max(self.step_tol / self._own_tightening(own, result), MIN_STEP_TOL)
@@ -244,7 +253,9 @@ class CheckSequence:
             ahead, self.ahead = self.ahead, None
             self.step_tol = ahead if ahead is not None and planned / CHECK_RATIO <= ahead <= loosest else planned
             return False
-        factor = CHECK_RATIO if math.isnan(error) else next_tightening(error, self.tol)
+        # (after a run undecided near a melt: its error there to fall below the rise, at MIN_ORDER)
+        factor = (min(MAX_JUMP, max(CHECK_RATIO, undecided ** (1.0 / MIN_ORDER))) if undecided
+                  else CHECK_RATIO if math.isnan(error) else next_tightening(error, self.tol))
         self.expected_to_meet = self._expects_to_meet(result, error, factor)
         self.base = result if factor == CHECK_RATIO else None  # else a new pair, planned tighter
         if self.base is None:

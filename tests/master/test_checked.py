@@ -400,3 +400,39 @@ def test_the_run_started_ahead_is_taken_where_it_is_expected_to_meet_tol_though_
     assert planned < ahead  # the ahead run is looser than the plan ...
     assert tols == pytest.approx([1e-3, ahead])  # ... and is taken
     assert result.ok and checked.ESTIMATE_SAFETY * own(ahead) <= 1e-3
+
+
+class NearMeltRuns(VouchingRuns):
+    """VouchingRuns whose runs down to per-step ``decided_below`` turned back near a melt within
+    their own error (estimated_error.near_melt, coupling/passages.py): on the wrong side of it,
+    off by ``wrong`` whatever their per-step tolerance, and agreeing with each other."""
+
+    def __init__(self, error, own, decided_below, wrong):
+        super().__init__(lambda step_tol: error(step_tol) + (wrong if step_tol >= decided_below else 0.0), own)
+        self.decided_below = decided_below
+
+    def __call__(self, step_tol=None, **kwargs):
+        result = super().__call__(step_tol, **kwargs)
+        undecided = step_tol >= self.decided_below
+        # (the ratio falls at the slowest order allowed for, 1 at decided_below)
+        ratio = (step_tol / self.decided_below) ** checked.MIN_ORDER
+        result.stats["estimated_error"]["near_melt"] = ratio if undecided else 0.2
+        result.stats["estimated_error"]["vouches"] = not undecided
+        return result
+
+
+def test_runs_that_turned_back_near_a_melt_within_their_error_never_end_the_call_alone_or_as_a_pair():
+    """Runs that agree on the wrong side of a passage near a melt (two hot dilatant films: runs
+    from per-step 1e-2 to 1e-4 agreed on a motion 0.12 and 0.47 off) do not pair into an ok:
+    the call goes on, as far as their ratio asks, to a run that decides the passage, and
+    reports what that one's estimate says."""
+    runs = NearMeltRuns(power_law(0.3), own=power_law(0.2), decided_below=1e-4, wrong=0.3)
+    result = checked.checked_simulation(runs, tol=1e-2, max_wall=None, vouches=True, verify=True)
+    tols = [c[0] for c in runs.calls]
+    assert result.ok and result.stats["step_tol"] < 1e-4 and len(tols) <= 5
+    assert result.stats["estimated_error"]["nrms_v"] < 1e-2
+    # the same runs with one run too few to get past the passage: not ok, and the message says why
+    short = NearMeltRuns(power_law(0.3), own=power_law(0.2), decided_below=1e-12, wrong=0.3)
+    result = checked.checked_simulation(short, tol=1e-2, max_wall=None, vouches=True, verify=True)
+    assert not result.ok and "melt" in result.message
+    assert [c[0] for c in short.calls][1] < [c[0] for c in short.calls][0] / checked.CHECK_RATIO

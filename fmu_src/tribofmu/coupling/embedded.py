@@ -445,4 +445,5 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, v,
                                                  stuck, x_scale, v_scale, stuck and point.mode.stuck, slopes,
                                                  max(self.magnitudes.f, abs(new.f)) or math.inf, f)
+        self.estimate.watch(slopes, point.f, new.f)
         new.est_error = abs(local.v)

@@ -76,6 +76,8 @@ from dataclasses import asdict
 
 from .interpolation import NS, velocity_slopes
 from .local_errors import RampStep, centred_ramp_miss, stiff_x_error
+from .passages import NearRunaways
+from .settings import CHECK_SETTINGS
 from .variational import state_flow
 
 # exp() of more than this overflows a float: a carry that grows past it has long saturated
@@ -161,6 +163,8 @@ class GlobalErrorEstimate:
         # a step passed over an event the linearisation cannot follow (a grip of the lubricant
         # inside a step, coupling/path_error.py): the run cannot vouch
         self.passed_event = False
+        # the passages near a melt the run did not take (coupling/passages.py)
+        self.near_runaways = NearRunaways(self.law, CHECK_SETTINGS.estimate_safety) if self.law is not None else None
 
     def export(self) -> list:
         """What a state snapshot carries of it (JSON-ready): ex, ev, w2, the last ramp and ef."""
@@ -213,6 +217,12 @@ class GlobalErrorEstimate:
         if self.ex != ex or (not stuck and self.ev != ev) or self.ef != ef:
             self.saturated = True
         return self.ev
+
+    def watch(self, slopes: tuple[float, float, float, float] | None, f_start: float, f_end: float) -> None:
+        """After :meth:`advance` over a step from f_start to f_end [1] with those slopes: follow
+        the passages near a melt (coupling/passages.py)."""
+        if self.near_runaways is not None:
+            self.near_runaways.step(slopes, f_start, f_end, self.ef)
 
     def state_slopes(self, start, end, velocity_per_impulse: float,
                      dv_floor: float) -> tuple[float, float, float, float] | None:
