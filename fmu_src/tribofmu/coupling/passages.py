@@ -23,12 +23,13 @@ it times the margin every estimate is given (CheckSettings.estimate_safety). Whe
 error reaches the rise, the run's own error could have carried it over (:attr:`ratio` >= 1):
 the run cannot vouch, and a call does not end on it (checked.py). Measured over the trust
 points' boundary runs (Fig. 6's rig, other gamma, omega, n, T, A, M, K; per-step 1e-2 to
-1e-4, 2026-11-27): every melting rig turns back once near the first melt, with a growth of
-e^4.0-4.6 there, and the ratio falls with the tolerance (2x 0.47-1.34 at per-step 1e-2,
-2x 0.26-0.38 at 3e-3, 2x 0.10-0.26 at 1e-3, below 2x 0.07 at 3e-4), all of those runs on the
-exact motion's side; the two hot films' runs that turned back where the exact motion melted
-read 2x 0.67-4.1 (1e-4 to 3e-3). A passage in which f did not rise (the film re-solidifying,
-its loop briefly unstable as its modulus returns) is no approach to a melt.
+1e-4, ``bench_trust.py --one-run``, 2026-11-27): every melting rig turns back once near its
+first melt, with a growth of e^4.0-4.6 there, and the ratio falls with the tolerance (0.53-2.5
+at per-step 1e-2, 0.50-0.75 at 3e-3, 0.20-0.50 at 1e-3, at most 0.12 at 3e-4), all of those runs
+on the exact motion's side; the two hot films' runs that turned back where the exact motion
+melted read 1.5-3.5 and 1.3-4.9 (per-step 1e-2 to 3e-4, and 1e-4). A passage in which f did
+not rise (the film re-solidifying, its loop briefly unstable as its modulus returns) is no
+approach to a melt.
 
 Standard library only: this module ships in the TriboPair FMU.
 """
