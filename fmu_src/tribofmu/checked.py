@@ -10,12 +10,10 @@ error of an ODE code. The tighter run is the one reported; its error is the pair
 over r^p - 1 (r = CHECK_RATIO) at the slowest convergence order allowed for, MIN_ORDER.
 
 When that checked error is past tol, the next pair follows: the tighter run and its own
-partner when the checked error says that one or two more factors will do (the chain of three
-runs then shows the convergence order, and the third run's error is estimated at that order,
-MAX_ORDER), or else a new pair planned at the per-step tolerance the checked error
-asks for. The sequence ends when a pair meets tol,
-or the time budget (``--max-wall``), MAX_RUNS or MIN_STEP_TOL is reached; then the result is
-kept but not ``ok``. Every run of the sequence counts in the reported ``wall_time``.
+partner when one or two more factors will do (a chain of three runs shows the order, at most
+MAX_ORDER), or else a new pair planned where the checked error asks. The sequence ends when a
+pair meets tol, or the budget (``--max-wall``), MAX_RUNS or MIN_STEP_TOL is reached; then the
+result is kept but not ``ok``. Every run of the sequence counts in the reported ``wall_time``.
 
 One run where one is enough: where a run's own carried estimate vouches for it (its derivation
 holds for the scene: coupling/estimate.py ``carry_problem``), the run is reported alone with
@@ -61,10 +59,9 @@ def vouched_error(result) -> float | None:
 
 
 def near_melt(result) -> float:
-    """The run's error in f over f's rise where it turned back near a melt (``near_melt``,
-    coupling/passages.py) where >= 1, else 0. A call does not end on such a run, alone or in a
-    pair: a run that turned back too agrees whichever way the exact motion went (two hot
-    dilatant films: runs at per-step 1e-2 to 1e-4 agreed on a motion 0.12 and 0.47 off)."""
+    """``near_melt`` (coupling/passages.py) where >= 1, else 0. A call does not end on such a run,
+    alone or in a pair: a run that turned back too agrees whichever way the exact motion went
+    (two hot dilatant films: runs at per-step 1e-2 to 1e-4 agreed on a motion 0.12 and 0.47 off)."""
     ratio = (result.stats.get("estimated_error") or {}).get("near_melt")
     return ratio if ratio is not None and ratio >= 1.0 else 0.0
 
@@ -159,17 +156,15 @@ class CheckSequence:
         # the pair being formed is expected to meet tol: nothing runs ahead of it. A first run that
         # vouches is: at a per-step tol of tol it lands at 0.05-0.25 tol (checked_simulation)
         self.expected_to_meet = vouches
-        # the per-step tolerance of the run started ahead of a first run that vouches: its
-        # successor, where the plan sends it when the run's reported error (ESTIMATE_SAFETY x its
-        # estimate) is its per-step tolerance, at the order of ramped slip steps (p = 2: 2/3),
-        # the method's own; the sequence takes it where its plan lands up to a check ratio
-        # looser, or a little tighter where the plan's model still expects it to meet tol (add).
-        # None: none (a scene whose runs do not vouch, or once passed)
+        # the per-step tolerance of the run started ahead of a first run that vouches: where the
+        # plan sends its successor if its reported error (ESTIMATE_SAFETY x its estimate) is its
+        # per-step tolerance, at the order of ramped slip steps (p = 2: 2/3); taken where the plan
+        # lands up to a check ratio looser, or a little tighter where the plan still expects it
+        # to meet tol (add). None: none (a scene whose runs do not vouch, or once passed)
         self.ahead = max(step_tol / (ESTIMATE_SAFETY / STEP_CONTROL.safety) ** 1.5, MIN_STEP_TOL) if vouches else None
-        # (result, own error, per-step tolerance) of the last run that vouched for itself: the
-        # next one's is checked against it (verified). verify: a run that vouches ends the call
-        # only once a second one's estimate agrees with it (a friction with state: its events
-        # can move the rest of a run where the linearised estimate does not see it)
+        # (result, own error, per-step tolerance) of the last run that vouched: the next one's is
+        # checked against it. verify: a run that vouches ends the call only once a second one's
+        # estimate agrees (a friction with state: its events can move the rest of a run unseen)
         self.own_previous = None
         self.verify = verify
 
@@ -191,67 +186,44 @@ class CheckSequence:
         return max(self.step_tol / CHECK_RATIO, MIN_STEP_TOL)
 
     def _agreement(self, own: float | None, result) -> tuple[float | None, tuple | None, bool]:
-        """The run's own error (None: it does not vouch), the last run that vouched for itself
-        (None: none this one's estimate is to agree with) and whether this one, meeting tol, is
-        still to be verified by the next. Two vouching runs apart by more than their own errors
-        together (each its estimate times the margin): one of the estimates reads short by
-        more than its margin, and the two runs are a pair, checked as pairs are (its difference
-        over CHECK_RATIO^p - 1, at a ratio above CHECK_RATIO, reads high, not low). No pair,
-        though, where they are further apart than the longest jump a planned pair makes: they
-        differ by about the looser one's error, which that rule charges to the tighter one (a
-        boundary point at 1e-3 planned 1660x tighter: 0.72 reported, 2.2e-4 true, and the
-        call said not met). The looser run's estimate, far from tol, is the likelier to read
-        short; this run's stands to be verified by the next one, a check ratio tighter."""
+        """The run's own error (None: no vouching), the last run that vouched (None: none to agree
+        with) and whether this one, meeting tol, is to be verified by the next. Two vouching runs
+        apart by more than their errors (with the margin): one reads short, and the two are a
+        pair, checked as pairs are (at a ratio above CHECK_RATIO it reads high). No pair where they are
+        further apart than MAX_JUMP: they differ by about the looser one's error, which that rule
+        charges to the tighter (a boundary point planned 1660x tighter: 0.72 reported, 2.2e-4
+        true, the call said not met); nor a verification where they agree but this one's error
+        reads below what the looser one's allows at the fastest fall credited (MAX_ORDER): that
+        error covers the difference whatever this estimate says (a hot film's read 0.1x, and the
+        call said ok). The tighter run is verified by the next one, a check ratio tighter."""
         previous = self.own_previous
-        if own is None or previous is None or window_difference(previous[0], result) <= own + previous[1]:
+        if own is None or previous is None:
             return own, previous, self.verify
-        if previous[2] / self.step_tol > MAX_JUMP:
+        far = previous[2] / self.step_tol > MAX_JUMP  # (previous: result, own error, per-step tol)
+        if window_difference(previous[0], result) <= own + previous[1]:
+            faster = own < previous[1] * (self.step_tol / previous[2]) ** MAX_ORDER
+            return (own, None, True) if far and faster and self.verify else (own, previous, self.verify)
+        if far:
             return own, None, True
         self.base, self.chain_difference, self.own_previous = previous[0], None, None
         return None, previous, self.verify
 
     def add(self, result) -> bool:
         """Take the next run's (completed) result; True when the sequence ends with it."""
-        error = math.nan
         own, previous, verify = self._agreement(vouched_error(result), result)
-        if own is not None:  # the run vouches for itself: its own estimate is its error
-            self.own, self.best, self.best_error = True, result, own
-            self.own_previous = (result, own, self.step_tol)
-            error = own
-            if verify and previous is None and error <= self.tol:
-                # verified by the next run; unverified, it is no checked error (a sequence
-                # that ends here, out of budget or runs, does not say ok on it)
-                error, self.best_error = math.inf, math.nan
-        elif self.base is not None:
-            self.own = False
-            difference = window_difference(self.base, result)
-            self.order = observed_order(difference, self.chain_difference)
-            self.best, self.best_error = result, checked_error(difference, self.chain_difference)
-            error = self.best_error
-            self.chain_difference = difference
-        elif self.best is None:
-            self.best, self.own = result, False
+        error = self._error(result, own, previous, verify)
         undecided = near_melt(result)
         if undecided:  # no checked error, whatever its pair says (near_melt)
             error, self.best_error = math.nan, math.nan
         if error <= self.tol:
             return True
         if self.step_tol <= MIN_STEP_TOL or len(self.records) >= MAX_RUNS:
-            self.limit = (f"the per-step tolerance reached its floor {MIN_STEP_TOL:g}" if self.step_tol <= MIN_STEP_TOL
-                          else f"{MAX_RUNS} runs, the most one sequence makes") + (
-                "; the last passed near a melt by less than its own error" if undecided else "")
+            near = "; the last passed near a melt by less than its own error" if undecided else ""
+            self.limit = (f"the per-step tolerance reached its floor {MIN_STEP_TOL:g}{near}" if self.step_tol <= MIN_STEP_TOL
+                          else f"{MAX_RUNS} runs, the most one sequence makes{near}")
             return True
         if own is not None:  # the next run, planned from this one's error, vouches for itself too
-            planned = max(self.step_tol / self._own_tightening(own, result), MIN_STEP_TOL)
-            # the run started ahead, where it is tighter than planned by less than a check ratio,
-            # or looser but still expected to meet tol (the plan aims at the rule's safety x
-            # tol, as for a run yet to start; one running is taken where the same model says
-            # it meets tol, and its own estimate says whether it did)
-            loosest = self.step_tol / self._own_tightening(own, result, aim=1.0)
-            self.own_last = (self.step_tol, own)
-            self.expected_to_meet, self.base = True, None
-            ahead, self.ahead = self.ahead, None
-            self.step_tol = ahead if ahead is not None and planned / CHECK_RATIO <= ahead <= loosest else planned
+            self._plan_from_own(own, result)
             return False
         # (after a run undecided near a melt: its error there to fall below the rise, at MIN_ORDER)
         factor = (min(MAX_JUMP, max(CHECK_RATIO, undecided ** (1.0 / MIN_ORDER))) if undecided
@@ -263,20 +235,50 @@ class CheckSequence:
         self.step_tol = max(self.step_tol / factor, MIN_STEP_TOL)
         return False
 
+    def _error(self, result, own: float | None, previous, verify: bool) -> float:
+        """This run's error as the sequence counts it (nan: none), its own or its pair's."""
+        error = math.nan
+        if own is not None:  # the run vouches for itself: its own estimate is its error
+            self.own, self.best, self.best_error = True, result, own
+            self.own_previous = (result, own, self.step_tol)
+            error = own
+            if verify and previous is None and error <= self.tol:
+                # verified by the next run; unverified, no checked error (a sequence ending here says no ok)
+                error, self.best_error = math.inf, math.nan
+        elif self.base is not None:
+            self.own = False
+            difference = window_difference(self.base, result)
+            self.order = observed_order(difference, self.chain_difference)
+            self.best, self.best_error = result, checked_error(difference, self.chain_difference)
+            error = self.best_error
+            self.chain_difference = difference
+        elif self.best is None:
+            self.best, self.own = result, False
+        return error
+
+    def _plan_from_own(self, own: float, result) -> None:
+        """The next run's per-step tolerance after a run that vouched and missed tol (or awaits
+        its verification): planned from its own error, or the run started ahead where it fits."""
+        planned = max(self.step_tol / self._own_tightening(own, result), MIN_STEP_TOL)
+        # the run started ahead, where it is tighter than planned by less than a check ratio,
+        # or looser but still expected to meet tol (the plan aims at the rule's safety x
+        # tol, as for a run yet to start; one running is taken where the same model says
+        # it meets tol, and its own estimate says whether it did)
+        loosest = self.step_tol / self._own_tightening(own, result, aim=1.0)
+        self.own_last = (self.step_tol, own)
+        self.expected_to_meet, self.base = True, None
+        ahead, self.ahead = self.ahead, None
+        self.step_tol = ahead if ahead is not None and planned / CHECK_RATIO <= ahead <= loosest else planned
+
     def _own_tightening(self, own: float, result, aim: float = STEP_CONTROL.safety) -> float:
-        """How much tighter the run after ``result``, whose own error ``own`` missed tol, is:
-        planned to land at aim x tol, the step-size rule's safety (as the rule aims a step: the next
-        run's error is predicted from this one's, not known), at least CHECK_RATIO, at the
-        order the last two runs' own errors showed or, before there are two, the order the run
-        itself expects of its error (``estimated_error.order``: its steps' orders,
-        coupling/controlled.py convergence_order; MAX_ORDER, the most a run's error can fall,
-        where it has none). The first plan is not capped: at the run's own order it lands where
-        planned (a first run 30x off tol took five runs capped at MAX_JUMP: mixed friction at
-        1e-4, when it vouched). A plan from an observed order is capped at MAX_JUMP as a planned
-        pair is: two estimates' ratio at loose tolerances is a guess (one such plan jumped
-        1600x, to an error 60x below tol). (Aiming one CHECK_RATIO below tol at MAX_ORDER
-        instead, the dilatant point at omega = 40, order 0.66, landed at 1.1x tol from a first
-        run 5x off: three runs.)"""
+        """How much tighter the run after ``result`` (own error ``own``, past tol) is: aimed at
+        aim x tol (the step rule's safety: the next error is predicted, not known), at least
+        CHECK_RATIO, at the order the last two runs' own errors showed or else the run's own
+        (``estimated_error.order``, coupling/controlled.py; MAX_ORDER where it has none). A
+        first plan is not capped (capped at MAX_JUMP, a first run 30x off tol took five runs:
+        mixed friction at 1e-4); one from an observed order is, as a pair's: two estimates'
+        ratio at loose tolerances is a guess (one jumped 1600x, to 60x below tol). (Aimed one
+        CHECK_RATIO below tol at MAX_ORDER, a dilatant point at order 0.66 took three runs.)"""
         expected = (result.stats.get("estimated_error") or {}).get("order")
         order, cap = (expected if expected is not None and 0.0 < expected <= MAX_ORDER else MAX_ORDER), math.inf
         if self.own_last is not None and self.own_last[0] > self.step_tol:
@@ -289,10 +291,8 @@ class CheckSequence:
 
     def _expects_to_meet(self, result, error: float, factor: float) -> bool:
         """Whether the pair the next run forms or starts is expected to meet tol: a chain one
-        factor from it, a pair planned to meet it, or, for the first run of a pair, what its own
-        propagated estimate (``estimated_error``) says the pair's checked error will be (errors
-        falling in proportion to the per-step tolerance: MAX_ORDER). Only what runs ahead follows from
-        this, never a result: a wrong guess costs wall time, not accuracy."""
+        factor from it, a planned pair, or for a pair's first run what its own estimate says the
+        checked error will be (at MAX_ORDER). Only what runs ahead follows from this."""
         if not math.isnan(error):
             return factor != CHECK_RATIO or wanted_tightening(error, self.tol) <= CHECK_RATIO
         own = (result.stats.get("estimated_error") or {}).get("nrms_v")
@@ -402,7 +402,7 @@ def _finish(result, difference: float | None, sequence: CheckSequence, began: tu
         "method": _method(checked, sequence),
         "propagated": own.get("nrms_v"),  # the run's own linearised estimate, for comparison
         "vouches": bool(own.get("vouches")),
-        "order": own.get("order"),  # the power of the per-step tolerance the run's error is expected to fall at
+        "order": own.get("order"),  # the power of the per-step tol its error is expected to fall at
     }
     stats["tolerance_met"] = bool(met)
     stats["warnings"] = [] if met else [_advice(difference if checked else None, tol, records, limit,

@@ -436,3 +436,25 @@ def test_runs_that_turned_back_near_a_melt_within_their_error_never_end_the_call
     result = checked.checked_simulation(short, tol=1e-2, max_wall=None, vouches=True, verify=True)
     assert not result.ok and "melt" in result.message
     assert [c[0] for c in short.calls][1] < [c[0] for c in short.calls][0] / checked.CHECK_RATIO
+
+
+def test_a_tight_run_agreeing_with_one_far_looser_is_verified_by_its_neighbour_not_by_that_one():
+    """A first run far off tol plans its successor over MAX_JUMP tighter, and that one's estimate
+    reads a tenth of its true error. The two agree within the looser one's large error, which
+    covers any estimate of the tighter one's: that is no verification (a hot boundary film: 0.1x
+    its true error, and the call said ok). The tighter run is verified by the next, a check ratio
+    tighter, and the call reports an error that covers the reported run's."""
+    def true(step_tol):
+        return 0.3 * (step_tol / 1e-3) ** 0.9
+
+    def own(step_tol):  # right at the first run, a tenth of the truth below it
+        return true(step_tol) * (0.5 if step_tol >= 1e-3 else 0.1)
+
+    runs = VouchingRuns(true, own=own, order=2.0 / 3.0)
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, vouches=True, verify=True)
+    tols = [c[0] for c in runs.calls]
+    assert tols[0] / tols[1] > checked.MAX_JUMP and len(tols) >= 3
+    truth = checked.window_difference(FakeRuns(true)(result.stats["step_tol"]),
+                                      FakeRuns(lambda step_tol: 0.0)(result.stats["step_tol"]))
+    if result.ok:
+        assert result.stats["estimated_error"]["nrms_v"] >= 0.5 * truth
