@@ -192,18 +192,18 @@ class CheckSequence:
         pair, checked as pairs are (at a ratio above CHECK_RATIO it reads high). No pair where they are
         further apart than MAX_JUMP: they differ by about the looser one's error, which that rule
         charges to the tighter (a boundary point planned 1660x tighter: 0.72 reported, 2.2e-4
-        true, the call said not met); nor a verification where they agree but this one's error
-        reads below what the looser one's allows at the fastest fall credited (MAX_ORDER): that
-        error covers the difference whatever this estimate says (a hot film's read 0.1x, and the
-        call said ok). The tighter run is verified by the next one, a check ratio tighter."""
+        true, the call said not met): the tighter run is verified by the next one, a check ratio
+        tighter. Nor do two runs agree where this one's error reads below the least their
+        difference allows (falling at most as the per-step tolerance, MAX_ORDER): the looser
+        one's error covered it (a hot film's read 0.1x, and the call said ok)."""
         previous = self.own_previous
         if own is None or previous is None:
             return own, previous, self.verify
-        far = previous[2] / self.step_tol > MAX_JUMP  # (previous: result, own error, per-step tol)
-        if window_difference(previous[0], result) <= own + previous[1]:
-            faster = own < previous[1] * (self.step_tol / previous[2]) ** MAX_ORDER
-            return (own, None, True) if far and faster and self.verify else (own, previous, self.verify)
-        if far:
+        difference, ratio = window_difference(previous[0], result), previous[2] / self.step_tol
+        short = ratio > 1.0 and own * (ratio ** MAX_ORDER - 1.0) < difference  # (reads short)
+        if difference <= own + previous[1] and not short:
+            return own, previous, self.verify
+        if ratio > MAX_JUMP:
             return own, None, True
         self.base, self.chain_difference, self.own_previous = previous[0], None, None
         return None, previous, self.verify

@@ -458,3 +458,20 @@ def test_a_tight_run_agreeing_with_one_far_looser_is_verified_by_its_neighbour_n
                                       FakeRuns(lambda step_tol: 0.0)(result.stats["step_tol"]))
     if result.ok:
         assert result.stats["estimated_error"]["nrms_v"] >= 0.5 * truth
+
+
+def test_two_runs_a_check_ratio_apart_agree_only_where_the_tighter_estimate_covers_their_difference():
+    """Both runs' estimates read 0.15 of their true errors (a hot boundary film whose film
+    flickers: 0.13-0.18x down to per-step 7.8e-6). Their difference is within their two
+    estimates together, but the tighter run's error is at least the difference over r - 1 (an
+    error falls at most as the per-step tolerance, MAX_ORDER), which its estimate reads below:
+    no agreement, and the call does not say ok on an error it under-reads (it had: 1.6x tol)."""
+    def true(step_tol):
+        return 36.0 * step_tol ** 0.85
+
+    runs = VouchingRuns(true, own=lambda step_tol: 0.15 * true(step_tol), order=0.85)
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, vouches=True, verify=True)
+    truth = checked.window_difference(FakeRuns(true)(result.stats["step_tol"]),
+                                      FakeRuns(lambda step_tol: 0.0)(result.stats["step_tol"]))
+    if result.ok:
+        assert truth <= 1e-3 and result.stats["estimated_error"]["nrms_v"] >= 0.5 * truth
