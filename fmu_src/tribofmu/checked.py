@@ -401,7 +401,7 @@ def _finish(result, difference: float | None, sequence: CheckSequence, began: tu
         "nrms_v": difference if checked else None,
         "method": _method(checked, sequence),
         "propagated": own.get("nrms_v"),  # the run's own linearised estimate, for comparison
-        "vouches": bool(own.get("vouches")),
+        "vouches": bool(own.get("vouches")), "near_melt": own.get("near_melt"),  # (coupling/passages.py)
         "order": own.get("order"),  # the power of the per-step tol its error is expected to fall at
     }
     stats["tolerance_met"] = bool(met)
