@@ -353,8 +353,8 @@ def estimated_error(coupling, audit: WindowError, problem: str | None = None) ->
         problem = "a step at the shortest length passed over the lubricant's re-solidifying (an event)"
     near = getattr(coupling.estimate, "near_runaways", None)
     if problem is None and near is not None and near.undecided:
-        problem = (f"it passed near a melt it did not take, by less than its own error in f "
-                   f"({near.ratio:.3g}x the rise of f there, with the estimate's margin): which way that "
+        problem = (f"it passed near a melt it did not take, by less than its own error in f (that "
+                   f"error, with the estimate's margin, {near.ratio:.3g}x f's rise there): which way that "
                    "passage goes is past its linearisation (coupling/passages.py)")
     motion = ("the block's and the lubricant's linearised motion (the law's own slopes)"
               if getattr(coupling.estimate, "law", None) is not None else "the block's linearised motion")
