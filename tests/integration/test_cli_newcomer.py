@@ -200,10 +200,11 @@ def test_killed_run_writes_nothing_and_removes_its_extracted_fmus(tmp_path, env,
         except FileNotFoundError:
             return []
 
-    deadline = time.monotonic() + 120
-    while not extracted() and time.monotonic() < deadline:
+    deadline, found = time.monotonic() + 120, []
+    while not found and time.monotonic() < deadline:
+        found = extracted()
         time.sleep(0.05)
-    assert extracted(), "the run never unzipped its FMUs"
+    assert found, "the run never unzipped its FMUs"
     assert not orphan.exists()  # reaped by the new process
     time.sleep(0.5)
     proc.send_signal(signal.SIGTERM)
