@@ -444,7 +444,7 @@ def _advice(difference: float | None, tol: float, records: list[RunRecord], limi
     spent = sum(r.wall_time for r in records)
     if difference is None:
         return (f"tolerance {tol:g} not checked: {limit} after {len(records)} run(s) ({spent:.0f} s); "
-                f"loosen --tol, or raise --max-wall")
+                f"loosen --tol{', or raise --max-wall' if 'budget' in limit else ''}")
     return (f"tolerance {tol:g} not met: the {kind} nRMS(v) is {difference:.2g} after {len(records)} "
             f"runs ({spent:.0f} s, per-step tolerance down to {records[-1].step_tol:.2g}; {limit}); "
-            f"loosen --tol, or raise --max-wall")
+            f"loosen --tol{', or raise --max-wall' if 'budget' in limit else ''}")

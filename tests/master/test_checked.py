@@ -435,6 +435,7 @@ def test_runs_that_turned_back_near_a_melt_within_their_error_never_end_the_call
     short = NearMeltRuns(power_law(0.3), own=power_law(0.2), decided_below=1e-12, wrong=0.3)
     result = checked.checked_simulation(short, tol=1e-2, max_wall=None, vouches=True, verify=True)
     assert not result.ok and "melt" in result.message
+    assert "--max-wall" not in result.message  # (its runs ran out, not its time: more time would not help)
     assert [c[0] for c in short.calls][1] < [c[0] for c in short.calls][0] / checked.CHECK_RATIO
 
 
