@@ -29,6 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .coupling.passages import undecided
 from .coupling.settings import CHECK_SETTINGS, LIMITS, MAX_ORDER, RESOLUTION, STEP_CONTROL
 from .forked_runs import ForkedRuns, InlineRuns, check_workers, cpu_seconds
 from .progress import run_started
@@ -59,11 +60,10 @@ def vouched_error(result) -> float | None:
 
 
 def near_melt(result) -> float:
-    """``near_melt`` (coupling/passages.py) where >= 1, else 0. A call does not end on such a run,
-    alone or in a pair: a run that turned back too agrees whichever way the exact motion went
-    (two hot dilatant films: runs at per-step 1e-2 to 1e-4 agreed on a motion 0.12 and 0.47 off)."""
+    """``near_melt`` where undecided (coupling/passages.py), else 0: no call ends on such a run, alone or
+    paired (runs that turned back agree whichever way the motion went: two hot films, 0.12, 0.47 off)."""
     ratio = (result.stats.get("estimated_error") or {}).get("near_melt")
-    return ratio if ratio is not None and ratio >= 1.0 else 0.0
+    return ratio if undecided(ratio) else 0.0
 
 
 def checked_error(difference: float, previous: float | None = None) -> float:

@@ -46,6 +46,12 @@ def loop_growth(c: float, p: float, q: float, r: float) -> float:
     return half_trace + math.sqrt(disc) if disc > 0.0 else half_trace
 
 
+def undecided(ratio: float | None) -> bool:
+    """Whether a run whose closest passage near a melt read ``ratio`` (:attr:`NearRunaways.ratio`;
+    None: no law with such a state) turned back within its own error of the rise (ratio >= 1)."""
+    return ratio is not None and ratio >= 1.0
+
+
 class NearRunaways:
     """The passages of a run through an unstable loop that turned back (module docstring).
 
@@ -83,5 +89,5 @@ class NearRunaways:
 
     @property
     def undecided(self) -> bool:
-        """A passage turned back within the run's own error of its rise (ratio >= 1)."""
-        return self.ratio >= 1.0
+        """A passage turned back within the run's own error of its rise (:func:`undecided`)."""
+        return undecided(self.ratio)
