@@ -259,19 +259,19 @@ def main(argv=None) -> int:
 
 
 def trusted_reference(scenario, label: str):
-    """The reference (studies.reference, rtol 1e-10), or where its stiff solver cannot step at
-    that rtol (BDF below the spacing of floats: a shear-thinning boundary film at a random point,
-    omega = 13.95, gamma = -0.689, T = 273), at 1e-9 or 1e-8, said on its own line: still far
-    below the tolerances judged (1e-4 and up)."""
-    from tribofmu.studies.reference import reference_solution
+    """The reference (studies.reference.converged_reference: rtol 1e-10, or where its stiff solver
+    cannot step there, as at a shear-thinning boundary film at a random point, omega = 13.95,
+    gamma = -0.689, T = 273, 1e-9 or 1e-8), the looser rtol said on its own line: still far below
+    the tolerances judged (1e-4 and up)."""
+    from tribofmu.studies.reference import REFERENCE_RTOLS, converged_reference
 
-    for rtol in (1e-10, 1e-9, 1e-8):
-        reference = reference_solution(scenario, rtol=rtol)
-        if reference.ok:
-            if rtol != 1e-10:
-                print(f"# {label}: the reference at rtol {rtol:g} (at 1e-10 its solver could not step)", flush=True)
-            return reference
-    print(f"# {label}: no reference ({reference.message}): its rows cannot be judged", flush=True)
+    reference = converged_reference(scenario)
+    rtol = reference.stats["rtol"]
+    if not reference.ok:
+        print(f"# {label}: no reference ({reference.message}): its rows cannot be judged", flush=True)
+    elif rtol != REFERENCE_RTOLS[0]:
+        print(f"# {label}: the reference at rtol {rtol:g} (at {REFERENCE_RTOLS[0]:g} its solver could not step)",
+              flush=True)
     return reference
 
 

@@ -116,6 +116,9 @@ def test_the_accuracy_study_shows_the_error_asked_reported_and_true(fmu_dir):
         assert row["ok"] and row["reported_nrms_v"] <= tol
         assert 0.5 * row["nrms_v"] <= row["reported_nrms_v"] or row["reported_nrms_v"] < tol / 10
     assert asked[1e-3]["default"] and summary["default"]["tol"] == 1e-3
+    # the yardstick says the rtol it was taken at (studies.reference.converged_reference)
+    assert summary["reference_rtol"] == 1e-10 and any(line.startswith("reference:") and "rtol 1e-10" in line
+                                                      for line in lines)
     header = rows_csv(rows).splitlines()[0].split(",")
     assert header[3:7] == ["tol", "default", "reported_nrms_v", "nrms_v"]
     assert "reported" in COLUMN_MEANINGS["reported_nrms_v"] and any("reported" in line for line in lines)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -538,3 +539,40 @@ def test_mixed_reference_is_where_a_regularised_monolithic_solve_converges():
     errors = [nrms(ref.time, solve_monolithic(sc, "Radau", rtol=rtol, t_eval=ref.time).v, ref.time, ref.v, sc.window)
               for rtol in (1e-6, 1e-7)]
     assert errors[1] < 3e-5 and errors[1] < errors[0] / 5
+
+
+# -- the yardstick where its stiff solver cannot step at 1e-10 ----------------------------------
+def test_converged_reference_takes_the_tightest_rtol_its_solver_can_step_at(monkeypatch):
+    """Where the stiff solve fails at rtol 1e-10 (BDF below the spacing of floats at a
+    shear-thinning boundary film) the reference is taken at the next rtol, and says which; the
+    answer is the solve's at that rtol. Where every rtol fails, the last failure is returned."""
+    sc = scenario("fig6_boundary", **{"time.periods": 1.0, "time.window": [0.0, 1.0]})
+    real_solve = reference_module.solve_smooth
+    asked = []
+
+    def solve_failing_below(limit):
+        def solve(problem, t_eval, t_end, rtol, atol):
+            asked.append(rtol)
+            out = real_solve(problem, t_eval, t_end, rtol, atol)
+            return replace(out, ok=False, message=f"BDF failed at rtol {rtol:g}") if rtol < limit else out
+        return solve
+
+    monkeypatch.setattr(reference_module, "solve_smooth", solve_failing_below(5e-9))
+    reference = reference_module.converged_reference(sc)
+    assert reference.ok and reference.stats["rtol"] == 1e-8
+    assert asked == [1e-10, 1e-9, 1e-8]
+    direct = reference_solution(sc, rtol=1e-8)
+    assert np.array_equal(reference.v, direct.v)
+
+    asked.clear()
+    monkeypatch.setattr(reference_module, "solve_smooth", solve_failing_below(1.0))
+    failed = reference_module.converged_reference(sc)
+    assert not failed.ok and failed.stats["rtol"] == 1e-8 and "rtol 1e-08" in failed.message
+    assert asked == [1e-10, 1e-9, 1e-8]
+
+
+def test_converged_reference_keeps_rtol_1e10_where_the_solver_steps():
+    sc = scenario("fig6_boundary", **{"time.periods": 1.0, "time.window": [0.0, 1.0]})
+    reference = reference_module.converged_reference(sc)
+    assert reference.ok and reference.stats["rtol"] == 1e-10
+    assert np.array_equal(reference.v, reference_solution(sc).v)

@@ -46,7 +46,12 @@ from .dry import solve_dry, solve_free, solve_stick_slip
 from .problem import Problem, state_scale
 from .smooth import solve_smooth
 
-__all__ = ["ReferenceResult", "reference_solution", "nrms", "SAMPLES_PER_PERIOD"]
+__all__ = ["ReferenceResult", "reference_solution", "converged_reference", "REFERENCE_RTOLS", "nrms",
+           "SAMPLES_PER_PERIOD"]
+
+# The yardstick's tolerances, tightest first (:func:`converged_reference`): every one far below the
+# tolerances a run is judged at (1e-4 and up)
+REFERENCE_RTOLS = (1e-10, 1e-9, 1e-8)
 
 
 
@@ -127,3 +132,19 @@ def reference_solution(scenario: Scenario, t_eval: np.ndarray | None = None, rto
         else np.full_like(t_eval, problem.n)
     return ReferenceResult(time=t_eval, X=X, V=V, x=out.x, v=out.v, F=out.F, f=out.f, wall_time=wall,
                            stats=out.stats, ok=out.ok, message=out.message, T=T, n=n)
+
+
+def converged_reference(scenario: Scenario, t_eval: np.ndarray | None = None) -> ReferenceResult:
+    """:func:`reference_solution` at the first rtol of REFERENCE_RTOLS its solver can step at;
+    ``stats["rtol"]`` says which (the last one's failure, ``ok`` False, where none could).
+
+    Where the stiff solver cannot step at rtol 1e-10 ("required step size is less than spacing
+    between numbers": a shear-thinning boundary film, gamma = -0.689, omega = 13.95, T = 273 K,
+    fails at 1e-10 and at 1e-9), a looser one still measures errors of 1e-4 and up; without it
+    such a scene had no yardstick at all (``tribofmu accuracy`` stopped, benchmarks could not judge)."""
+    for rtol in REFERENCE_RTOLS:
+        reference = reference_solution(scenario, t_eval, rtol=rtol)
+        reference.stats["rtol"] = rtol
+        if reference.ok:
+            break
+    return reference
