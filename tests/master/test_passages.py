@@ -61,3 +61,35 @@ def test_the_worst_passage_of_the_run_counts():
     watch.step(UNSTABLE, 0.80, 0.82, 1e-4)
     watch.step(STABLE, 0.82, 0.81, 1e-4)  # a later, well decided one does not clear it
     assert watch.undecided
+
+
+def test_a_snapshot_taken_inside_a_passage_carries_it_and_the_estimates_flags():
+    """A run restored to a state snapshot (a host's set-FMU-state on the pair) reports as if it
+    had never gone past it: the passage under way, the worst ratio so far and the carry's flags
+    travel with the estimate's export, through JSON."""
+    import json
+
+    from tribofmu.coupling.estimate import GlobalErrorEstimate
+    from tribofmu.physics.laws.boundary import BoundaryLaw
+
+    law = BoundaryLaw(m=0.05, gamma=-2 / 3, S=3e-9)
+    estimate = GlobalErrorEstimate(law)
+    estimate.near_runaways.law = ThresholdLaw()  # (melting at f = 1, as the fake passages above)
+    estimate.ex, estimate.ev, estimate.ef, estimate.w2 = 1e-6, 2e-5, 3e-2, 1e4
+    estimate.watch(STABLE, 0.78, 0.80)
+    estimate.watch(UNSTABLE, 0.80, 0.84)  # inside the passage: it has not turned back yet
+    snapshot = json.loads(json.dumps(estimate.export()))
+    estimate.saturated = estimate.passed_event = True
+    estimate.watch(STABLE, 0.84, 0.83)  # it turns back: undecided (2 x 0.03 over a rise of 0.04)
+    assert estimate.near_runaways.undecided
+
+    restored = GlobalErrorEstimate(law)
+    restored.near_runaways.law = ThresholdLaw()
+    restored.restore(snapshot)
+    assert not restored.saturated and not restored.passed_event and restored.near_runaways.ratio == 0.0
+    restored.watch(STABLE, 0.84, 0.83)  # the same step again after the restore: the same verdict
+    assert restored.near_runaways.ratio == estimate.near_runaways.ratio
+    # a snapshot that went past it is restored with what it had seen, on an estimate that had not
+    later = GlobalErrorEstimate(law)
+    later.restore(json.loads(json.dumps(estimate.export())))
+    assert later.saturated and later.passed_event and later.near_runaways.undecided

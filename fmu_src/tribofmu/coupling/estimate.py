@@ -167,16 +167,24 @@ class GlobalErrorEstimate:
         self.near_runaways = NearRunaways(self.law, CHECK_SETTINGS.estimate_safety) if self.law is not None else None
 
     def export(self) -> list:
-        """What a state snapshot carries of it (JSON-ready): ex, ev, w2, the last ramp and ef."""
-        return [self.ex, self.ev, self.w2, asdict(self.ramp) if self.ramp is not None else None, self.ef]
+        """What a state snapshot carries of it (JSON-ready): ex, ev, w2, the last ramp, ef, and
+        what the run so far says of its own estimate (saturated, passed_event, the passages
+        near a melt): a run restored to a snapshot reports as if it had never gone past it."""
+        passages = self.near_runaways.export() if self.near_runaways is not None else None
+        return [self.ex, self.ev, self.w2, asdict(self.ramp) if self.ramp is not None else None, self.ef,
+                self.saturated, self.passed_event, passages]
 
     def restore(self, values: list) -> None:
         """Back to what :meth:`export` gave (or its first three, from a snapshot without a ramp;
-        ef 0 from one without it)."""
+        ef 0 from one without it; the flags and passages as they are from one without them)."""
         self.ex, self.ev, self.w2 = values[:3]
         ramp = values[3] if len(values) > 3 else None
         self.ramp = RampStep(**ramp) if ramp is not None else None
         self.ef = values[4] if len(values) > 4 else 0.0
+        if len(values) > 7:
+            self.saturated, self.passed_event = values[5], values[6]
+            if self.near_runaways is not None and values[7] is not None:
+                self.near_runaways.restore(values[7])
 
     def observe(self, x: float, a: float, F: float, velocity_per_impulse: float, x_floor: float) -> None:
         """Learn w2 from a point: a = F/M - w2 x, with 1/M the block's velocity per unit impulse

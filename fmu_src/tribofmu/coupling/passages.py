@@ -87,6 +87,14 @@ class NearRunaways:
                 self.ratio = max(self.ratio, self.safety * self.error / rise)
             self.margin_start = None
 
+    def export(self) -> list:
+        """What a state snapshot carries of it (JSON-ready): a passage under way and the worst so far."""
+        return [self.margin_start, self.margin_low, self.error, self.ratio]
+
+    def restore(self, values: list) -> None:
+        """Back to what :meth:`export` gave."""
+        self.margin_start, self.margin_low, self.error, self.ratio = values
+
     @property
     def undecided(self) -> bool:
         """A passage turned back within the run's own error of its rise (:func:`undecided`)."""
