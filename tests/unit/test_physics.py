@@ -199,3 +199,30 @@ def test_kinetics_made_once_per_inputs_follow_a_change_of_n_and_T():
     again = pickle.loads(pickle.dumps(law))
     assert again == law
     assert again.advance(0.1, 2e-5, -1e6, 290.0, 1e-4) == law.advance(0.1, 2e-5, -1e6, 290.0, 1e-4)
+
+
+@pytest.mark.parametrize("stiffness", [1e-3, 0.05, 1.0, 29.0, 1e3])
+def test_a_kinetics_sub_step_reports_the_means_of_f_along_its_own_model(stiffness):
+    """For a rate linear in f and in time (df/dt = -k (f - f_eq) + a t) the exponential
+    sub-step is exact: its end f and, along it, the means of f and of f s/h (from which the
+    mean of the elastic force f dv follows, dv moving linearly) are the exact solution's. A
+    stiff sub-step (k h >> 1) sits at its end value nearly all along: the ends' average is not
+    its mean. From a slow sub-step to one a thousand relaxation times long."""
+    from scipy.integrate import quad
+
+    k, f_eq, a, f0, h = stiffness / 1e-4, 0.4, 2e3, 0.1, 1e-4
+
+    def rate(f, t):  # (the second argument is what moves in time: here time itself)
+        return -k * (f - f_eq) + a * t
+
+    def exact(t):
+        return f_eq + (f0 - f_eq) * math.exp(-k * t) + a * (t / k - (1.0 - math.exp(-k * t)) / k ** 2)
+
+    f1, _, _, f_mean, f_late = BoundaryLaw._substep(rate, lambda f: -k, f0, rate(f0, 0.0), h, a, h)
+    points = [h / stiffness * i for i in (1, 3, 10)] if stiffness > 1 else None
+    mean = quad(exact, 0.0, h, epsabs=0.0, epsrel=1e-13, points=points)[0] / h
+    late = quad(lambda t: exact(t) * t / h, 0.0, h, epsabs=0.0, epsrel=1e-13, points=points)[0] / h
+    assert f1 == pytest.approx(exact(h), rel=1e-10)
+    assert f_mean == pytest.approx(mean, rel=1e-9) and f_late == pytest.approx(late, rel=1e-9)
+    if stiffness > 10:  # (not the ends' average, nor its weighting)
+        assert abs(f_mean - 0.5 * (f0 + f1)) > 0.1 * abs(f1 - f0)

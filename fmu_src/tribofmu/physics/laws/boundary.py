@@ -189,13 +189,13 @@ class BoundaryLaw(FrictionLaw):
             s1 = h if sub >= h - s else s + sub
             dv_s = dv0 + dv_rate * s if dv_rate else dv
             dv_s1 = dv if s1 >= h or not dv_rate else dv0 + dv_rate * s1
-            f1, r1, err = substep(rate, slope, f, r0, dv_s1, rate_dv * dv_s * dv_rate, s1 - s)
+            f1, r1, err, f_mean, f_late = substep(rate, slope, f, r0, dv_s1, rate_dv * dv_s * dv_rate, s1 - s)
             tol = atol + rtol * abs(f1)
             if err <= tol or sub <= min_sub:
-                # f moves little where the sub-step is long: the force's mean over it is the
-                # mean along dv at f's mean (the elastic term is linear in dv, the viscous
-                # term integrated exactly)
-                impulse += (s1 - s) * mean_force(dv_s, dv_s1, 0.5 * (f + f1))
+                # the force's mean over the sub-step along f's own path (the elastic term is
+                # f times dv, dv linear in time: its mean is dv_s f_mean + (dv_s1 - dv_s) f_late;
+                # the viscous term integrated exactly)
+                impulse += (s1 - s) * mean_force(dv_s, dv_s1, f_mean, dv_s * f_mean + (dv_s1 - dv_s) * f_late)
                 f, r0, s = f1, r1, s1
                 # Floored: a sub-step forced through at the minimum must not shrink the next
                 # one toward zero, or s would stop advancing.
@@ -219,17 +219,20 @@ class BoundaryLaw(FrictionLaw):
         m, p = self.m, self.gamma + 2.0
         force = self.force
 
-        def mean_force(dv_start: float, dv: float, f: float) -> float:
-            if dv == dv_start:
+        def mean_force(dv_start: float, dv: float, f: float, f_dv: float | None = None) -> float:
+            """The force's mean along dv moving linearly from dv_start to dv [m/s], f's mean f
+            [1] (which side of the melt) and f dv's mean f_dv [m/s] (default f times dv's mean)."""
+            if dv == dv_start and f_dv is None:
                 return force(dv, n, f)
             try:
-                viscous = m * ((abs(dv) ** p - abs(dv_start) ** p) / (p * (dv - dv_start)))
+                viscous = (m * ((abs(dv) ** p - abs(dv_start) ** p) / (p * (dv - dv_start))) if dv != dv_start
+                           else m * math.copysign(abs(dv) ** (p - 1.0), dv))
             except OverflowError:  # as the force itself: not finite, for the FMU to refuse
                 viscous = m * math.copysign(math.inf, dv + dv_start)
             F = 0.0
-            if elastic:
-                mu_eff = mu - mu_bar * f
-                F += 2.0 * (mu_eff if mu_eff > 0.0 else 0.0) * (0.5 * (dv + dv_start) * tau_e / thickness) * S
+            if elastic and mu - mu_bar * f > 0.0:
+                dv_mean = 0.5 * (dv + dv_start)
+                F += 2.0 * (mu * dv_mean - mu_bar * (f * dv_mean if f_dv is None else f_dv)) * tau_e / thickness * S
             if viscous_on:
                 F += viscous
             return F
@@ -238,9 +241,22 @@ class BoundaryLaw(FrictionLaw):
 
     @staticmethod
     def _substep(rate, slope, f0: float, r0: float, dv1: float, r_t: float,
-                 h: float) -> tuple[float, float, float]:
+                 h: float) -> tuple[float, float, float, float, float]:
         """One sub-step over h [s] from f0 (rate r0) to the relative velocity dv1 at its end,
-        the rate moving in time by r_t [1/s^2] through dv: (f1, its rate, estimated error)."""
+        the rate moving in time by r_t [1/s^2] through dv: (f1, its rate, estimated error, and
+        along the sub-step the means of f and of f u, u = s / h its fraction).
+
+        The means are the linear model's own, f0 + h phi2(z) r0 + h^2 phi3(z) r_t and f0 / 2 +
+        h (phi2 - phi3)(z) r0 + h^2 (phi3 - phi4)(z) r_t, not the ends' average: where the
+        sub-step is many relaxation times long (|z| >> 1, f on its moving equilibrium after
+        1/|slope| of it) f sits at its end value nearly all along, and the ends' average put
+        the force's mean (``F_mean``, from which the coupling charges a slip step's local
+        error, coupling/path_error.py) half the jump of f away. At a hot film that melts and
+        re-solidifies every half period (omega = 9.51, gamma = 0.926, T = 336 K) the run's
+        carried estimate read 0.15-0.25x its true error, and 0.9-1.05x with the kinetics 1000x
+        tighter, where the motion itself did not change; the difference of F_mean from the
+        ends' average (what the error is charged from) was off by 100 % of itself, 45 % with
+        f's mean, 19 % with f u's too (RMS along that run at per-step 1e-4)."""
         z = slope(f0) * h
         f_exp = None
         if z < 30.0:  # beyond, the linearisation grows without bound: leave it to Euler
@@ -249,6 +265,12 @@ class BoundaryLaw(FrictionLaw):
             else:
                 em1 = math.expm1(z)
                 phi1, phi2 = em1 / z, (em1 - z) / (z * z)
+            if -1e-2 < z < 1e-2:  # (phi_k+1 = (phi_k - 1/k!) / z loses digits to cancellation here)
+                phi3 = 1.0 / 6.0 + z * (1.0 / 24.0 + z * (1.0 / 120.0 + z / 720.0))
+                phi4 = 1.0 / 24.0 + z * (1.0 / 120.0 + z * (1.0 / 720.0 + z / 5040.0))
+            else:
+                phi3 = (phi2 - 0.5) / z
+                phi4 = (phi3 - 1.0 / 6.0) / z
             f_exp = f0 + h * phi1 * r0 + h * h * phi2 * r_t
             if math.isfinite(f_exp):
                 r1 = rate(f_exp, dv1)
@@ -257,12 +279,15 @@ class BoundaryLaw(FrictionLaw):
                 # when stiff), bounds the local error.
                 r_model = r0 * (1.0 + z * phi1) + h * phi1 * r_t
                 if r_model * r1 > 0.0 or r1 == 0.0:  # has not crossed an equilibrium
-                    return f_exp, r1, 2.0 * abs((r1 - r_model) * h * phi1)
+                    return (f_exp, r1, 2.0 * abs((r1 - r_model) * h * phi1),
+                            f0 + h * phi2 * r0 + h * h * phi3 * r_t,
+                            0.5 * f0 + h * (phi2 - phi3) * r0 + h * h * (phi3 - phi4) * r_t)
         f1, r1 = BoundaryLaw._backward_euler(rate, dv1, f0, h)
         # Crossing: both the linear model and backward Euler land near the equilibrium;
         # where they disagree, the sub-step was too long for the curvature of the rate.
+        # (Its path unknown: f taken linear between the ends.)
         err = abs(f_exp - f1) if f_exp is not None and math.isfinite(f_exp) else 0.5 * h * abs(r1 - r0)
-        return f1, r1, err
+        return f1, r1, err, 0.5 * (f0 + f1), (f0 + 2.0 * f1) / 6.0
 
     @staticmethod
     def _backward_euler(rate, dv1: float, f0: float, h: float) -> tuple[float, float]:
