@@ -154,7 +154,7 @@ class CheckSequence:
         self.own = vouches  # the runs stand on their own estimates: no pairs (a run without one overrules)
         self.own_last = None  # (per-step tolerance, own error) of the last run that vouched for itself
         # the pair being formed is expected to meet tol: nothing runs ahead of it. A first run that
-        # vouches is: at a per-step tol of tol it lands at 0.05-0.25 tol (checked_simulation)
+        # vouches is (dry friction lands at 0.2-0.3 tol at a per-step tol of tol: checked_simulation)
         self.expected_to_meet = vouches
         # the per-step tolerance of the run started ahead of a first run that vouches: where the
         # plan sends its successor if its reported error (ESTIMATE_SAFETY x its estimate) is its
@@ -336,9 +336,9 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
     make_spool = (lambda: Spool()) if sink is not None else (lambda: None)
     runs = (InlineRuns(run_once, make_spool) if count == 1 else
             ForkedRuns(run_once, make_spool, count, progress=progress, notice=notice, prepare=prepare))
-    # The first run's per-step tolerance is tol itself: the reported run's true nRMS(v) then
-    # lands at 0.05-0.25 tol (fig2, fig6 and an off-scene dry point; 0.026 at 0.5 tol: more
-    # accuracy than asked, paid in steps)
+    # The first run's per-step tolerance is tol itself: dry friction, Newtonian and shear-thinning fluids land
+    # at 0.2-0.46 tol (0.026 at 0.5 tol: accuracy not asked for, paid in steps); a dilatant fluid at 2.6, boundary
+    # at up to 2.3, mixed at up to 28 (the next run planned from its estimate; bench_trust.py --one-run, 2026-11-27)
     sequence = CheckSequence(tol, max(step_tol if step_tol is not None else tol, MIN_STEP_TOL), vouches, verify)
     held: dict[int, Spool] = {}  # the spooled samples of the runs that may be reported
     try:
