@@ -113,6 +113,14 @@ EXTRA_POINTS = [
      {"drive.omega": 11.33, "block.M": 0.9606, "block.K": 1761.0, "friction.gamma": 1.7, "conditions.T": 344.0}),
     ("y boundary hot omega=43.04 gamma=0.828", "fig6_boundary",
      {"drive.omega": 43.04, "block.M": 0.4219, "block.K": 7134.0, "friction.gamma": 0.828, "conditions.T": 322.0}),
+    # the film that melts and re-solidifies every half period (bench_trust --random 907:8: r907.3), whose
+    # carried estimates read 0.2x until the Friction FMU's F_mean followed its sub-steps' own means
+    ("y boundary flicker omega=9.509 gamma=0.926", "fig6_boundary",
+     {"drive.omega": 9.509, "block.M": 0.3985, "block.K": 2861.0, "friction.gamma": 0.926, "conditions.T": 336.0}),
+    # Fig. 6's rig where a run's error drifts by about 1 % of max|v| each half period and its carry
+    # does not follow the drift (per-step 3e-3: 0.27x; session 7's call said ok 9.8 % off at 1e-2)
+    ("y boundary drift omega=15 gamma=1.5 M=0.4", "fig6_boundary",
+     {"drive.omega": 15.0, "friction.gamma": 1.5, "block.M": 0.4}),
 ]
 
 
