@@ -560,6 +560,7 @@ def test_converged_reference_takes_the_tightest_rtol_its_solver_can_step_at(monk
     monkeypatch.setattr(reference_module, "solve_smooth", solve_failing_below(5e-9))
     reference = reference_module.converged_reference(sc)
     assert reference.ok and reference.stats["rtol"] == 1e-8
+    assert reference_module.looser_rtol(reference) == "rtol 1e-08 (at 1e-10 its solver could not step)"
     assert asked == [1e-10, 1e-9, 1e-8]
     direct = reference_solution(sc, rtol=1e-8)
     assert np.array_equal(reference.v, direct.v)
@@ -574,5 +575,5 @@ def test_converged_reference_takes_the_tightest_rtol_its_solver_can_step_at(monk
 def test_converged_reference_keeps_rtol_1e10_where_the_solver_steps():
     sc = scenario("fig6_boundary", **{"time.periods": 1.0, "time.window": [0.0, 1.0]})
     reference = reference_module.converged_reference(sc)
-    assert reference.ok and reference.stats["rtol"] == 1e-10
+    assert reference.ok and reference.stats["rtol"] == 1e-10 and reference_module.looser_rtol(reference) == ""
     assert np.array_equal(reference.v, reference_solution(sc).v)

@@ -31,7 +31,7 @@ from ..coupling.interpolation import NS
 from ..errors import NumericalError
 from ..scene.scenario import Scenario
 from .accuracy_plot import plot_accuracy
-from .reference import REFERENCE_RTOLS, converged_reference, nrms
+from .reference import converged_reference, looser_rtol, nrms
 from .reference.monolithic import REGULARISATION, solve_event_driven, solve_monolithic
 
 __all__ = ["accuracy_study", "write_study", "plot_accuracy", "rows_csv", "dominating",
@@ -162,8 +162,7 @@ def accuracy_study(scenario: Scenario, fmu_dir: str | Path | None = None, quick:
     ref_rtol = ref.stats["rtol"]
     if not ref.ok:
         raise NumericalError(f"reference solution failed at rtol {ref_rtol:g}: {ref.message}")
-    looser = "" if ref_rtol == REFERENCE_RTOLS[0] else f" at {REFERENCE_RTOLS[0]:g} its solver could not step;"
-    log(f"reference: {ref_wall:.2f} s (rtol {ref_rtol:g};{looser} {ref.message or 'ok'})")
+    log(f"reference: {ref_wall:.2f} s ({looser_rtol(ref) or f'rtol {ref_rtol:g}'}; {ref.message or 'ok'})")
     for line in LEGEND:
         log(line)
     window = scenario.window

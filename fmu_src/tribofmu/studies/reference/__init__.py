@@ -46,8 +46,8 @@ from .dry import solve_dry, solve_free, solve_stick_slip
 from .problem import Problem, state_scale
 from .smooth import solve_smooth
 
-__all__ = ["ReferenceResult", "reference_solution", "converged_reference", "REFERENCE_RTOLS", "nrms",
-           "SAMPLES_PER_PERIOD"]
+__all__ = ["ReferenceResult", "reference_solution", "converged_reference", "looser_rtol", "REFERENCE_RTOLS",
+           "nrms", "SAMPLES_PER_PERIOD"]
 
 # The yardstick's tolerances, tightest first (:func:`converged_reference`): every one far below the
 # tolerances a run is judged at (1e-4 and up)
@@ -148,3 +148,10 @@ def converged_reference(scenario: Scenario, t_eval: np.ndarray | None = None) ->
         if reference.ok:
             break
     return reference
+
+
+def looser_rtol(reference: ReferenceResult) -> str:
+    """What a user is told of a :func:`converged_reference` taken looser than its first rtol ("": it
+    was not)."""
+    rtol = reference.stats.get("rtol", REFERENCE_RTOLS[0])
+    return "" if rtol == REFERENCE_RTOLS[0] else f"rtol {rtol:g} (at {REFERENCE_RTOLS[0]:g} its solver could not step)"
