@@ -61,7 +61,8 @@ CASES = {
 }
 # issue 36's targets
 FIG6_NRMS, FIG6_RATIO = 1e-3, 10.0  # <= 1e-3 nRMS(v) in <= 10x LSODA rtol 1e-4 (the shared anchor's)
-FIG2_NRMS, FIG2_RATIO = 2e-4, 4.0  # <= 2e-4 in <= 4x the exact event-driven solve
+FIG2_NRMS, FIG2_RATIO = 1e-3, 4.0  # the default call (--tol 1e-3, met) in <= 4x the exact event-driven solve
+FIG2_NRMS_ISSUE31 = 2e-4  # issue 31's accuracy for Fig. 2 at the defaults (issue 36 asks the ratio only)
 CALLS_PER_STEP = 15.0
 REJECTED_FRACTION = 0.20
 # the Fig. 6 anchor the issue names: LSODA on a plain scipy right-hand side, written by hand
@@ -250,6 +251,8 @@ def print_targets(c: dict, first: str) -> None:
     if f2:
         target(f"Fig. 2: nRMS(v) <= {FIG2_NRMS:g} in <= {FIG2_RATIO:g}x the event-driven solve",
                f"{f2['nrms_v']:.2e} in {f2['ratio']:.1f}x", f2["nrms_v"] <= FIG2_NRMS and f2["ratio"] <= FIG2_RATIO)
+        target(f"Fig. 2: nRMS(v) <= {FIG2_NRMS_ISSUE31:g} at the defaults (issue 31's)", f"{f2['nrms_v']:.2e}",
+               f2["nrms_v"] <= FIG2_NRMS_ISSUE31)
     mine = {k: v for k, v in c.items() if k.endswith(f"/ {first}")}
     target(f"<= {CALLS_PER_STEP:g} FMU calls per accepted step (fig2, fig6)",
            ", ".join(f"{k}: {v['calls_per_step']:.1f}" for k, v in mine.items() if k.split(" /")[0] in ("fig2", "fig6")),
