@@ -222,11 +222,10 @@ class BoundaryLaw(FrictionLaw):
         def mean_force(dv_start: float, dv: float, f: float, f_dv: float | None = None) -> float:
             """The force's mean along dv moving linearly from dv_start to dv [m/s], f's mean f
             [1] (which side of the melt) and f dv's mean f_dv [m/s] (default f times dv's mean)."""
-            if dv == dv_start and f_dv is None:
+            if dv == dv_start:  # (then f_dv is f dv: dv held, f's mean is the one to take)
                 return force(dv, n, f)
             try:
-                viscous = (m * ((abs(dv) ** p - abs(dv_start) ** p) / (p * (dv - dv_start))) if dv != dv_start
-                           else m * math.copysign(abs(dv) ** (p - 1.0), dv))
+                viscous = m * ((abs(dv) ** p - abs(dv_start) ** p) / (p * (dv - dv_start)))
             except OverflowError:  # as the force itself: not finite, for the FMU to refuse
                 viscous = m * math.copysign(math.inf, dv + dv_start)
             F = 0.0
