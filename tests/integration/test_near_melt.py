@@ -23,10 +23,16 @@ def one_run(overrides, step_tol, fmu_dir):
                                    None, False, 120.0, None, None, False)
 
 
+def true_error(scenario, result) -> float:
+    """The run's nRMS(v) on the window against the reference."""
+    reference = reference_solution(scenario)
+    return nrms(result.time, result.v, reference.time, reference.v, scenario.window)
+
+
 def test_a_run_that_turned_back_within_its_own_error_of_a_melt_does_not_vouch(fmu_dir):
     scenario, result = one_run(HOT, 1e-3, fmu_dir)
     own = result.stats["estimated_error"]
-    true = nrms(result.time, result.v, *(lambda r: (r.time, r.v))(reference_solution(scenario)), scenario.window)
+    true = true_error(scenario, result)
     assert true > 0.1  # (the exact motion melted where the run turned back)
     assert own["near_melt"] >= 1.0 and not own["vouches"]
     assert "melt" in own["method"]
@@ -41,8 +47,7 @@ def test_fig6s_run_turns_back_near_its_first_melt_and_still_vouches(fmu_dir):
 def test_a_call_at_the_hot_film_does_not_say_ok_with_a_wrong_answer(fmu_dir):
     scenario = api.load("fig6_boundary", HOT)
     result = api.simulate(scenario, tol=1e-2, fmu_dir=fmu_dir, build=False, max_wall=120.0)
-    reference = reference_solution(scenario)
-    true = nrms(result.time, result.v, reference.time, reference.v, scenario.window)
+    true = true_error(scenario, result)
     assert not result.ok or true <= 3e-2, (result.stats["estimated_error"], true)
 
 
@@ -57,6 +62,5 @@ FLICKER = {"drive.omega": 9.509, "block.M": 0.3985, "block.K": 2861.0, "friction
 def test_the_carried_estimate_of_a_film_that_melts_each_half_period_reads_its_true_error(fmu_dir):
     scenario, result = one_run(FLICKER, 3e-5, fmu_dir)
     own = result.stats["estimated_error"]
-    reference = reference_solution(scenario)
-    true = nrms(result.time, result.v, reference.time, reference.v, scenario.window)
+    true = true_error(scenario, result)
     assert own["vouches"] and 0.5 <= own["nrms_v"] / true <= 2.0, (own["nrms_v"], true)

@@ -34,16 +34,10 @@ def test_a_grip_passed_over_at_a_reversal_is_not_taken(fmu_dir):
     true, 5.2e-3 estimated; 0.41x until the Friction FMU's F_mean followed its sub-steps' own
     means, when that run alone met tol and the call took two runs; now five, 2026-11-27); the call
     is honest and within tol."""
-    from pathlib import Path
+    from test_near_melt import one_run, true_error
 
-    from tribofmu import api
-    from tribofmu.studies.reference import nrms, reference_solution
-
-    scenario = api.load("fig6_boundary", {"friction.gamma": -0.3})
-    run = api._run_once(scenario, "adaptive", None, 1e-2, Path(fmu_dir), api.output_samples(scenario), None,
-                        False, 120.0, None, None, False)
-    reference = reference_solution(scenario)
-    run_true = nrms(run.time, run.v, reference.time, reference.v, scenario.window)
+    scenario, run = one_run({"friction.gamma": -0.3}, 1e-2, fmu_dir)
+    run_true = true_error(scenario, run)
     own = run.stats["estimated_error"]
     assert own["vouches"] and 0.5 <= own["nrms_v"] / run_true <= 2.0, (own["nrms_v"], run_true)
     assert run_true < 1e-2  # (the phase kept)
