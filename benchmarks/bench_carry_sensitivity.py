@@ -45,11 +45,12 @@ def main() -> None:
     started = []
 
     def carry_alone(self, h, damping, local_x, local_v, stuck, x_scale=math.inf, v_scale=math.inf,
-                    stuck_through=False, slopes=None, f_scale=math.inf, local_f=0.0):
+                    stuck_through=False, slopes=None, f_scale=math.inf, local_f=0.0, transition=None):
         if not started:  # exact less computed: the computed run is the one from x0
             self.ex = delta
             started.append(True)
-        return carry(self, h, damping, 0.0, 0.0, stuck, math.inf, math.inf, stuck_through, slopes, math.inf, 0.0)
+        return carry(self, h, damping, 0.0, 0.0, stuck, math.inf, math.inf, stuck_through, slopes, math.inf, 0.0,
+                     transition)
 
     carried = []
     carry_error = embedded.EmbeddedCoupling._carry_error

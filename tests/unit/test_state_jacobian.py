@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from tribofmu.physics.friction import FrictionLaw
+from tribofmu.physics.friction import Effects, FrictionLaw
 from tribofmu.physics.laws.boundary import BoundaryLaw
 from tribofmu.physics.laws.dry import DryLaw
 
@@ -82,3 +82,40 @@ def test_a_shear_thinning_slope_at_rest_is_infinite_and_without_melting_f_stands
     from tribofmu.physics.friction import Effects
     frozen = BoundaryLaw(m=0.05, gamma=0.0, S=3e-9, effects=Effects(melting=False))
     assert frozen.state_jacobian(1e-3, 0.2, -1e6, 290.0)[2:] == (0.0, 0.0)
+
+
+# steps of Fig. 6's lubricant (n = -1 MPa, T = 290 K, melt threshold f = 1.025) as a run takes them:
+# (f0, dv0, dv1 [m/s], h [s]): re-solidifying across the melt, molten and stiff, solid and slow, reversing
+STEPS = [(3.5335, -2.7696e-05, -1.4346e-05, 2.3e-3), (8.08, 1.2e-3, 1.1e-3, 2.5e-3),
+         (0.63, 2.0e-5, 2.6e-5, 1.2e-4), (0.85, -3.0e-5, -2.2e-5, 1.1e-5), (0.97, 4.0e-6, -3.0e-6, 2.1e-5)]
+
+
+@pytest.mark.parametrize("gamma", [-2.0 / 3.0, 0.5, 1.5])
+@pytest.mark.parametrize("f0,dv0,dv1,h", STEPS)
+def test_a_steps_sensitivities_are_its_own_map_differenced(gamma, f0, dv0, dv1, h):
+    """BoundaryLaw.step_sensitivities (the tangent followed along the sub-steps) against central
+    differences of advance itself, both at kinetics tolerance 1e-11, inputs moved by 1e-4 of
+    themselves. Each row within 1e-3 of its largest entry: both converge as the sub-steps
+    shrink (at 1e-9 they differ by up to 1 % on a step that starts off its equilibrium; at
+    1e-12 the differences are round-off, 5.6 to 26.6 for a slope of 10.3)."""
+    law = BoundaryLaw(m=0.05, gamma=gamma, S=3e-9)
+    n, T, tol = -1e6, 290.0, 1e-11
+    f1, F_mean, (f_row, F_row) = law.step_sensitivities(f0, dv1, n, T, h, tol, tol, dv_start=dv0)
+    assert (f1, F_mean) == law.advance(f0, dv1, n, T, h, tol, tol, dv_start=dv0)
+    base = [f0, dv0, dv1]
+    for j in range(3):
+        step = 1e-4 * max(abs(base[j]), 1e-3 if j == 0 else 1e-6)
+        up, down = list(base), list(base)
+        up[j] += step
+        down[j] -= step
+        a = law.advance(up[0], up[2], n, T, h, tol, tol, dv_start=up[1])
+        b = law.advance(down[0], down[2], n, T, h, tol, tol, dv_start=down[1])
+        for got, k, row in ((f_row[j], 0, f_row), (F_row[j], 1, F_row)):
+            assert got == pytest.approx((a[k] - b[k]) / (2.0 * step), abs=1e-3 * max(map(abs, row)))
+
+
+def test_a_lubricant_that_cannot_melt_has_no_step_sensitivities():
+    """Melting off, f does not move: no step map to follow (the carry takes the law's slopes)."""
+    law = BoundaryLaw(m=0.05, gamma=0.5, S=3e-9, effects=Effects(melting=False))
+    assert law.step_sensitivities(0.5, 1e-3, -1e6, 290.0, 1e-3, dv_start=2e-3) is None
+    assert BoundaryLaw(m=0.05, gamma=0.5, S=3e-9).step_sensitivities(0.5, 1e-3, -1e6, 290.0, 1e-3) is not None

@@ -20,8 +20,7 @@ In a stiff loop an error in the block's velocity is pulled back by the friction 
 step: the estimates are divided by ``1 + g`` (g the loop gain the solve measured), as stiff
 ODE codes filter their error estimates through ``(I - h J)^-1``. The friction's own mean
 force over the step (a lubricant gripping between communication points) enters as before
-(:meth:`~.algorithms.ImplicitCoupling._impulse_misses`). The local errors are carried to the
-run's global estimate (:mod:`.estimate`) exactly as step doubling's were.
+(:meth:`~.algorithms.ImplicitCoupling._impulse_misses`). The global estimate: :mod:`.estimate`.
 
 Events: a stuck contact breaking away inside a step is landed on (the step is solved again to
 end there, counted as ``landed``), and the step before a breakaway the last stick ramp
@@ -49,6 +48,7 @@ from .local_errors import (force_curvature, ramp_step, slip_x_error, stick_onset
                            unstable_loop_factor)
 from .settings import ERROR_SETTINGS, RESOLUTION
 from .system import Contact, CoupledSystem, Point
+from .variational import lubricant_step
 
 
 @dataclass(frozen=True)
@@ -428,14 +428,15 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         slopes = self.law_slopes(point, new)
         gain = self.expected_gain(h)
         loop = unstable_loop_factor(damping, h, new.ramped, gain)  # (1 but on a Stribeck drop)
-        # a slip step of a friction with state: its defect along its own path, carried through
-        # the law's slopes (coupling/path_error.py), in place of the force's divided differences
+        # a slip step of a friction with state: its defect along its own path (coupling/path_error.py)
         path = local.path
         self.estimate.recentre(  # (then centre the last ramp)
             ramp_step(point, new, h, self.history.slope, self.history.h, local.v * loop, gain)
             if path is None and self.curvature_known(point, new) else None)
+        transition = None  # (a slip step of a lubricant: carried by its own map, variational.py)
         if path is not None:
             x, v, f, new.inside_error = path
+            transition = lubricant_step(self.estimate.law, point, new, h, self.velocity_per_impulse)
             if self.passed_phase_change(point, new):  # (taken at the shortest step)
                 self.estimate.passed_event = True
         else:
@@ -444,6 +445,6 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
             v, f = local.v * loop + local.impulse, 0.0
         new.global_error = self.estimate.advance(h, 0.0 if stuck else damping, x, v,
                                                  stuck, x_scale, v_scale, stuck and point.mode.stuck, slopes,
-                                                 max(self.magnitudes.f, abs(new.f)) or math.inf, f)
+                                                 max(self.magnitudes.f, abs(new.f)) or math.inf, f, transition)
         self.estimate.watch(slopes, point.f, new.f)
         new.est_error = abs(local.v)

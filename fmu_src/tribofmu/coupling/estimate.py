@@ -25,16 +25,16 @@ the lubricant (F the force, M the block's mass, dv = V - v moving by -ev):
 
 F_dv = dF/d(dv), F_f = dF/df, g_dv = dg/d(dv), g_f = dg/df: the law's own slopes
 (:meth:`~tribofmu.physics.friction.FrictionLaw.state_jacobian`; the coupling is given the law
-with the system, ``CoupledSystem(law=...)``), taken at the step's middle
-(:meth:`GlobalErrorEstimate.state_slopes`), carried over the step by the (1,2) Pade
-approximant of the exponential (:func:`state_flow`: L-stable; the f-mode is stiff, |g_f| h up
-to 1e4). F and g are continuous in (dv, f) (the shear modulus floored at 0 is a kink, not a
-jump), so no saltation jump enters to first order. No local error of f is charged: the step's
-miss of f moves the force, which the local errors in v already charge (the impulse misses);
-f's error is the one the carry grows from ev through g_dv. Without the law (a Friction FMU of
-unknown make) the block's 2x2 carry alone, with no state term. (Until 2026-11-27 the state
-entered as an impulse, ErrorSettings.state_carry = 8, calibrated on fig6's rig, times the
-step's miss of f over the largest |f|, times the largest |F| h / M.)
+with the system, ``CoupledSystem(law=...)``). A slip step carries them along the path the
+lubricant's sub-steps take (:func:`.variational.step_transition`: the step's own map, f1 and
+F_mean against f0, dv0 and dv1, with the block's exact response to its mean force); taken
+at the step's middle instead (:meth:`GlobalErrorEstimate.state_slopes`, :func:`state_flow`,
+still the carry where the law gives no step map), the carry lost part of an error at each
+melt and re-solidification (0.35x after two periods at a rig whose errors persist, 0.02x after
+three at a cold film; 0.88x and 0.65x so: bench_carry_sensitivity.py, 2026-11-28). F and g
+are continuous in (dv, f) (the modulus floored at 0 is a kink): no saltation jump to first
+order. No local error of f is charged: its miss moves the force, which the local errors in v
+charge. Without the law (a Friction FMU of unknown make) the block's 2x2 carry alone.
 
 c may be negative: a Stribeck law's force falls as the slip grows from rest, and an error
 grows while it slips there. The slip solve measures only the size of the slope (its loop
@@ -56,17 +56,11 @@ error on Fig. 2 0.28 -> 0.78, a dry drive at omega = 3 6.1 -> 0.94, mixed fricti
 delta = 1 0.007 -> 0.88, boundary friction stuck all through 0 -> 1.0; a shear-thinning fluid
 at gamma = -0.9 65 (saturated) -> 0.74, at gamma = -0.7, M = 0.2 0.19 -> 0.81 (tol 1e-3);
 mixed friction at delta = 3, omega = 12 0.54 -> 0.97 (1e-3; 0.54 -> 1.03 at tol 1e-2).
-Boundary friction, the state's calibrated impulse -> the law's slopes (``python
-benchmarks/bench_trust.py --one-run --only boundary --tols default,1e-2,1e-4`` and ``--only
-fig6``, 2026-11-27 09:00-09:10 UTC, load 2-6): Fig. 6 3.0 -> 0.51 (per-step 1e-3), 8.3 -> 0.58
-(1e-2), 0.73 -> 0.46 (1e-4); over the 9 points' 27 runs 0.33-232 -> 0.074-9.9 but for two runs
-the linearisation cannot see (gamma = -0.3 at 1e-2, 46 % off: 0.008 -> 0.006; gamma = 0 at
-1e-2, 5.2 % off, a melt the run passed over: 1.2 -> 0.046); the solid lubricant (gamma =
--0.85, K = 2000) 50, 16, 232 -> 9.4, 4.8, 9.9; it under-reads at gamma >= 0 (0.07-0.26, where
-the calibrated weight read 1.2-2.9): the slip steps' local errors it was given had the wrong
-sign. Charged from each slip step's own path (coupling/path_error.py), with the grips inside a
-step halved and the error inside a step in the window's estimate: 0.46-2.1 over the same 27
-runs, 26 in [0.5, 10] (2026-11-27 13:55 UTC; the one below, gamma = -0.3 at 1e-4, 0.46).
+Boundary friction (``--only boundary`` and ``--only fig6`` at tols default, 1e-2, 1e-4, 27 runs):
+the state's calibrated impulse read 0.33-232x (2026-11-27 09:00 UTC); the law's slopes at the
+step's middle, each slip step charged from its own path (coupling/path_error.py), 0.46-2.1
+(13:55 UTC); the step's own map 0.74-2.0 (2026-11-28 01:26 UTC), and on ``--extra``'s drifting
+rig 0.67-0.80 and cold film 0.52-1.16, where the middle's slopes read 0.27 and 0.19-0.33.
 """
 from __future__ import annotations
 
@@ -78,7 +72,7 @@ from .interpolation import NS, velocity_slopes
 from .local_errors import RampStep, centred_ramp_miss, stiff_x_error
 from .passages import NearRunaways
 from .settings import CHECK_SETTINGS
-from .variational import state_flow
+from .variational import state_flow, step_transition
 
 # exp() of more than this overflows a float: a carry that grows past it has long saturated
 EXP_LIMIT = 700.0
@@ -197,7 +191,7 @@ class GlobalErrorEstimate:
     def advance(self, h: float, damping: float, local_x: float, local_v: float, stuck: bool,
                 x_scale: float = math.inf, v_scale: float = math.inf, stuck_through: bool = False,
                 slopes: tuple[float, float, float, float] | None = None, f_scale: float = math.inf,
-                local_f: float = 0.0) -> float:
+                local_f: float = 0.0, transition: tuple | None = None) -> float:
         """Carry the error over a step of h [s] with the friction's damping c [1/s], add the
         step's local errors (x [m], v [m/s]); returns the error in v [m/s] at its end.
         stuck: stuck at the step's end (no error in v there); stuck_through: stuck at both
@@ -214,6 +208,8 @@ class GlobalErrorEstimate:
         ef = self.ef
         if stuck_through:
             ex, ev = self.ex, 0.0
+        elif transition is not None:
+            ex, ev, ef = step_transition(h, self.w2, *transition, self.ex, self.ev, ef)
         elif slopes is not None:
             ex, ev, ef = state_flow(h, self.w2, *slopes, self.ex, self.ev, ef)
         else:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from ..physics.block import BlockState, acceleration, advance_block
 from ..physics.friction import FrictionLaw
+from ..physics.laws.boundary import KINETICS_TOL
 from .system import CALL_KINDS
 
 
@@ -100,7 +101,7 @@ class FrictionPart(InProcessSlave):
     state = ("dv", "n", "T", "f", "F_mean", "dv_previous")
 
     def __init__(self, instance: str, law: FrictionLaw, f0: float, n: float, T: float,
-                 kinetics_tol: float = 1e-5):
+                 kinetics_tol: float = KINETICS_TOL):
         super().__init__(instance)
         self.law, self.kinetics_tol = law, kinetics_tol
         self.dv, self.n, self.T = 0.0, n, T

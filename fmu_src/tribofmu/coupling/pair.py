@@ -19,6 +19,7 @@ import math
 from dataclasses import asdict, dataclass, replace
 
 from ..physics.friction import FrictionLaw
+from ..physics.laws.boundary import KINETICS_TOL
 from .base import Scales
 from .embedded import EmbeddedCoupling as AdaptiveCoupling
 from .inprocess import BlockPart, FollowedDrive, FrictionPart
@@ -39,7 +40,7 @@ class PairParameters:
     law: FrictionLaw
     f0: float
     tol: float
-    kinetics_tol: float = 1e-5  # [1] of the lubricant kinetics, as the Friction FMU's
+    kinetics_tol: float = KINETICS_TOL  # [1] of the lubricant kinetics, as the Friction FMU's
 
 
 class PairModel:

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import math
 
+from ..physics.laws.boundary import KINETICS_TOL
+
 
 # The (1,2) Pade approximant of e^z, R(z) = (1 + z/3) / (1 - 2z/3 + z^2/6), in partial fractions:
 # its poles PADE_POLE and its conjugate, 2 +- i sqrt(2), its residue at the first PADE_RESIDUE
@@ -55,3 +57,42 @@ def resolvent_solve(h: float, w2: float, c: float, p: float, q: float, r: float,
         return None
     u1 = (ev - a * ex / d0 - P * ef / d2) / pivot
     return (ex - h * u1) / d0, u1, (ef - Q * u1) / d2
+
+
+def step_transition(h: float, w2: float, velocity_per_impulse: float, sensitivities,
+                    ex: float, ev: float, ef: float) -> tuple[float, float, float]:
+    """(ex, ev, ef) carried over a slip step of h [s] by the step's own map: the lubricant's
+    sensitivities over the step (``sensitivities``: (d f1, d F_mean) each against (f0, dv0,
+    dv1), :meth:`~tribofmu.physics.laws.boundary.BoundaryLaw.step_sensitivities`, along the path
+    its sub-steps took) and the block's exact response to its mean force (the spring's flow,
+    w2 = 2K/M [1/s^2], and a force held over the step, 1/M = velocity_per_impulse). dv = V - v
+    moves by -ev; the force's dependence on the step's end makes the map implicit in ev1, one
+    division. (The variational equations at the step's middle (:func:`state_flow`) lost part
+    of an error at each melt and re-solidification, 0.35x after two periods at a rig whose
+    errors persist; this map keeps 0.9x: bench_carry_sensitivity.py.)"""
+    (f_f, f_0, f_1), (m_f, m_0, m_1) = sensitivities
+    w = math.sqrt(w2) if w2 > 0.0 else 0.0
+    if w * h > 1e-8:
+        c, s = math.cos(w * h), math.sin(w * h)
+        xx, xv, vx, vv = c, s / w, -w * s, c
+        bx, bv = (1.0 - c) / w2 * velocity_per_impulse, s / w * velocity_per_impulse
+    else:
+        xx, xv, vx, vv = 1.0, h, -w2 * h, 1.0
+        bx, bv = 0.5 * h * h * velocity_per_impulse, h * velocity_per_impulse
+    known = m_f * ef - m_0 * ev  # the mean force's change but for its end's dv
+    ev1 = (vx * ex + vv * ev + bv * known) / (1.0 + bv * m_1)
+    force = known - m_1 * ev1
+    return xx * ex + xv * ev + bx * force, ev1, f_f * ef - f_0 * ev - f_1 * ev1
+
+
+def lubricant_step(law, start, end, h: float, velocity_per_impulse: float) -> tuple | None:
+    """What :func:`step_transition` takes besides the error, for the slip step of h [s] from
+    point start to point end of a friction with state: (1/M, the law's sensitivities over the
+    step from start's f and dv to end's dv, n and T their means, at the Friction FMU's own
+    kinetics tolerance: the map the run took, its sub-steps as the FMU's); None where the law has none
+    (its melting off, a slope not finite) or the block's mass is not yet known."""
+    if velocity_per_impulse <= 0.0 or not hasattr(law, "step_sensitivities"):
+        return None
+    stepped = law.step_sensitivities(start.f, end.dv, 0.5 * (start.n + end.n), 0.5 * (start.T + end.T), h,
+                                     KINETICS_TOL, KINETICS_TOL, dv_start=start.dv)
+    return None if stepped is None else (velocity_per_impulse, stepped[2])

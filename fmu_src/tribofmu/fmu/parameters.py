@@ -13,6 +13,7 @@ from tribofmu.fmu.base import INPUT, OUTPUT, PARAMETER, positive
 from tribofmu.fmu.fmu_state import parameter_cached  # noqa: F401 (the models import it from here)
 from tribofmu.physics.block import BlockParams
 from tribofmu.physics.friction import START_F, Conditions, Effects, FrictionLaw, LubricantConstants
+from tribofmu.physics.laws.boundary import KINETICS_TOL
 from tribofmu.physics.laws import LAWS, law_fields, law_parameters, make_law, regime_problem
 from tribofmu.physics.parameters import Parameter, declared  # noqa: F401 (the models import it from here)
 
@@ -52,9 +53,7 @@ def declare_friction_parameters(slave) -> None:
     for p in _FRICTION_PARAMETERS:
         declare_parameter(slave, p, checked=p.name in _SHARED)
     declare_parameter(slave, START_F)
-    # 1e-5 is twenty times below the master's default step tolerance on the force; tighter
-    # only costs sub-steps (measured on fig6: the same nRMS(v) at 1e-5 and 1e-6)
-    slave.declare("kinetics_tol", 1e-5, PARAMETER, "1",
+    slave.declare("kinetics_tol", KINETICS_TOL, PARAMETER, "1",
                   "boundary: tolerance (absolute and relative) of eq. (21) inside a step", check=positive)
 
 

@@ -10,10 +10,17 @@ from ..friction import START_F, FrictionLaw, LubricantConstants, power_mean
 from ..parameters import declared
 from ..roots import illinois
 from ..stepsize import KINETICS_SUBSTEPS
+from .tangent import StepTangent
 
 # The sub-steps' rule (KINETICS_SUBSTEPS.factor at order 1: the defect estimate of a stiff
 # sub-step grows as its length squared), its constants bound once.
 _SUBSTEP_FACTOR = KINETICS_SUBSTEPS.factor_function(order=1)
+
+# The kinetics' tolerance (absolute and relative on f) inside a step: the Friction and TriboPair
+# FMUs' default ``kinetics_tol``, and the one the coupling's carry differentiates the step at
+# (coupling/variational.py). Twenty times below the master's default step tolerance on the
+# force; tighter only costs sub-steps (fig6: the same nRMS(v) at 1e-5 and 1e-6).
+KINETICS_TOL = 1e-5
 
 
 class BoundaryLaw(FrictionLaw):
@@ -147,7 +154,8 @@ class BoundaryLaw(FrictionLaw):
         return rate, slope, 2.0 * strain * inv_tau
 
     def advance(self, f: float, dv: float, n: float, T: float, h: float,
-                rtol: float = 1e-6, atol: float = 1e-6, dv_start: float | None = None) -> tuple[float, float]:
+                rtol: float = 1e-6, atol: float = 1e-6, dv_start: float | None = None,
+                tangent: StepTangent | None = None) -> tuple[float, float]:
         """Advance the excess volume f over a step h [s] with n, T held; returns f(t+h) and
         the mean friction force [N] over the step along the way.
 
@@ -166,6 +174,9 @@ class BoundaryLaw(FrictionLaw):
         The error of a sub-step is estimated from its defect (how far the true rate at its
         end is from the linear model's): one rate evaluation instead of step doubling's
         extra two sub-steps; sub-steps grow where f sits near its equilibrium.
+
+        tangent: a :class:`StepTangent` for this step, given each accepted sub-step to follow
+        (:meth:`step_sensitivities`); None: none (the FMUs).
         """
         dv0 = dv if dv_start is None else dv_start
         if not self.effects.melting or h <= 0.0:
@@ -176,7 +187,7 @@ class BoundaryLaw(FrictionLaw):
         s, sub, min_sub = 0.0, h, 1e-12 * h
         r0 = rate(f, dv0)
         impulse = 0.0  # N s, the force integrated over the accepted sub-steps
-        halfway = self.MAX_SUBSTEPS // 2
+        halfway, switched = self.MAX_SUBSTEPS // 2, False
         for count in range(self.MAX_SUBSTEPS):
             if s >= h:
                 return f, impulse / h
@@ -186,6 +197,7 @@ class BoundaryLaw(FrictionLaw):
                 # end value for the rest of the step, where f lands on equilibria in a few
                 # sub-steps (what the FMU did before it followed dv through the step).
                 dv0, dv_rate, r0 = dv, 0.0, rate(f, dv)
+                switched = True
             s1 = h if sub >= h - s else s + sub
             dv_s = dv0 + dv_rate * s if dv_rate else dv
             dv_s1 = dv if s1 >= h or not dv_rate else dv0 + dv_rate * s1
@@ -196,6 +208,8 @@ class BoundaryLaw(FrictionLaw):
                 # f times dv, dv linear in time: its mean is dv_s f_mean + (dv_s1 - dv_s) f_late;
                 # the viscous term integrated exactly)
                 impulse += (s1 - s) * mean_force(dv_s, dv_s1, f_mean, dv_s * f_mean + (dv_s1 - dv_s) * f_late)
+                if tangent is not None:
+                    tangent.substep(f, f1, dv_s, dv_s1, 1.0 if switched else s / h, 1.0 if switched else s1 / h, s1 - s)
                 f, r0, s = f1, r1, s1
                 # Floored: a sub-step forced through at the minimum must not shrink the next
                 # one toward zero, or s would stop advancing.
@@ -208,6 +222,41 @@ class BoundaryLaw(FrictionLaw):
             return f, impulse / h
         raise ArithmeticError(f"eq. (21) needs more than {self.MAX_SUBSTEPS} sub-steps over "
                               f"h={h} s (reached f={f} with {h - s} s left)")
+
+    def step_sensitivities(self, f: float, dv: float, n: float, T: float, h: float, rtol: float = 1e-6,
+                           atol: float = 1e-6, dv_start: float | None = None):
+        """:meth:`advance` over the step with its first-order sensitivities: (f1, F_mean [N],
+        (d f1, d F_mean) each against (f, dv_start, dv)), the derivatives of the step's own map
+        along the path its sub-steps take (:class:`StepTangent`); None where the melting is
+        off (f does not move) or a slope is not finite (a shear-thinning term at rest)."""
+        dv0 = dv if dv_start is None else dv_start
+        if not self.effects.melting or h <= 0.0:
+            return None
+        tangent = StepTangent(self, n, T)
+        f1, F_mean = self.advance(f, dv, n, T, h, rtol, atol, dv0, tangent)
+        impulse = [tangent.impulse[0], *self._viscous_mean_slopes(dv0, dv)]
+        impulse[1] += tangent.impulse[1] / h
+        impulse[2] += tangent.impulse[2] / h
+        sensitivities = (tuple(tangent.f), (tangent.impulse[0] / h, impulse[1], impulse[2]))
+        if not all(math.isfinite(value) for row in sensitivities for value in row):
+            return None
+        return f1, F_mean, sensitivities
+
+    def _viscous_mean_slopes(self, dv0: float, dv1: float) -> tuple[float, float]:
+        """d/d(dv0) and d/d(dv1) [N s/m] of the viscous term's mean along dv linear from dv0 to
+        dv1 [m/s], m (G(dv1) - G(dv0)) / (dv1 - dv0) with G(u) = |u|^(gamma+2) / (gamma+2)."""
+        if not self.effects.viscous:
+            return 0.0, 0.0
+        m, gamma = self.m, self.gamma
+        span = dv1 - dv0
+        if abs(span) <= 1e-6 * max(abs(dv0), abs(dv1)) or span == 0.0:  # (cancellation: the slope's half each)
+            middle = 0.5 * (dv0 + dv1)
+            slope = m * (gamma + 1.0) * abs(middle) ** gamma if middle != 0.0 else (math.inf if gamma < 0.0 else 0.0)
+            return 0.5 * slope, 0.5 * slope
+        p = gamma + 2.0
+        G0, G1 = abs(dv0) ** p / p, abs(dv1) ** p / p
+        g0, g1 = math.copysign(abs(dv0) ** (p - 1.0), dv0), math.copysign(abs(dv1) ** (p - 1.0), dv1)
+        return m * (G1 - G0 - g0 * span) / (span * span), m * (g1 * span - (G1 - G0)) / (span * span)
 
     def _boundary_mean_force(self, n: float):
         """:meth:`mean_force` of the boundary law for n held, as a function of (dv_start, dv,
@@ -342,3 +391,4 @@ class BoundaryLaw(FrictionLaw):
             return F_dv, F_f, 0.0, 0.0
         _, slope, rate_dv, _ = self._kinetics(n, T)
         return F_dv, F_f, rate_dv * dv, slope(f)
+

@@ -1,0 +1,64 @@
+"""The first-order sensitivities of one step of the boundary law's kinetics, followed along
+its sub-steps (:class:`StepTangent`, for :meth:`.boundary.BoundaryLaw.step_sensitivities`)."""
+from __future__ import annotations
+
+import math
+
+
+def _phis(z: float) -> tuple[float, float, float]:
+    """phi1, phi2, phi3 of z (phi_k+1 = (phi_k - 1/k!) / z; series where that cancels)."""
+    if -1e-2 < z < 1e-2:
+        return (1.0 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0)), 0.5 + z * (1.0 / 6.0 + z * (1.0 / 24.0 + z / 120.0)),
+                1.0 / 6.0 + z * (1.0 / 24.0 + z * (1.0 / 120.0 + z / 720.0)))
+    em1 = math.expm1(z)
+    phi1 = em1 / z
+    phi2 = (phi1 - 1.0) / z
+    return phi1, phi2, (phi2 - 0.5) / z
+
+
+class StepTangent:
+    """The first-order sensitivities of one :meth:`.boundary.BoundaryLaw.advance` to its inputs (f0 [1],
+    dv0 and dv1 [m/s]: f at the step's start, dv at its start and end), followed sub-step by
+    sub-step along the path f takes: over a sub-step of dt the variations move by
+
+        df' = g_f df + g_dv D(s),    dF = F_dv D(s) + F_f df,
+
+    D(s) = (0, 1 - s/h, s/h) the variation of dv (linear over the step), the slopes at the
+    sub-step's middle, in closed form with the phi functions: df(dt) = e^z df(0) + dt g_dv
+    (phi1 D0 + phi2 (D1 - D0)), its integral dt (phi1 df(0) + dt g_dv (phi2 D0 + phi3 (D1 -
+    D0))), z = g_f dt. These are the derivatives of the true flow along the computed path,
+    not a linearisation at one point: where f falls across a melt inside a step, the slopes
+    change within it, and the carry taken at the step's middle lost part of an error at each
+    melt (bench_carry_sensitivity.py). The viscous term's share of F_mean, a function of dv0
+    and dv1 alone, is differentiated in closed form (:meth:`.boundary.BoundaryLaw.step_sensitivities`)."""
+
+    def __init__(self, law, n: float, T: float):
+        self.law, self.n, self.T = law, n, T
+        self.f = [1.0, 0.0, 0.0]  # d f / d (f0, dv0, dv1) where the sub-steps have reached
+        self.impulse = [0.0, 0.0, 0.0]  # d (the elastic force's integral [N s]) / d (f0, dv0, dv1)
+
+    def substep(self, f_a: float, f_b: float, dv_a: float, dv_b: float, u_a: float, u_b: float, dt: float) -> None:
+        """Follow one accepted sub-step of dt [s] from f_a to f_b, dv from dv_a to dv_b, at the
+        fractions u_a, u_b of the step (dv's weights on dv1 there)."""
+        law = self.law
+        f_mid, dv_mid = 0.5 * (f_a + f_b), 0.5 * (dv_a + dv_b)
+        _, F_f, g_dv, g_f = law.state_jacobian(dv_mid, f_mid, self.n, self.T)
+        stiffness = 0.0  # the elastic term's slope in dv: its viscous part is the step's (closed form)
+        if law.effects.elastic:
+            mu_eff = law.lubricant.mu_shear - law.lubricant.mu_shear_bar * f_mid
+            if mu_eff > 0.0:
+                stiffness = 2.0 * law.lubricant.tau_e / law.lubricant.h * law.S * mu_eff
+        z = g_f * dt
+        if z > 700.0:  # (a runaway no sub-step this long follows: e^z overflows)
+            self.f = [math.inf, math.inf, math.inf]
+            return
+        phi1, phi2, phi3 = _phis(z)
+        e = 1.0 + z * phi1
+        D0, D1 = (0.0, 1.0 - u_a, u_a), (0.0, 1.0 - u_b, u_b)
+        moved = []
+        for k in range(3):
+            df0, d0, d1 = self.f[k], D0[k], D1[k]
+            integral = dt * (phi1 * df0 + dt * g_dv * (phi2 * d0 + phi3 * (d1 - d0)))
+            self.impulse[k] += dt * stiffness * 0.5 * (d0 + d1) + F_f * integral
+            moved.append(e * df0 + dt * g_dv * (phi1 * d0 + phi2 * (d1 - d0)))
+        self.f = moved
