@@ -33,32 +33,30 @@ class StepTangent:
     and dv1 alone, is differentiated in closed form (:meth:`.boundary.BoundaryLaw.step_sensitivities`)."""
 
     def __init__(self, law, n: float, T: float):
-        self.law, self.n, self.T = law, n, T
+        _, self.slope, self.rate_dv, _ = law._kinetics(n, T)  # (g_f of f; g_dv over dv)
+        lub = law.lubricant
+        # the elastic term 2 (mu - mu_bar f) tau_e / h S dv, where its modulus is positive
+        self.elastic = law.effects.elastic
+        self.mu, self.mu_bar, self.k = lub.mu_shear, lub.mu_shear_bar, 2.0 * lub.tau_e / lub.h * law.S
         self.f = [1.0, 0.0, 0.0]  # d f / d (f0, dv0, dv1) where the sub-steps have reached
         self.impulse = [0.0, 0.0, 0.0]  # d (the elastic force's integral [N s]) / d (f0, dv0, dv1)
 
     def substep(self, f_a: float, f_b: float, dv_a: float, dv_b: float, u_a: float, u_b: float, dt: float) -> None:
         """Follow one accepted sub-step of dt [s] from f_a to f_b, dv from dv_a to dv_b, at the
         fractions u_a, u_b of the step (dv's weights on dv1 there)."""
-        law = self.law
         f_mid, dv_mid = 0.5 * (f_a + f_b), 0.5 * (dv_a + dv_b)
-        _, F_f, g_dv, g_f = law.state_jacobian(dv_mid, f_mid, self.n, self.T)
-        stiffness = 0.0  # the elastic term's slope in dv: its viscous part is the step's (closed form)
-        if law.effects.elastic:
-            mu_eff = law.lubricant.mu_shear - law.lubricant.mu_shear_bar * f_mid
-            if mu_eff > 0.0:
-                stiffness = 2.0 * law.lubricant.tau_e / law.lubricant.h * law.S * mu_eff
-        z = g_f * dt
+        g_dv, z = self.rate_dv * dv_mid, self.slope(f_mid) * dt
+        stiffness = F_f = 0.0  # the elastic term's slopes (its viscous part: the step's, in closed form)
+        if self.elastic and self.mu - self.mu_bar * f_mid > 0.0:
+            stiffness, F_f = self.k * (self.mu - self.mu_bar * f_mid), -self.k * self.mu_bar * dv_mid
         if z > 700.0:  # (a runaway no sub-step this long follows: e^z overflows)
             self.f = [math.inf, math.inf, math.inf]
             return
         phi1, phi2, phi3 = _phis(z)
-        e = 1.0 + z * phi1
-        D0, D1 = (0.0, 1.0 - u_a, u_a), (0.0, 1.0 - u_b, u_b)
-        moved = []
-        for k in range(3):
-            df0, d0, d1 = self.f[k], D0[k], D1[k]
-            integral = dt * (phi1 * df0 + dt * g_dv * (phi2 * d0 + phi3 * (d1 - d0)))
-            self.impulse[k] += dt * stiffness * 0.5 * (d0 + d1) + F_f * integral
-            moved.append(e * df0 + dt * g_dv * (phi1 * d0 + phi2 * (d1 - d0)))
-        self.f = moved
+        e, a = 1.0 + z * phi1, dt * g_dv
+        df, impulse = self.f, self.impulse
+        # D = (0, 1 - u, u) at the sub-step's ends: f0's entry is driven by nothing but itself
+        for k, d0, d1 in ((0, 0.0, 0.0), (1, 1.0 - u_a, 1.0 - u_b), (2, u_a, u_b)):
+            integral = dt * (phi1 * df[k] + a * (phi2 * d0 + phi3 * (d1 - d0)))
+            impulse[k] += dt * stiffness * 0.5 * (d0 + d1) + F_f * integral
+            df[k] = e * df[k] + a * (phi1 * d0 + phi2 * (d1 - d0))
