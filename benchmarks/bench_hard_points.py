@@ -29,8 +29,7 @@ def smallest_steps(scenario, step_tol: float) -> tuple[float, int]:
     drive's period, and how many steps lie below 1e-6 of it."""
     from tribofmu import api
 
-    result = api._run_once(scenario, "adaptive", None, step_tol, api.find_fmus(scenario.fmus, None),
-                           api.output_samples(scenario), None, True, None, None, None, False)
+    result = api.one_run(scenario, step_tol, api.find_fmus(scenario.fmus, None), keep_points=True)
     t = [p.t_ns for p in result.points]
     steps = [(b - a) / 1e9 / scenario.drive.period for a, b in zip(t, t[1:])]
     return min(steps), sum(1 for s in steps if s < 1e-6)

@@ -63,8 +63,7 @@ def run_cases(only: str | None) -> int:
         if only is not None and only not in label:
             continue
         scenario = load_scenario(resolve_scene(scene), overrides)
-        result = api._run_once(scenario, "adaptive", None, step_tol, fmu_dir, api.output_samples(scenario),
-                               None, False, 300.0, None, None, False)
+        result = api.one_run(scenario, step_tol, fmu_dir, 300.0)
         stats = result.stats
         true = math.nan
         if scene != "boundary_heating" and result.ok:

@@ -3,9 +3,10 @@
     python benchmarks/bench_state_carry.py [--rounds 3] [--tol 1e-3]
 
 Fig. 6's run at a per-step tolerance (the first run of its default call), in one process, with
-the lubricant's error carried by the law's slopes (``GlobalErrorEstimate.state_slopes`` and
-``state_flow``) and without (the slopes withheld: the block's 2x2 carry, ``_flow``), rounds
-interleaved. Prints each run's wall and CPU time and the time spent inside those pieces (timed
+the lubricant's error carried by each slip step's own map (``map``: the law's step sensitivities,
+``coupling/variational.py`` ``lubricant_step``, the shipped carry), by the law's slopes at the
+step's middle (``middle``: ``GlobalErrorEstimate.state_slopes`` and ``state_flow``) and without
+(the slopes withheld: the block's 2x2 carry, ``_flow``), rounds interleaved. Prints each run's wall and CPU time and the time spent inside those pieces (timed
 call by call: a whole run's time moves by more than they cost on a shared machine). The runs
 take the same steps either way: the estimate does not steer a boundary run.
 """
@@ -25,7 +26,7 @@ def main() -> None:
     args = parser.parse_args()
 
     from tribofmu import api
-    from tribofmu.coupling import estimate
+    from tribofmu.coupling import embedded, estimate
     from tribofmu.fmu_cache import find_fmus
     from tribofmu.scene.library import resolve_scene
     from tribofmu.scene.scenario import load_scenario
@@ -48,23 +49,25 @@ def main() -> None:
     estimate.state_flow, carry._flow = timed("state_flow", state_flow), timed("_flow", flow)
     print(f"# bench_state_carry {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
           f"load {os.getloadavg()[0]:.1f}; fig6_boundary, per-step tol {args.tol:g}", flush=True)
-    inside = {"with": [], "without": []}
+    variants = ("map", "middle", "without")
+    inside: dict[str, list[float]] = {name: [] for name in variants}
+    step_map = embedded.lubricant_step
     for i in range(args.rounds):
-        for variant in (("with", "without") if i % 2 == 0 else ("without", "with")):
+        for variant in (variants if i % 2 == 0 else variants[::-1]):
             spent.clear()
-            carry.state_slopes = timed("state_slopes", slopes) if variant == "with" else (lambda self, *a: None)
+            carry.state_slopes = timed("state_slopes", slopes) if variant != "without" else (lambda self, *a: None)
+            embedded.lubricant_step = timed("lubricant_step", step_map) if variant == "map" else (lambda *a: None)
             wall, cpu = time.perf_counter(), time.process_time()
-            result = api._run_once(scenario, "adaptive", None, args.tol, fmu_dir, api.output_samples(scenario),
-                                   None, False, None, None, None, False)
+            result = api.one_run(scenario, args.tol, fmu_dir)
             wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
             inside[variant].append(sum(spent.values()))
             pieces = ", ".join(f"{name} {seconds * 1e3:.1f} ms" for name, seconds in sorted(spent.items()))
             print(f"{variant:8s} the state's carry: {result.stats['communication_steps']} steps, wall {wall:.3f} s, "
                   f"CPU {cpu:.3f} s; inside {pieces}", flush=True)
-    carry.state_slopes, estimate.state_flow, carry._flow = slopes, state_flow, flow
-    more = min(inside["with"]) - min(inside["without"])
-    print(f"the state's carry costs {more * 1e3:.1f} ms a run more (the fastest of each)")
-
+    carry.state_slopes, estimate.state_flow, carry._flow, embedded.lubricant_step = slopes, state_flow, flow, step_map
+    for variant in variants[:2]:
+        more = min(inside[variant]) - min(inside["without"])
+        print(f"the state's carry by {variant} costs {more * 1e3:.1f} ms a run more (the fastest of each)")
 
 if __name__ == "__main__":
     main()

@@ -308,8 +308,7 @@ def one_run(tols: list, only: str | None) -> int:
             step_tol = tol if tol is not None else (scenario.simulation.tol or api.DEFAULT_TOL)
             begin = time.perf_counter()
             # one run of the adaptive coupling, as a checked call's first run
-            result = api._run_once(scenario, "adaptive", None, step_tol, Path(fmu_dir), api.output_samples(scenario),
-                                   None, False, 300.0, None, None, False)
+            result = api.one_run(scenario, step_tol, fmu_dir, 300.0)
             wall = time.perf_counter() - begin
             true = nrms(result.time, result.v, reference.time, reference.v, scenario.window) \
                 if result.ok else float("nan")

@@ -165,6 +165,15 @@ def _scenario(scenario: Scenario | str | Path, overrides) -> Scenario:
 DEFAULT_TOL = 1e-3
 
 
+def one_run(scenario: Scenario, step_tol: float, fmu_dir: Path, max_wall: float | None = None,
+            keep_points: bool = False) -> SimulationResult:
+    """One run of the adaptive coupling at the per-step tolerance step_tol, unchecked (a checked
+    call's first run is one): for benchmarks and tests that judge a run on its own; max_wall [s]
+    its budget (None: none); keep_points: the accepted points in ``result.points``."""
+    return _run_once(scenario, "adaptive", None, step_tol, Path(fmu_dir), output_samples(scenario), None,
+                     keep_points, max_wall, None, None, False)
+
+
 def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float | None, fmu_dir: Path,
               n: int, progress, keep_points: bool, max_wall: float | None, notice, sink,
               keep_window: bool) -> SimulationResult:

@@ -3,7 +3,6 @@ such a run cannot vouch for itself, and a call does not end on it; Fig. 6's own 
 turn back near their first melt on the exact motion's side, are not held by it."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 
@@ -19,8 +18,7 @@ HOT = {"drive.omega": 11.33, "block.M": 0.9606, "block.K": 1761.0, "friction.gam
 
 def one_run(overrides, step_tol, fmu_dir):
     scenario = api.load("fig6_boundary", overrides)
-    return scenario, api._run_once(scenario, "adaptive", None, step_tol, Path(fmu_dir), api.output_samples(scenario),
-                                   None, False, 120.0, None, None, False)
+    return scenario, api.one_run(scenario, step_tol, fmu_dir, 120.0)
 
 
 def true_error(scenario, result) -> float:

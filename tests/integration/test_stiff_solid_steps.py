@@ -4,7 +4,6 @@ stall at the solve's own resolution (coupling/embedded.py ``force_resolution``; 
 "No estimate sees the solver's own resolution")."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 
@@ -20,8 +19,7 @@ def one_run(overrides, step_tol, fmu_dir, max_wall=120.0):
     """One run, unchecked, at per-step tolerance step_tol: what a checked call runs first
     (api.simulate's check repeats runs; the steps of one are what this tests)."""
     scenario = api.load("fig6_boundary", overrides)
-    return api._run_once(scenario, "adaptive", None, step_tol, Path(fmu_dir), api.output_samples(scenario),
-                         None, False, max_wall, None, None, False)
+    return api.one_run(scenario, step_tol, fmu_dir, max_wall)
 
 
 def test_a_tight_per_step_tolerance_on_the_solid_lubricant_does_not_stall(fmu_dir):

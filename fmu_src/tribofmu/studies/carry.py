@@ -66,8 +66,7 @@ def carried_error(scene: str, overrides: dict, step_tol: float, delta: float, fm
     estimate.GlobalErrorEstimate.advance = carry_alone
     embedded.EmbeddedCoupling._carry_error = logged
     try:
-        api._run_once(scenario, "adaptive", None, step_tol, fmu_dir, api.output_samples(scenario),
-                      None, False, None, None, None, False)
+        api.one_run(scenario, step_tol, fmu_dir)
     finally:
         estimate.GlobalErrorEstimate.advance = carry
         embedded.EmbeddedCoupling._carry_error = carry_error
