@@ -14,7 +14,8 @@ from tribofmu.studies.carry import carried_error
 
 pytestmark = pytest.mark.integration
 
-DRIFT = {"friction.gamma": 1.5, "drive.omega": 15.0, "block.M": 0.4}
+# (two periods of the scene's 6.5: the run and the two references stop where the test looks)
+DRIFT = {"friction.gamma": 1.5, "drive.omega": 15.0, "block.M": 0.4, "time.periods": 2.0, "time.window": [1.0, 2.0]}
 
 
 def test_an_error_in_x0_is_carried_as_the_exact_motion_carries_it_through_two_periods_of_melts(fmu_dir):
