@@ -31,10 +31,10 @@ F_mean against f0, dv0 and dv1, with the block's exact response to its mean forc
 at the step's middle instead (:meth:`GlobalErrorEstimate.state_slopes`, :func:`state_flow`,
 still the carry where the law gives no step map), the carry lost part of an error at each
 melt and re-solidification (0.35x after two periods at a rig whose errors persist, 0.02x after
-three at a cold film; 0.88x and 0.65x so: bench_carry_sensitivity.py, 2026-11-28). F and g
-are continuous in (dv, f) (the modulus floored at 0 is a kink): no saltation jump to first
-order. No local error of f is charged: its miss moves the force, which the local errors in v
-charge. Without the law (a Friction FMU of unknown make) the block's 2x2 carry alone.
+three at a cold film; 0.96-1.0x and 0.35x so: bench_carry_sensitivity.py, 2026-11-28). F, g
+continuous in (dv, f) (the floored modulus is a kink): no saltation jump to first order. No
+local error of f is charged (its miss moves the force, which the local errors in v charge).
+Without the law (a Friction FMU of unknown make), the block's 2x2 carry alone.
 
 c may be negative: a Stribeck law's force falls as the slip grows from rest, and an error
 grows while it slips there. The slip solve measures only the size of the slope (its loop
@@ -59,8 +59,9 @@ mixed friction at delta = 3, omega = 12 0.54 -> 0.97 (1e-3; 0.54 -> 1.03 at tol 
 Boundary friction (``--only boundary`` and ``--only fig6`` at tols default, 1e-2, 1e-4, 27 runs):
 the state's calibrated impulse read 0.33-232x (2026-11-27 09:00 UTC); the law's slopes at the
 step's middle, each slip step charged from its own path (coupling/path_error.py), 0.46-2.1
-(13:55 UTC); the step's own map 0.74-2.0 (2026-11-28 01:26 UTC), and on ``--extra``'s drifting
-rig 0.67-0.80 and cold film 0.52-1.16, where the middle's slopes read 0.27 and 0.19-0.33.
+(13:55 UTC); the step's own map 0.74-2.0, ``--extra``'s drifting rig 0.67-0.80 and cold film
+0.52-1.16 (0.27, 0.19-0.33 before; its kinetics at 1e-6, 2026-11-28 01:26 UTC; at 1e-5, shipped,
+the trust list's 60 first runs 0.61-1.9, 02:28 UTC).
 """
 from __future__ import annotations
 
@@ -133,11 +134,9 @@ def carry_needs_verification(law) -> bool:
     lose part of an error at each (bench_carry_sensitivity.py: 0.35x after two periods at
     gamma = 1.5, omega = 15, M = 0.4, whose call at tol 1e-2 said ok 9.8 % off, 2026-11-27;
     0.02x after three at a cold film, said ok at 2.4x tol). The boundary law gives its steps'
-    own map (coupling/variational.py step_transition), which keeps 0.96-1.0x and 0.65x there:
-    its runs stand on their own estimates (no silent miss and none out of band in 105 calls:
-    the trust list's and ``--extra``'s boundary points at tol 1e-2, the default and 1e-4, random
-    seeds 906-908 at 1e-2 and the default; ``bench_trust.py`` with this rule, 2026-11-28
-    01:30-01:58 UTC)."""
+    own map (coupling/variational.py step_transition), which keeps 0.96-1.0x and 0.35x there:
+    its runs stand on their own estimates (none silent or out of band in 161 calls: the trust
+    list, --extra's boundary points, seeds 906-909; bench_trust.py, 2026-11-28 01:30-02:28)."""
     return law.has_state and not hasattr(law, "step_sensitivities")
 
 
