@@ -187,3 +187,39 @@ def test_the_propagated_method_says_the_lubricants_motion_is_carried_where_the_l
     assert "the block's and the lubricant's linearised motion" in method(law_class("boundary")())
     assert "carried through the block's linearised motion" in method(law_class("dry")())  # no state
     assert "carried through the block's linearised motion" in method(None)  # a Friction FMU of unknown make
+
+
+@pytest.mark.parametrize("h", [1e-4, 3e-4, 1e-3])
+def test_a_step_map_of_constant_slopes_is_the_variational_flow_to_third_order(h):
+    """step_transition with the sensitivities of a linear law (f relaxing at rate r toward
+    -q/r dv, F = c M dv + p M f, dv linear over the step, the mean force's slopes a step's
+    trapezoid and the f row the exact flow of that model) against e^(A h) of the variational
+    equations: the map is their midpoint-implicit step, off by O(h^3) per step."""
+    from tribofmu.coupling.variational import step_transition
+
+    w2, c, p, q, r, M = 4.0e4, 30.0, 2.0, 50.0, -400.0, 0.5
+    e = np.array([1e-6, 2e-5, 3e-3])
+    exact = expm(matrix(w2, c, p, q, r) * h) @ e
+    # f1 of the model over the step differentiated by hand (dv linear); F_mean's slopes by the
+    # trapezoid (its f term from f's ends: second order, as the map is)
+    z = r * h
+    f_f, f_0, f_1 = math.exp(z), q / r * (math.exp(z) - (math.exp(z) - 1.0) / z), q / r * ((math.exp(z) - 1.0) / z - 1.0)
+    m_f, m_0, m_1 = p * M * (1.0 + f_f) / 2.0, c * M / 2.0 + p * M * f_0 / 2.0, c * M / 2.0 + p * M * f_1 / 2.0
+    carried = np.array(step_transition(h, w2, 1.0 / M, ((f_f, f_0, f_1), (m_f, m_0, m_1)), *e))
+    scale = np.abs(exact)
+    # (with the implicit share of the end's dv dropped, v is off 1.5e-3 at h = 1e-4: caught)
+    assert np.all(np.abs(carried - exact) <= 0.01 * (h / 1e-3) ** 2 * scale + 1e-12), (carried, exact)
+
+
+def test_the_viscous_means_slopes_meet_the_middles_where_the_span_cancels():
+    """BoundaryLaw._viscous_mean_slopes: a span of dv below eps^(1/3) of it takes the middle's
+    slope, half each; just above it the closed form gives the same to its own accuracy."""
+    from tribofmu.physics.laws.boundary import BoundaryLaw
+
+    law = BoundaryLaw(m=0.05, gamma=0.5, S=3e-9)
+    dv = 2e-3
+    middle = 0.05 * 1.5 * dv ** 0.5
+    for span in (1e-9, 1e-5, 1e-3):
+        a, b = law._viscous_mean_slopes(dv, dv * (1.0 + span))
+        assert a + b == pytest.approx(middle, rel=max(2.0 * span, 1e-9)), span
+        assert a == pytest.approx(b, rel=max(2.0 * span, 1e-9))

@@ -69,7 +69,7 @@ def step_transition(h: float, w2: float, velocity_per_impulse: float, sensitivit
     moves by -ev; the force's dependence on the step's end makes the map implicit in ev1, one
     division. (The variational equations at the step's middle (:func:`state_flow`) lost part
     of an error at each melt and re-solidification, 0.35x after two periods at a rig whose
-    errors persist; this map keeps 0.9x: bench_carry_sensitivity.py.)"""
+    errors persist; this map keeps 0.96-1.0x: bench_carry_sensitivity.py.)"""
     (f_f, f_0, f_1), (m_f, m_0, m_1) = sensitivities
     w = math.sqrt(w2) if w2 > 0.0 else 0.0
     if w * h > 1e-8:

@@ -6,6 +6,8 @@ advanced inside a step by exponential Rosenbrock-Euler sub-steps (:meth:`Boundar
 from __future__ import annotations
 
 import math
+import sys
+
 from ..friction import START_F, FrictionLaw, LubricantConstants, power_mean
 from ..parameters import declared
 from ..roots import illinois
@@ -21,6 +23,11 @@ _SUBSTEP_FACTOR = KINETICS_SUBSTEPS.factor_function(order=1)
 # (coupling/variational.py). Twenty times below the master's default step tolerance on the
 # force; tighter only costs sub-steps (fig6: the same nRMS(v) at 1e-5 and 1e-6).
 KINETICS_TOL = 1e-5
+
+# Below this span of dv over a step (relative to |dv|), the viscous mean's slopes in closed form
+# lose more to cancellation (eps / r^2: their numerators are of order span^2) than the middle's
+# slope misses them by (r): the two balance at r = eps^(1/3).
+_CANCELLATION = sys.float_info.epsilon ** (1.0 / 3.0)
 
 
 class BoundaryLaw(FrictionLaw):
@@ -234,10 +241,9 @@ class BoundaryLaw(FrictionLaw):
             return None
         tangent = StepTangent(self, n, T)
         f1, F_mean = self.advance(f, dv, n, T, h, rtol, atol, dv0, tangent)
-        impulse = [tangent.impulse[0], *self._viscous_mean_slopes(dv0, dv)]
-        impulse[1] += tangent.impulse[1] / h
-        impulse[2] += tangent.impulse[2] / h
-        sensitivities = (tuple(tangent.f), (tangent.impulse[0] / h, impulse[1], impulse[2]))
+        viscous0, viscous1 = self._viscous_mean_slopes(dv0, dv)  # (the elastic term's: the tangent's)
+        elastic = tangent.impulse
+        sensitivities = (tuple(tangent.f), (elastic[0] / h, elastic[1] / h + viscous0, elastic[2] / h + viscous1))
         if not all(math.isfinite(value) for row in sensitivities for value in row):
             return None
         return f1, F_mean, sensitivities
@@ -249,7 +255,7 @@ class BoundaryLaw(FrictionLaw):
             return 0.0, 0.0
         m, gamma = self.m, self.gamma
         span = dv1 - dv0
-        if abs(span) <= 1e-6 * max(abs(dv0), abs(dv1)) or span == 0.0:  # (cancellation: the slope's half each)
+        if abs(span) <= _CANCELLATION * max(abs(dv0), abs(dv1)) or span == 0.0:  # (the middle's slope, half each)
             middle = 0.5 * (dv0 + dv1)
             slope = m * (gamma + 1.0) * abs(middle) ** gamma if middle != 0.0 else (math.inf if gamma < 0.0 else 0.0)
             return 0.5 * slope, 0.5 * slope
@@ -391,4 +397,3 @@ class BoundaryLaw(FrictionLaw):
             return F_dv, F_f, 0.0, 0.0
         _, slope, rate_dv, _ = self._kinetics(n, T)
         return F_dv, F_f, rate_dv * dv, slope(f)
-
