@@ -164,7 +164,7 @@ class CheckSequence:
         self.ahead = max(step_tol / (ESTIMATE_SAFETY / STEP_CONTROL.safety) ** 1.5, MIN_STEP_TOL) if vouches else None
         # (result, own error, per-step tolerance) of the last run that vouched: the next one's is
         # checked against it. verify: a run that vouches ends the call only once a second one's
-        # estimate agrees (a friction with state: its events can move the rest of a run unseen)
+        # estimate agrees (a law with state and no step map: estimate.carry_needs_verification)
         self.own_previous = None
         self.verify = verify
 
