@@ -202,7 +202,8 @@ class GlobalErrorEstimate:
         the spring (carried as a free block's, it fell 3x over a stick where the true error
         stayed put: mixed friction, delta = 1). slopes: a friction with state's
         (:meth:`state_slopes`): the error (ex, ev, ef) is carried by its variational equations
-        (:func:`state_flow`) instead, with their c in place of damping.
+        (:func:`state_flow`) instead, with their c in place of damping; transition (1/M and a
+        lubricant slip step's sensitivities, variational.lubricant_step): by its own map instead.
 
         The carried error saturates at the motion's own size (x_scale [m], v_scale [m/s], and
         f_scale [1] for f): a linearised carry is meaningless past it (a stiff spring whose
