@@ -119,3 +119,15 @@ def test_a_lubricant_that_cannot_melt_has_no_step_sensitivities():
     law = BoundaryLaw(m=0.05, gamma=0.5, S=3e-9, effects=Effects(melting=False))
     assert law.step_sensitivities(0.5, 1e-3, -1e6, 290.0, 1e-3, dv_start=2e-3) is None
     assert BoundaryLaw(m=0.05, gamma=0.5, S=3e-9).step_sensitivities(0.5, 1e-3, -1e6, 290.0, 1e-3) is not None
+
+
+def test_a_law_that_gives_a_step_map_has_state_and_the_map():
+    """FrictionLaw.gives_step_map: the coupling carries such a law's steps by step_sensitivities
+    and does not verify its runs (coupling/estimate.py carry_needs_verification); a law that
+    says so has state and the method, and the boundary law is one."""
+    from tribofmu.physics.laws import LAWS
+
+    giving = [law for law in LAWS.values() if law.gives_step_map]
+    assert [law.name for law in giving] == ["boundary"]
+    for law in giving:
+        assert law.has_state and callable(getattr(law, "step_sensitivities", None))

@@ -130,14 +130,14 @@ def carry_needs_verification(law) -> bool:
     """Whether a run of friction ``law`` that vouches for itself (:func:`carry_problem` None) is
     to be verified by a second run's estimate before a call ends on it (checked.py
     CheckSequence): a law with an internal state whose steps the carry can take only by its
-    slopes at their middles (no ``step_sensitivities``). Its melting and re-solidifying then
+    slopes at their middles (not ``law.gives_step_map``). Its melting and re-solidifying then
     lose part of an error at each (bench_carry_sensitivity.py: 0.35x after two periods at
     gamma = 1.5, omega = 15, M = 0.4, whose call at tol 1e-2 said ok 9.8 % off, 2026-11-27;
     0.02x after three at a cold film, said ok at 2.4x tol). The boundary law gives its steps'
     own map (coupling/variational.py step_transition), which keeps 0.96-1.0x and 0.35x there:
     its runs stand on their own estimates (none silent or out of band in 161 calls: the trust
     list, --extra's boundary points, seeds 906-909; bench_trust.py, 2026-11-28 01:30-02:28)."""
-    return law.has_state and not hasattr(law, "step_sensitivities")
+    return law.has_state and not law.gives_step_map
 
 
 class GlobalErrorEstimate:

@@ -94,7 +94,7 @@ def lubricant_step(law, start, end, h: float, velocity_per_impulse: float) -> tu
     +25 % where this costs +14 %, and keeps 0.65x of an error after three periods at a cold
     film where this keeps 0.35x: bench_carry_sensitivity.py, 2026-11-28); None where the law has none
     (its melting off, a slope not finite) or the block's mass is not yet known."""
-    if velocity_per_impulse <= 0.0 or not hasattr(law, "step_sensitivities"):
+    if velocity_per_impulse <= 0.0 or law is None or not law.gives_step_map:
         return None
     stepped = law.step_sensitivities(start.f, end.dv, 0.5 * (start.n + end.n), 0.5 * (start.T + end.T), h,
                                      KINETICS_TOL, KINETICS_TOL, dv_start=start.dv)

@@ -100,6 +100,9 @@ class FrictionLaw:
     keys: ClassVar[frozenset[str]] = frozenset()  # the friction.* scene keys it reads
     sticks: ClassVar[bool] = False  # set-valued at dv = 0: holds the blocks up to static_limit
     has_state: ClassVar[bool] = False  # carries the lubricant's excess volume f (advance moves it)
+    # a law with state that gives each step's own map (step_sensitivities): the coupling's carry
+    # follows its steps by it (coupling/variational.py), and its runs need no second to verify them
+    gives_step_map: ClassVar[bool] = False
     constant_slip_force: ClassVar[bool] = False  # slip force fixed by the load alone (closed-form slip)
     # How a figure states the load: "L" [N], "n" [Pa], or None: the law does not read n.
     load_shown_as: ClassVar[str | None] = None

@@ -37,6 +37,7 @@ class BoundaryLaw(FrictionLaw):
     name, code, label = "boundary", 2, "boundary friction"
     keys = frozenset({"S", "m", "gamma", START_F.name} | {p.name for p in declared(LubricantConstants)})
     has_state = True
+    gives_step_map = True  # (step_sensitivities)
     load_shown_as = "n"
     reads_temperature = True
 
