@@ -31,7 +31,8 @@ from .api_arguments import (SCENE_MAX_WALL, arguments, check_flag, check_overrid
                             check_run_arguments, refuse)
 from .errors import ArgumentError, FMUError, FMUSetupError  # noqa: F401 (FMUSetupError re-exported)
 from .coupling.algorithms import Scales, make_algorithm
-from .coupling.estimate import WindowError, carry_needs_verification, carry_problem
+from .coupling.estimate import carry_needs_verification, carry_problem
+from .coupling.window_error import WindowError
 from .coupling.interpolation import INPUT_SIGNALS, NS, SAMPLES_PER_PERIOD, SIGNALS
 from .coupling.system import CoupledSystem
 from .master import FMUCallError, FMUFileError, FMUInstance, GridRecorder, RunLimits, run

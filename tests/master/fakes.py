@@ -325,7 +325,7 @@ def mixed_rig_estimate(overrides: dict, tol: float) -> tuple[float, float]:
     import numpy as np
 
     from tribofmu.coupling.algorithms import AdaptiveCoupling
-    from tribofmu.coupling.estimate import WindowError
+    from tribofmu.coupling.window_error import WindowError
     from tribofmu.coupling.interpolation import sample
     from tribofmu.master import run
     from tribofmu.physics import MixedLaw

@@ -9,7 +9,8 @@ from scipy.integrate import quad
 from scipy.linalg import expm
 
 from tribofmu.coupling.algorithms import AdaptiveCoupling
-from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError
+from tribofmu.coupling.estimate import GlobalErrorEstimate
+from tribofmu.coupling.window_error import WindowError
 from tribofmu.coupling.system import Contact
 from tribofmu.physics import FluidLaw
 

@@ -6,7 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError, chord_damping
+from tribofmu.coupling.estimate import GlobalErrorEstimate, chord_damping
+from tribofmu.coupling.window_error import WindowError
 from tribofmu.coupling.local_errors import stick_onset_x_error
 from tribofmu.coupling.interpolation import NS, sample
 from tribofmu.coupling.system import Contact, Point

@@ -177,7 +177,8 @@ def test_the_propagated_method_says_the_lubricants_motion_is_carried_where_the_l
     from types import SimpleNamespace
 
     from tribofmu import api
-    from tribofmu.coupling.estimate import GlobalErrorEstimate, WindowError
+    from tribofmu.coupling.estimate import GlobalErrorEstimate
+    from tribofmu.coupling.window_error import WindowError
     from tribofmu.physics.laws import law_class
 
     def method(law) -> str:
