@@ -33,6 +33,7 @@ from .errors import ArgumentError, FMUError, FMUSetupError  # noqa: F401 (FMUSet
 from .coupling.algorithms import Scales, make_algorithm
 from .coupling.estimate import carry_needs_verification, carry_problem
 from .coupling.window_error import WindowError
+from .coupling.settings import CHECK_SETTINGS, STEP_CONTROL
 from .coupling.interpolation import INPUT_SIGNALS, NS, SAMPLES_PER_PERIOD, SIGNALS
 from .coupling.system import CoupledSystem
 from .master import FMUCallError, FMUFileError, FMUInstance, GridRecorder, RunLimits, run
@@ -131,9 +132,12 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
     fmu_dir = Path(fmu_dir)
     budget = (sim.max_wall if max_wall == SCENE_MAX_WALL else max_wall) or None
 
-    def run_once(step_tol=None, max_wall=budget, sink=sink, progress=progress, notice=notice):
+    global_tol = tol if tol is not None else DEFAULT_TOL
+
+    def run_once(step_tol=None, max_wall=budget, sink=sink, progress=progress, notice=notice, aim=False):
+        # aim: the run steers its per-step tolerance to meet tol on the window (coupling/lead_in.py)
         return _run_once(scenario, name, step, step_tol, fmu_dir, n, progress, keep_points, max_wall,
-                         notice, sink, keep_window)
+                         notice, sink, keep_window, global_tol if aim else None)
 
     def load_fmus():
         """Once, before the check's runs are forked: what a process does the first time it opens
@@ -149,7 +153,7 @@ def simulate(scenario: Scenario | str | Path, overrides: dict[str, Any] | list[s
         return run_once(step_tol=None)
     vouches = own_estimate_problem(scenario, inputs_vary(scenario)) is None
     verify = vouches and "Friction" in scenario.fmus and carry_needs_verification(scenario.friction.law())
-    return checked_simulation(run_once, tol if tol is not None else DEFAULT_TOL, budget, sink, workers=workers,
+    return checked_simulation(run_once, global_tol, budget, sink, workers=workers,
                               progress=progress, notice=notice, prepare=load_fmus, vouches=vouches,
                               verify=verify)
 
@@ -177,9 +181,14 @@ def one_run(scenario: Scenario, step_tol: float, fmu_dir: Path, max_wall: float 
 
 def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float | None, fmu_dir: Path,
               n: int, progress, keep_points: bool, max_wall: float | None, notice, sink,
-              keep_window: bool) -> SimulationResult:
-    """One run of the coupling ``name`` at the per-step tolerance ``step_tol`` (adaptive)."""
+              keep_window: bool, aim: float | None = None) -> SimulationResult:
+    """One run of the coupling ``name`` at the per-step tolerance ``step_tol`` (adaptive); aim:
+    the global tol its window is to meet, which its per-step tolerance may tighten for once
+    (coupling/lead_in.py; None: the tolerance is fixed)."""
     coupling = make_algorithm(name, step=step, tol=step_tol)
+    asked_tol = coupling.tol
+    if aim is not None and name == "adaptive":
+        coupling.aim_window(scenario.window[0], STEP_CONTROL.safety * aim / CHECK_SETTINGS.estimate_safety)
     grid = np.linspace(0.0, scenario.stop_time, n + 1)
     keep = None
     if keep_window:
@@ -214,7 +223,9 @@ def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float
     grid = grid[first:first + len(signals["v"])]  # the kept part of the grid the run reached
     adaptive = name == "adaptive"
     stats = {"algorithm": coupling.name, "step": coupling.step_ns / NS if not adaptive else None,
-             "tol": coupling.tol if adaptive else None, "step_tol": coupling.tol if adaptive else None,
+             "tol": asked_tol if adaptive else None, "step_tol": asked_tol if adaptive else None,
+             # (the per-step tolerance the run ended at: tighter where it aimed at its window)
+             "window_step_tol": coupling.tol if adaptive else None,
              "ok": outcome.ok, "completed": outcome.ok, "out_of_time": outcome.out_of_time,
              "message": outcome.message,
              "wall_time": outcome.wall_time,

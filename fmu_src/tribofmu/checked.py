@@ -19,16 +19,20 @@ One run where one is enough: where a run's own carried estimate vouches for it (
 holds for the scene: coupling/estimate.py ``carry_problem``), the run is reported alone with
 ESTIMATE_SAFETY times that estimate as its error when that meets tol, and otherwise the next run
 is planned from it (:meth:`CheckSequence._own_tightening`) and stands on its own estimate in turn.
+The first such run aims at the window: a drive period before it, its per-step tolerance may
+tighten once, as its own carried error asks (coupling/lead_in.py); the next run is planned
+from the tolerance it ended at.
 """
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any, Callable
 
 import numpy as np
 
+from .check_report import advice, method_text
 from .coupling.passages import undecided
 from .coupling.settings import CHECK_SETTINGS, LIMITS, MAX_ORDER, RESOLUTION, STEP_CONTROL
 from .forked_runs import ForkedRuns, InlineRuns, check_workers, cpu_seconds
@@ -131,11 +135,10 @@ class RunRecord:
     communication_steps: int
     completed: bool
     fmu_calls_total: int
+    window_step_tol: float | None = None  # the per-step tolerance it ended at (coupling/lead_in.py)
 
     def as_dict(self) -> dict[str, Any]:
-        return {"step_tol": self.step_tol, "wall_time": self.wall_time,
-                "communication_steps": self.communication_steps, "completed": self.completed,
-                "fmu_calls_total": self.fmu_calls_total}
+        return asdict(self)
 
 
 class CheckSequence:
@@ -156,15 +159,13 @@ class CheckSequence:
         # the pair being formed is expected to meet tol: nothing runs ahead of it. A first run that
         # vouches is (dry friction lands at 0.2-0.3 tol at a per-step tol of tol: checked_simulation)
         self.expected_to_meet = vouches
-        # the per-step tolerance of the run started ahead of a first run that vouches: where the
-        # plan sends its successor if its reported error (ESTIMATE_SAFETY x its estimate) is its
-        # per-step tolerance, at the order of ramped slip steps (p = 2: 2/3); taken where the plan
-        # lands up to a check ratio looser, or a little tighter where the plan still expects it
-        # to meet tol (add). None: none (a scene whose runs do not vouch, or once passed)
+        # the per-step tolerance of the run started ahead of a first run that vouches: where the plan
+        # sends its successor if its reported error (ESTIMATE_SAFETY x its estimate) is its per-step
+        # tolerance, at the order of ramped slip steps (p = 2: 2/3); taken as _plan_from_own says.
+        # None: none (a scene whose runs do not vouch, or once passed)
         self.ahead = max(step_tol / (ESTIMATE_SAFETY / STEP_CONTROL.safety) ** 1.5, MIN_STEP_TOL) if vouches else None
-        # (result, own error, per-step tolerance) of the last run that vouched: the next one's is
-        # checked against it. verify: a run that vouches ends the call only once a second one's
-        # estimate agrees (a law with state and no step map: estimate.carry_needs_verification)
+        # (result, own error, per-step tolerance) of the last run that vouched, the next one's checked
+        # against it. verify: a vouching run ends the call once a second agrees (carry_needs_verification)
         self.own_previous = None
         self.verify = verify
 
@@ -210,6 +211,9 @@ class CheckSequence:
 
     def add(self, result) -> bool:
         """Take the next run's (completed) result; True when the sequence ends with it."""
+        window = result.stats.get("window_step_tol")
+        if window is not None and window < self.step_tol:  # it tightened for its window: planned from there on
+            self.step_tol = window
         own, previous, verify = self._agreement(vouched_error(result), result)
         error = self._error(result, own, previous, verify)
         undecided = near_melt(result)
@@ -354,7 +358,8 @@ def checked_simulation(run_once: Callable[..., Any], tol: float, max_wall: float
                 held[id(result)] = spool  # closed with the rest unless the run is kept
             sequence.records.append(RunRecord(sequence.step_tol, result.stats["wall_time"],
                                               result.stats["communication_steps"], result.ok,
-                                              result.stats.get("fmu_calls_total", 0)))
+                                              result.stats.get("fmu_calls_total", 0),
+                                              result.stats.get("window_step_tol")))
             if not result.ok:
                 if sequence.best is None or not result.stats.get("out_of_time"):
                     runs.close()
@@ -399,13 +404,13 @@ def _finish(result, difference: float | None, sequence: CheckSequence, began: tu
         return result
     stats["estimated_error"] = {
         "nrms_v": difference if checked else None,
-        "method": _method(checked, sequence),
+        "method": method_text(checked, sequence, stats),
         "propagated": own.get("nrms_v"),  # the run's own linearised estimate, for comparison
         "vouches": bool(own.get("vouches")), "near_melt": own.get("near_melt"),  # (coupling/passages.py)
         "order": own.get("order"),  # the power of the per-step tol its error is expected to fall at
     }
     stats["tolerance_met"] = bool(met)
-    stats["warnings"] = [] if met else [_advice(difference if checked else None, tol, records, limit,
+    stats["warnings"] = [] if met else [advice(difference if checked else None, tol, records, limit,
                                                       "estimated" if sequence.own else "checked")]
     result.ok = bool(met)
     stats["ok"] = result.ok
@@ -416,35 +421,3 @@ def _finish(result, difference: float | None, sequence: CheckSequence, began: tu
     if sink is not None and spool is not None:
         spool.replay(sink)
     return result
-
-
-def _method(checked: bool, sequence: CheckSequence) -> str:
-    """How the reported error was made, for stats.json."""
-    if checked and sequence.own:
-        runs = len(sequence.records)
-        before = ("" if runs == 1 else f"; it is run {runs} of {runs}, each after the first planned from the "
-                  "estimate of the one before, which had missed tol or, meeting it, was to be verified by "
-                  "the next")
-        return (f"own: the run's carried estimate of its error (coupling/estimate.py) times {ESTIMATE_SAFETY:g}; "
-                "it vouches for the run here (its derivation holds: the friction a function of dv alone "
-                "whose slope is bounded, a shear-thinning fluid's, or a lubricant's whose state's error the "
-                f"law's slopes carry), so the run was not repeated{before}")
-    if not checked:
-        return f"not checked: {sequence.limit} before the run could be repeated at a tighter tolerance"
-    order = sequence.order
-    how = (f"p = {MIN_ORDER:g}, the slowest convergence allowed for" if order is None else
-           f"p = {order:.2g}, the order this run and the two looser ones before it showed, times "
-           f"{ESTIMATE_SAFETY:g}, and at most the estimate at p = {MIN_ORDER:g}")
-    return ("checked: the run was repeated at a per-step tolerance "
-            f"{CHECK_RATIO:g}x tighter and the two compared on the window (Shampine's rule); the "
-            f"tighter run is reported, with their difference over {CHECK_RATIO:g}^p - 1 as its error ({how})")
-
-
-def _advice(difference: float | None, tol: float, records: list[RunRecord], limit: str, kind: str) -> str:
-    spent = sum(r.wall_time for r in records)
-    if difference is None:
-        return (f"tolerance {tol:g} not checked: {limit} after {len(records)} run(s) ({spent:.0f} s); "
-                f"loosen --tol{', or raise --max-wall' if 'budget' in limit else ''}")
-    return (f"tolerance {tol:g} not met: the {kind} nRMS(v) is {difference:.2g} after {len(records)} "
-            f"runs ({spent:.0f} s, per-step tolerance down to {records[-1].step_tol:.2g}; {limit}); "
-            f"loosen --tol{', or raise --max-wall' if 'budget' in limit else ''}")

@@ -105,10 +105,11 @@ class InlineRuns:
         self.stopped = 0  # runs started and not asked for (none here)
 
     def take(self, step_tol: float, max_wall: float | None, then: float | None = None, here: bool = False):
-        """The run at ``step_tol`` and its spool (then, here: ignored, nothing runs ahead)."""
+        """The run at ``step_tol`` and its spool (then: ignored, nothing runs ahead; here: the
+        call's first run, which vouches for itself, aims at the window: run_once's ``aim``)."""
         spool = self.make_spool()
         try:
-            result = self.run_once(step_tol=step_tol, max_wall=max_wall, sink=spool)
+            result = self.run_once(step_tol=step_tol, max_wall=max_wall, sink=spool, **({"aim": True} if here else {}))
         except BaseException:
             if spool is not None:
                 spool.close()
@@ -156,11 +157,12 @@ class ForkedRuns:
         a free worker starts ``then``, the run the sequence asks for next if it goes on as a
         chain. Runs the sequence has passed by are stopped. here: the run at ``step_tol`` is
         most likely the last (one that vouches for itself): where nothing runs yet, it runs in
-        this process and only ``then`` in a child (a fork for it would only cost)."""
+        this process and only ``then`` in a child (a fork for it would only cost), and aims at
+        the window (run_once's ``aim``: coupling/lead_in.py)."""
         for child in [c for c in self.children if not _same(c.step_tol, step_tol) and not _same(c.step_tol, then)]:
             self._stop(child)
         if then is None and not self.children:  # nothing to run beside it: a fork would only cost
-            return InlineRuns(self.run_once, self.make_spool).take(step_tol, max_wall)
+            return InlineRuns(self.run_once, self.make_spool).take(step_tol, max_wall, here=here)
         if here and then is not None and not self.children:
             return self._here_then_ahead(step_tol, then, max_wall)
         wanted = self._find(step_tol) or self._start(step_tol, max_wall)
@@ -208,7 +210,7 @@ class ForkedRuns:
 
         spool = self.make_spool()
         try:
-            result = self.run_once(step_tol=step_tol, max_wall=max_wall, sink=spool, progress=progress)
+            result = self.run_once(step_tol=step_tol, max_wall=max_wall, sink=spool, progress=progress, aim=True)
         except BaseException:
             if spool is not None:
                 spool.close()

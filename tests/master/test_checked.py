@@ -37,7 +37,7 @@ class FakeRuns:
     def __init__(self, error, fail_at=None, sleep=None):
         self.error, self.fail_at, self.calls = error, fail_at, []
 
-    def __call__(self, step_tol=None, max_wall=None, sink=None, progress=None, notice=None):
+    def __call__(self, step_tol=None, max_wall=None, sink=None, progress=None, notice=None, aim=False):
         self.calls.append((step_tol, max_wall))
         t = np.linspace(0.0, 2.0, 201)
         v = np.sin(3 * t) + self.error(step_tol) * np.cos(7 * t)
@@ -476,3 +476,46 @@ def test_two_runs_a_check_ratio_apart_agree_only_where_the_tighter_estimate_cove
                                       FakeRuns(lambda step_tol: 0.0)(result.stats["step_tol"]))
     if result.ok:
         assert truth <= 1e-3 and result.stats["estimated_error"]["nrms_v"] >= 0.5 * truth
+
+
+class AimingRuns(VouchingRuns):
+    """VouchingRuns whose run asked to aim (run_once's ``aim``, the call's first) tightens its
+    per-step tolerance by ``factor`` for its window, as coupling/lead_in.py does: its errors,
+    true and own, are those of the tolerance it ended at."""
+
+    def __init__(self, error, own, factor):
+        super().__init__(error, own)
+        self.factor, self.aimed = factor, []
+
+    def __call__(self, step_tol=None, aim=False, **kwargs):
+        self.aimed.append(aim)
+        window = step_tol * (self.factor if aim else 1.0)
+        result = super().__call__(window, **kwargs)
+        self.calls[-1] = (step_tol, self.calls[-1][1])
+        result.stats["step_tol"], result.stats["window_step_tol"] = step_tol, window
+        return result
+
+
+def test_only_the_first_run_aims_at_its_window_and_the_next_is_planned_from_where_it_ended():
+    """The call's first run (one that vouches) may tighten for its window; where it still misses
+    tol, the next run is planned from the tolerance its window ran at, not the one it was asked
+    for (planned from the asked one, it would land the factor's share of the way too loose), and
+    runs at a fixed tolerance (a run's estimate is that of one tolerance)."""
+    runs = AimingRuns(power_law(3.0), own=power_law(3.0), factor=0.5)  # own 1.5e-3 after the aim: missed
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, vouches=True)
+    tols = [c[0] for c in runs.calls]
+    assert runs.aimed == [True] + [False] * (len(tols) - 1)
+    window = 0.5e-3
+    # from the window's 1.5e-3 at MAX_ORDER: the factor aimed at the step rule's safety x tol
+    planned = window / max(checked.CHECK_RATIO, checked.ESTIMATE_SAFETY * 3.0 * window / (0.9 * 1e-3))
+    assert tols[1] == pytest.approx(planned) and tols[1] < window / checked.CHECK_RATIO
+    assert result.ok and len(tols) == 2
+    assert result.stats["check"]["runs"][0]["window_step_tol"] == pytest.approx(window)
+
+
+def test_a_first_run_that_aimed_and_meets_tol_ends_the_call_and_says_it_tightened():
+    runs = AimingRuns(power_law(0.5), own=power_law(0.5), factor=0.25)  # own 1.25e-4 after the aim
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, vouches=True)
+    assert len(runs.calls) == 1 and result.ok
+    method = result.stats["estimated_error"]["method"]
+    assert method.startswith("own") and "tightened from 0.001 to 0.00025" in method and "lead_in" in method

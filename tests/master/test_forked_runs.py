@@ -82,7 +82,7 @@ class TimedVouchingRuns(VouchingRuns):
         super().__init__(error, own=own, order=order)
         self.wall_time = wall_time
 
-    def __call__(self, step_tol=None, max_wall=None, sink=None, progress=None, notice=None):
+    def __call__(self, step_tol=None, max_wall=None, sink=None, progress=None, notice=None, aim=False):
         if progress is not None:
             progress(RunProgress(t=1.0, stop_time=2.0, steps=5, rejected=0, wall_time=self.wall_time))
         return super().__call__(step_tol, max_wall=max_wall, sink=sink, progress=progress, notice=notice)

@@ -40,6 +40,9 @@ class PacedCoupling:
     def prepare(self, system, scales):
         pass
 
+    def observe(self, points):
+        pass
+
     def advance(self, system, point, stop_ns):
         self.clock.now += self.cost(point.t_ns / NS)
         self.counters.steps += 1

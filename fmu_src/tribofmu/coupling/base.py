@@ -58,6 +58,10 @@ class CouplingAlgorithm(ABC):
         """Called once before the first step with the problem's scales."""
         self.scales = scales
 
+    def observe(self, points: list[Point]) -> None:
+        """The points the run accepted from the last :meth:`advance`, in order (an error-controlled
+        coupling may steer its tolerance by them: coupling/controlled.py); nothing here."""
+
     @abstractmethod
     def advance(self, system: CoupledSystem, point: Point, stop_ns: int) -> list[Point]:
         """Advance from point toward stop_ns; returns the accepted points (may be empty)."""

@@ -13,6 +13,7 @@ from .base import Magnitudes
 from .estimate import GlobalErrorEstimate
 from .implicit import ImplicitCoupling, LoopState
 from .interpolation import NS, hermite_first_below
+from .lead_in import LeadIn
 from .local_errors import dense_output_miss
 from .settings import LIMITS, RESOLUTION
 from .system import CoupledSystem, Point, States
@@ -45,6 +46,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
     step_granularity = 1
     carried = ControlledState
     state_names = tuple(field.name for field in fields(ControlledState))
+    aim: tuple[float, float] | None = None  # (window start [s], its budget): see aim_window
 
     def prepare(self, system, scales):
         super().prepare(system, scales)
@@ -57,6 +59,30 @@ class ErrorControlledCoupling(ImplicitCoupling):
         self.magnitudes = Magnitudes()
         self.rejected_last = False  # the last step was rejected (its successor may not grow)
         self.accepted_error = 1.0  # the last accepted step's error ratio (the controller's PI term)
+        self.lead_in = LeadIn(self.aim[0], scales.period, self.aim[1]) if self.aim is not None else None
+
+    def aim_window(self, window_start: float, budget: float) -> None:
+        """Before the run: the shown window opens at window_start [s] and is to meet budget
+        (nRMS(v)); the per-step tolerance may tighten once, a drive period before it, as the
+        run's own carried error asks (coupling/lead_in.py). Without it the tolerance is fixed."""
+        self.aim = (window_start, budget)
+
+    def observe(self, points: list[Point]) -> None:
+        """The run's newly accepted points (after each advance): where the run aims at a window
+        (:meth:`aim_window`), its lead-in marks the carry and, at its decision, tightens the
+        per-step tolerance for the rest of the run."""
+        lead_in = self.lead_in
+        if lead_in is None:
+            return
+        for p in points:
+            old = self.estimate.old[1] if self.estimate.old is not None else 0.0
+            stage = lead_in.observe(p.t_ns / NS, p.global_error, old, p.v)
+            if stage == "mark":
+                self.estimate.mark()
+            elif stage == "decide":
+                self.tol = max(self.tol * lead_in.factor(self.convergence_order() or 1.0), RESOLUTION.min_step_tol)
+                self.lead_in = None
+                return
 
     def export_state(self) -> dict:
         state = super().export_state()

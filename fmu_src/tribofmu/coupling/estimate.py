@@ -161,14 +161,18 @@ class GlobalErrorEstimate:
         self.passed_event = False
         # the passages near a melt the run did not take (coupling/passages.py)
         self.near_runaways = NearRunaways(self.law, CHECK_SETTINGS.estimate_safety) if self.law is not None else None
+        # (ex, ev, ef) of the error carried since :meth:`mark`, with no local error added since:
+        # how the error made before then decays (coupling/lead_in.py); None: not marked
+        self.old: tuple[float, float, float] | None = None
 
     def export(self) -> list:
         """What a state snapshot carries of it (JSON-ready): ex, ev, w2, the last ramp, ef, and
         what the run so far says of its own estimate (saturated, passed_event, the passages
-        near a melt): a run restored to a snapshot reports as if it had never gone past it."""
+        near a melt), and the error carried since the mark: a run restored to a snapshot
+        reports as if it had never gone past it."""
         passages = self.near_runaways.export() if self.near_runaways is not None else None
         return [self.ex, self.ev, self.w2, asdict(self.ramp) if self.ramp is not None else None, self.ef,
-                self.saturated, self.passed_event, passages]
+                self.saturated, self.passed_event, passages, list(self.old) if self.old is not None else None]
 
     def restore(self, values: list) -> None:
         """Back to what :meth:`export` gave (or its first three, from a snapshot without a ramp;
@@ -181,6 +185,13 @@ class GlobalErrorEstimate:
             self.saturated, self.passed_event = values[5], values[6]
             if self.near_runaways is not None and values[7] is not None:
                 self.near_runaways.restore(values[7])
+        if len(values) > 8:
+            self.old = tuple(values[8]) if values[8] is not None else None
+
+    def mark(self) -> None:
+        """From here on, also carry the error as it is now without the local errors to come
+        (:attr:`old`): what the steps before this point leave in the run later."""
+        self.old = (self.ex, self.ev, self.ef)
 
     def observe(self, x: float, a: float, F: float, velocity_per_impulse: float, x_floor: float) -> None:
         """Learn w2 from a point: a = F/M - w2 x, with 1/M the block's velocity per unit impulse
@@ -208,15 +219,10 @@ class GlobalErrorEstimate:
         f_scale [1] for f): a linearised carry is meaningless past it (a stiff spring whose
         2K/M the block's answers give only roughly would otherwise let it grow without bound,
         as would a friction whose slope is negative)."""
-        ef = self.ef
-        if stuck_through:
-            ex, ev = self.ex, 0.0
-        elif transition is not None:
-            ex, ev, ef = step_transition(h, self.w2, *transition, self.ex, self.ev, ef)
-        elif slopes is not None:
-            ex, ev, ef = state_flow(h, self.w2, *slopes, self.ex, self.ev, ef)
-        else:
-            ex, ev = self._flow(h, damping)
+        if self.old is not None:  # (the same motion, no local errors: nothing to flag)
+            ox, ov, of = self._carried(h, damping, stuck_through, slopes, transition, *self.old)
+            self.old = (_saturated(ox, x_scale), 0.0 if stuck else _saturated(ov, v_scale), _saturated(of, f_scale))
+        ex, ev, ef = self._carried(h, damping, stuck_through, slopes, transition, self.ex, self.ev, self.ef)
         ex, ev, ef = ex + local_x, ev + local_v, ef + local_f
         self.ex = _saturated(ex, x_scale)
         self.ev = 0.0 if stuck else _saturated(ev, v_scale)
@@ -269,9 +275,21 @@ class GlobalErrorEstimate:
             self.ex += stiff_x_error(dv, last.h, last.gain, True)
             self.ev += dv
 
-    def _flow(self, h: float, c: float) -> tuple[float, float]:
+    def _carried(self, h: float, damping: float, stuck_through: bool, slopes, transition,
+                 ex: float, ev: float, ef: float) -> tuple[float, float, float]:
+        """The error (ex, ev, ef) carried over the step as :meth:`advance` describes, no local
+        error added."""
+        if stuck_through:
+            return ex, 0.0, ef
+        if transition is not None:
+            return step_transition(h, self.w2, *transition, ex, ev, ef)
+        if slopes is not None:
+            return state_flow(h, self.w2, *slopes, ex, ev, ef)
+        return (*self._flow(h, damping, ex, ev), ef)
+
+    def _flow(self, h: float, c: float, ex: float, ev: float) -> tuple[float, float]:
         """exp(A h) (ex, ev) for A = [[0, 1], [-w2, -c]], in closed form."""
-        w2, ex, ev = self.w2, self.ex, self.ev
+        w2 = self.w2
         root = cmath.sqrt(0.25 * c * c - w2)
         l1, l2 = -0.5 * c + root, -0.5 * c - root
         if abs(l1 - l2) <= 1e-9 * (abs(l1) + abs(l2)) or abs(l1 - l2) * h < 1e-9:

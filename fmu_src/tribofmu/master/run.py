@@ -262,6 +262,7 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
                 recorder.add(p)
             if not new:
                 continue
+            algorithm.observe(new)
             h_ns = new[-1].t_ns - current.t_ns if len(new) == 1 else new[-1].t_ns - new[-2].t_ns
             current = new[-1]
             wall = _time.perf_counter() - begin
