@@ -241,12 +241,14 @@ def main(argv=None) -> int:
             row = {"point": label, "tol": asked, "tol_given": tol, "reported": reported, "true": true,
                    "propagated": result.stats["estimated_error"].get("propagated"),
                    "ok": result.ok, "warned": bool(result.stats.get("warnings")), "wall": wall,
-                   "step_tols": [r["step_tol"] for r in result.stats.get("check", {}).get("runs", [])]}
+                   "step_tols": [r["step_tol"] for r in result.stats.get("check", {}).get("runs", [])],
+                   # (where a run tightened for its window, coupling/lead_in.py: the tolerance it ended at)
+                   "window_step_tols": [r.get("window_step_tol") for r in result.stats.get("check", {}).get("runs", [])]}
             rows.append(row)
             ratio = reported / true if reported and true else float("nan")
             print(f"{label:32s} {asked:7.0e} {reported if reported is not None else float('nan'):9.2e} "
                   f"{true:9.2e} {ratio:8.2f} {str(result.ok):>5s} {wall:7.1f}  "
-                  f"{', '.join(f'{s:.2g}' for s in row['step_tols'])}", flush=True)
+                  f"{', '.join(_tols(s, w) for s, w in zip(row['step_tols'], row['window_step_tols']))}", flush=True)
     silent = [r for r in rows if r["true"] > 3 * r["tol"] and r["ok"]]
     off = [r for r in rows if r["ok"] and r["reported"] and not (
         0.5 <= r["reported"] / r["true"] <= 10 or max(r["reported"], r["true"]) < r["tol"] / 10)]
@@ -268,6 +270,11 @@ def main(argv=None) -> int:
     if args.out:
         Path(args.out).write_text(json.dumps(rows, indent=2) + "\n")
     return 0
+
+
+def _tols(asked: float, window: float | None) -> str:
+    """A run's per-step tolerance, and the one it tightened to for its window (a > b)."""
+    return f"{asked:.2g}" + (f">{window:.2g}" if window is not None and window < asked else "")
 
 
 def trusted_reference(scenario, label: str):

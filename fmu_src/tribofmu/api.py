@@ -171,12 +171,13 @@ DEFAULT_TOL = 1e-3
 
 
 def one_run(scenario: Scenario, step_tol: float, fmu_dir: Path, max_wall: float | None = None,
-            keep_points: bool = False) -> SimulationResult:
+            keep_points: bool = False, aim: float | None = None) -> SimulationResult:
     """One run of the adaptive coupling at the per-step tolerance step_tol, unchecked (a checked
     call's first run is one): for benchmarks and tests that judge a run on its own; max_wall [s]
-    its budget (None: none); keep_points: the accepted points in ``result.points``."""
+    its budget (None: none); keep_points: the accepted points in ``result.points``; aim: the
+    global tol it aims its window at, as a call's first run does (coupling/lead_in.py; None: none)."""
     return _run_once(scenario, "adaptive", None, step_tol, Path(fmu_dir), output_samples(scenario), None,
-                     keep_points, max_wall, None, None, False)
+                     keep_points, max_wall, None, None, False, aim)
 
 
 def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float | None, fmu_dir: Path,
@@ -226,6 +227,7 @@ def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float
              "tol": asked_tol if adaptive else None, "step_tol": asked_tol if adaptive else None,
              # (the per-step tolerance the run ended at: tighter where it aimed at its window)
              "window_step_tol": coupling.tol if adaptive else None,
+             "lead_in": getattr(coupling, "lead_in_decision", None),  # (coupling/lead_in.py; None: none made)
              "ok": outcome.ok, "completed": outcome.ok, "out_of_time": outcome.out_of_time,
              "message": outcome.message,
              "wall_time": outcome.wall_time,

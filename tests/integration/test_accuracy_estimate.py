@@ -81,6 +81,18 @@ def test_the_hard_points_meet_a_loose_tol_or_say_they_did_not(fmu_dir, name, ove
     assert result.ok, result.message
 
 
+def test_a_film_that_forgets_its_error_meets_the_default_in_one_run_tightened_for_its_window(fmu_dir):
+    """Fig. 6's rig at T = 300 K (no scene's): its first run's error at per-step tol would read
+    about 2x the budget, and the motion forgets an error (d ~ 0.4 a period): the run tightens a
+    period before the window (coupling/lead_in.py) and the call ends on it, honest."""
+    true, result = run_against_reference(fmu_dir, "fig6_boundary", {"conditions.T": 300.0})
+    assert_honest(true, result)
+    runs = result.stats["check"]["runs"]
+    assert result.ok and true <= 1e-3 and len(runs) == 1, runs
+    assert runs[0]["window_step_tol"] < runs[0]["step_tol"] == 1e-3
+    assert "lead_in" in result.stats["estimated_error"]["method"] and result.stats["lead_in"]["factor"] < 1.0
+
+
 def test_a_tighter_tol_gives_a_smaller_error_in_proportion(fmu_dir):
     """A tol ladder at an off-scene point: nRMS(v)/tol within [0.03, 1.5] on each rung."""
     overrides = {"drive.omega": 25.0, "block.M": 0.8}

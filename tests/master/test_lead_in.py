@@ -46,6 +46,9 @@ def test_an_error_the_motion_forgets_tightens_the_tolerance_to_what_the_window_l
     order = 2.0 / 3.0
     expected = (math.sqrt(budget ** 2 - (now * decay) ** 2) / now) ** (1.0 / order)
     assert lead_in.factor(order) == pytest.approx(expected, rel=1e-12) and lead_in.factor(order) < 0.15
+    decision = lead_in.decision(order)
+    assert decision["factor"] == lead_in.factor(order) and decision["decay_per_period"] == decay
+    assert decision["left_over_budget"] == pytest.approx(now * decay / budget)
 
 
 @pytest.mark.parametrize("whole, old, why", [
@@ -64,6 +67,7 @@ def test_a_window_that_opens_within_two_and_a_half_periods_has_no_lead_in():
     assert not lead_in.applies
     assert feed(lead_in, lambda t: 1.0, lambda s, e: 0.0) == {}
     assert lead_in.factor(1.0) == 1.0
+    assert lead_in.decision(1.0)["decay_per_period"] is None  # (nothing measured: stats.json takes no nan)
 
 
 def fluid_run(omega, aim_budget=None, tol=1e-3, periods=5.0, window_start=3.5):

@@ -60,6 +60,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
         self.rejected_last = False  # the last step was rejected (its successor may not grow)
         self.accepted_error = 1.0  # the last accepted step's error ratio (the controller's PI term)
         self.lead_in = LeadIn(self.aim[0], scales.period, self.aim[1]) if self.aim is not None else None
+        self.lead_in_decision = None  # what the lead-in measured and decided (LeadIn.decision), once it has
 
     def aim_window(self, window_start: float, budget: float) -> None:
         """Before the run: the shown window opens at window_start [s] and is to meet budget
@@ -80,7 +81,8 @@ class ErrorControlledCoupling(ImplicitCoupling):
             if stage == "mark":
                 self.estimate.mark()
             elif stage == "decide":
-                self.tol = max(self.tol * lead_in.factor(self.convergence_order() or 1.0), RESOLUTION.min_step_tol)
+                self.lead_in_decision = lead_in.decision(self.convergence_order() or 1.0)
+                self.tol = max(self.tol * self.lead_in_decision["factor"], RESOLUTION.min_step_tol)
                 self.lead_in = None
                 return
 

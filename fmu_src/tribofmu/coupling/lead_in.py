@@ -99,3 +99,12 @@ class LeadIn:
             return 1.0
         return (math.sqrt(self.budget ** 2 - left ** 2) / now) ** (1.0 / order)
 
+
+    def decision(self, order: float) -> dict:
+        """What was measured and decided, for stats.json: the error now and what is left of it as
+        the window opens, each over the budget, d, the run's order and the factor (None where a
+        measure is not finite: stats.json is JSON)."""
+        values = {"error_now_over_budget": self.now / self.budget, "decay_per_period": self.decay,
+                  "left_over_budget": self.now * self.decay / self.budget, "order": order,
+                  "factor": self.factor(order)}
+        return {key: value if math.isfinite(value) else None for key, value in values.items()}
