@@ -82,8 +82,14 @@ class ErrorControlledCoupling(ImplicitCoupling):
             if stage == "mark":
                 self.estimate.mark()
             elif stage == "decide":
-                self.lead_in_decision = lead_in.decision(self.convergence_order() or 1.0)
-                self.tol = max(self.tol * self.lead_in_decision["factor"], RESOLUTION.min_step_tol)
+                order = self.convergence_order() or 1.0
+                self.lead_in_decision = lead_in.decision(order)
+                factor = max(self.lead_in_decision["factor"], RESOLUTION.min_step_tol / self.tol)
+                self.tol *= factor
+                # the next step as the controller would size it for the new tolerance: a step of
+                # order p is ~tol^(1/(p + 1)) long, and the run's order p/(p + 1) gives 1/(p + 1)
+                g = self.step_granularity
+                self.h_ns = max(int(self.h_ns * factor ** (1.0 - order)) // g * g, self.min_ns)
                 self.lead_in = None
                 return
 
