@@ -60,8 +60,8 @@ Boundary friction (``--only boundary`` and ``--only fig6`` at tols default, 1e-2
 the state's calibrated impulse read 0.33-232x (2026-11-27 09:00 UTC); the law's slopes at the
 step's middle, each slip step charged from its own path (coupling/path_error.py), 0.46-2.1
 (13:55 UTC); the step's own map 0.74-2.0, ``--extra``'s drifting rig 0.67-0.80 and cold film
-0.52-1.16 (0.27, 0.19-0.33 before; its kinetics at 1e-6, 2026-11-28 01:26 UTC; at 1e-5, shipped,
-the trust list's 60 first runs 0.61-1.9, 02:28 UTC).
+0.52-1.16 (0.27, 0.19-0.33 before; its kinetics at 1e-6, 2026-11-28 01:26 UTC; at 1e-5 the cold
+film read 0.25-0.48, so the map's pass runs at 1e-6: RESOLUTION.map_kinetics_tol).
 """
 from __future__ import annotations
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 
-from ..physics.laws.boundary import KINETICS_TOL
+from .settings import RESOLUTION
 
 
 # The (1,2) Pade approximant of e^z, R(z) = (1 + z/3) / (1 - 2z/3 + z^2/6), in partial fractions:
@@ -88,14 +88,12 @@ def step_transition(h: float, w2: float, velocity_per_impulse: float, sensitivit
 def lubricant_step(law, start, end, h: float, velocity_per_impulse: float) -> tuple | None:
     """What :func:`step_transition` takes besides the error, for the slip step of h [s] from
     point start to point end of a friction with state: (1/M, the law's sensitivities over the
-    step from start's f and dv to end's dv, n and T their means), at the FMUs' own kinetics
-    tolerance: against central differences on the thirty hardest steps of a Fig. 6 run its
-    sensitivities are within 3.6 % (0.67 % at a tolerance of 1e-6, which costs a Fig. 6 run
-    +25 % where this costs +14 %, and keeps 0.65x of an error after three periods at a cold
-    film where this keeps 0.35x: bench_carry_sensitivity.py, 2026-11-28); None where the law has none
-    (its melting off, a slope not finite) or the block's mass is not yet known."""
+    step from start's f and dv to end's dv, n and T their means), its kinetics at
+    ``RESOLUTION.map_kinetics_tol`` (a tenth of the FMUs' own: coupling/settings.py says why);
+    None where the law has none (its melting off, a slope not finite) or the block's mass is
+    not yet known."""
     if velocity_per_impulse <= 0.0 or law is None or not law.gives_step_map:
         return None
     stepped = law.step_sensitivities(start.f, end.dv, 0.5 * (start.n + end.n), 0.5 * (start.T + end.T), h,
-                                     KINETICS_TOL, KINETICS_TOL, dv_start=start.dv)
+                                     RESOLUTION.map_kinetics_tol, RESOLUTION.map_kinetics_tol, dv_start=start.dv)
     return None if stepped is None else (velocity_per_impulse, stepped[2])
