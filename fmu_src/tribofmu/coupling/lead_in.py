@@ -67,11 +67,8 @@ class LeadIn:
         "decide" when :meth:`factor` is ready, else None."""
         if not self.applies or self.stage >= len(self.times):
             return None
-        if self.stage in (1, 3) and self.last is not None:  # inside a measured half period
-            t0, w0, o0 = self.last
-            self.squares[0] += (t - t0) * (w0 * w0 + w0 * whole + whole * whole) / 3.0
-            self.squares[1] += (t - t0) * (o0 * o0 + o0 * old + old * old) / 3.0
-            self.v_max = max(self.v_max, abs(v))
+        if self.stage in (1, 3):  # inside a measured half period
+            self._add(t, whole, old, v)
         self.last = (t, whole, old)
         if t < self.times[self.stage]:
             return None
@@ -87,6 +84,14 @@ class LeadIn:
             self.decay = old_rms / self.before if self.before > 0.0 else math.nan
             return "decide"
         return None
+
+    def _add(self, t: float, whole: float, old: float, v: float) -> None:
+        """The squares' integrals from the last point to this one (linear between points)."""
+        if self.last is not None:
+            t0, w0, o0 = self.last
+            self.squares[0] += (t - t0) * (w0 * w0 + w0 * whole + whole * whole) / 3.0
+            self.squares[1] += (t - t0) * (o0 * o0 + o0 * old + old * old) / 3.0
+        self.v_max = max(self.v_max, abs(v))
 
     def factor(self, order: float) -> float:
         """The factor (<= 1) on the per-step tolerance for the steps from the decision on, the
