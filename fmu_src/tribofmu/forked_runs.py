@@ -195,12 +195,19 @@ class ForkedRuns:
         half of it still to go: the run ahead can gain no more than what remains of this one,
         and a fork costs the parent its copied pages while the child lives and the kernel's
         teardown of them when it is stopped (Fig. 2's call, 0.12 s: 18 % more wall time with its
-        run ahead started at once, 2026-11-27)."""
+        run ahead started at once, 2026-11-27). Once the run here tightens its tolerance for its
+        window (its progress says so: coupling/lead_in.py), it is planned to meet tol, and as for
+        a pair so planned nothing runs ahead of it (CheckSequence.then): the run ahead is
+        stopped, or never started."""
         told = self.progress
         started = [False]
         self._prepare = None  # (the run here opens the FMUs, before the child is forked)
 
         def progress(report) -> None:
+            if report.step_tol is not None and report.step_tol < step_tol:
+                started[0] = True
+                for child in list(self.children):
+                    self._stop(child)
             if not started[0] and report.wall_time >= PROGRESS_EVERY_S:
                 started[0] = True  # (decided once, at the first report's time)
                 if report.fraction <= 0.5:

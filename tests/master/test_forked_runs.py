@@ -11,6 +11,8 @@ import sys
 import textwrap
 import time
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -109,6 +111,45 @@ def test_a_scene_whose_runs_vouch_runs_the_first_here_and_its_successor_ahead(ow
     assert np.array_equal(one.v, two.v) and two.ok and one.ok
     assert len(runs.calls) == here  # (a forked run's call is not recorded here)
     assert two.stats["check"]["workers"] == 2 and two.stats["check"]["runs_stopped_unused"] == stopped
+    assert leftovers() == before
+
+
+class TighteningRuns(TimedVouchingRuns):
+    """TimedVouchingRuns whose aiming run tightens its tolerance for its window after its first
+    progress report (the run ahead started by then) and tells so in the next, as a run whose
+    lead-in decided does (coupling/lead_in.py); its errors are the tightened tolerance's."""
+
+    def __call__(self, step_tol=None, max_wall=None, sink=None, progress=None, notice=None, aim=False):
+        window = step_tol / 4.0 if aim else step_tol
+        if progress is not None:
+            progress(RunProgress(t=0.8, stop_time=2.0, steps=4, rejected=0, wall_time=self.wall_time,
+                                 step_tol=step_tol))
+            time.sleep(0.2)  # (the child ahead has started)
+            self.children_before = child_processes()
+            progress(RunProgress(t=1.2, stop_time=2.0, steps=6, rejected=0, wall_time=self.wall_time,
+                                 step_tol=window))
+            self.children_after = child_processes()
+        result = VouchingRuns.__call__(self, window, max_wall=max_wall, sink=sink, notice=notice)
+        result.stats["step_tol"], result.stats["window_step_tol"] = step_tol, window
+        return result
+
+
+def child_processes() -> set[int]:
+    """This process's live children (Linux's /proc)."""
+    pid = os.getpid()
+    return {int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()}
+
+
+def test_a_first_run_that_tightens_for_its_window_stops_the_run_ahead_of_it():
+    """Tightened, the run here is planned to meet tol: the run ahead, started before its
+    decision, is stopped then (its CPU is not spent), and the call ends on the one run."""
+    before = leftovers()
+    own = power_law(0.5)  # 5e-4 at 1e-3: past tol with the margin; 1.25e-4 tightened: met
+    runs = TighteningRuns(own, own=own, wall_time=2 * forked_runs.PROGRESS_EVERY_S)
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, workers=2, vouches=True)
+    assert result.ok and len(result.stats["check"]["runs"]) == 1 and len(runs.calls) == 1
+    assert result.stats["check"]["runs_stopped_unused"] == 1
+    assert runs.children_before and not runs.children_after  # stopped at the decision, not at the end
     assert leftovers() == before
 
 

@@ -33,6 +33,9 @@ class RunProgress:
     steps: int  # accepted communication steps so far
     rejected: int  # rejected (rolled-back) steps so far
     wall_time: float  # s since the run started
+    # the run's per-step tolerance now: tighter than asked once its lead-in tightened it for its
+    # window (coupling/lead_in.py); None: a coupling without one
+    step_tol: float | None = None
 
     @property
     def fraction(self) -> float:
@@ -268,7 +271,8 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
             wall = _time.perf_counter() - begin
             c = algorithm.counters
             if progress is not None:
-                progress(RunProgress(current.t_ns / NS, stop_ns / NS, c.steps, c.rejected, wall))
+                progress(RunProgress(current.t_ns / NS, stop_ns / NS, c.steps, c.rejected, wall,
+                                     getattr(algorithm, "tol", None)))
             pace.judge(wall, current.t_ns, lambda: f"step now {h_ns / NS:.3g} s, {c.steps} steps and "
                                                    f"{c.rejected} rejections so far")
     except FMUCallError as exc:
