@@ -60,7 +60,8 @@ class ErrorControlledCoupling(ImplicitCoupling):
         self.magnitudes = Magnitudes()
         self.rejected_last = False  # the last step was rejected (its successor may not grow)
         self.accepted_error = 1.0  # the last accepted step's error ratio (the controller's PI term)
-        self.lead_in = LeadIn(self.aim[0], scales.period, self.aim[1]) if self.aim is not None else None
+        lead_in = LeadIn(self.aim[0], scales.period, self.aim[1]) if self.aim is not None else None
+        self.lead_in = lead_in if lead_in is not None and lead_in.applies else None  # (none: nothing to follow)
         self.lead_in_decision = None  # what the lead-in measured and decided (LeadIn.decision), once it has
 
     def aim_window(self, window_start: float, budget: float) -> None:

@@ -30,13 +30,17 @@ window meets tol as it is, and the call's next run is planned from this run's es
 tolerance only ever tightens. Half periods are measured because one stroke of the drive holds
 a whole swing of the motion: the same phase, a period apart, compares like with like.
 
-Measured on Fig. 6's rig (`benchmarks/bench_trust.py --one-run`, 2026-11-28): d = 0.4. Boundary
-films at other viscous exponents and a dilatant fluid give d = 0.94-1.0, and their tolerance
-stays. Dry and Newtonian rigs give 0.006-0.1 and are already within budget.
+Measured (``benchmarks/bench_lead_in.py``, the trust list at the default tol, 2026-11-28): Fig. 6's
+rig d = 0.40, what is left 0.75 of the budget, the tolerance tightened 0.21x. Boundary films at
+other viscous exponents give d = 0.66-0.82 and a dilatant fluid 0.72, with what is left 2.9-5.8
+budgets: their tolerance stays. Dry, Newtonian and shear-thinning rigs are within budget as
+they are.
 """
 from __future__ import annotations
 
 import math
+
+from .window_error import linear_square_integral
 
 # the stages, in drive periods T before the window: measure the whole error for half a period
 # up to the mark, mark, then measure the whole and the old error for the half period up to the
@@ -89,8 +93,8 @@ class LeadIn:
         """The squares' integrals from the last point to this one (linear between points)."""
         if self.last is not None:
             t0, w0, o0 = self.last
-            self.squares[0] += (t - t0) * (w0 * w0 + w0 * whole + whole * whole) / 3.0
-            self.squares[1] += (t - t0) * (o0 * o0 + o0 * old + old * old) / 3.0
+            self.squares[0] += linear_square_integral(w0, whole, t - t0)
+            self.squares[1] += linear_square_integral(o0, old, t - t0)
         self.v_max = max(self.v_max, abs(v))
 
     def factor(self, order: float) -> float:

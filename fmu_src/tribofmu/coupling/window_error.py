@@ -30,6 +30,12 @@ def fourth_derivative(jerk: float, h: float, other_jerk: float, other_h: float) 
     return abs(jerk - other_jerk) / (0.5 * (h + other_h))
 
 
+def linear_square_integral(a: float, b: float, length: float) -> float:
+    """The integral of the square of a quantity moving linearly from a to b over length: the
+    exact length (a^2 + a b + b^2) / 3."""
+    return length * (a * a + a * b + b * b) / 3.0
+
+
 def bubble_square(u: float) -> float:
     """The integral of (u (1 - u))^2 from 0 to u (1/30 at u = 1)."""
     return u ** 3 / 3.0 - u ** 4 / 2.0 + u ** 5 / 5.0
@@ -108,7 +114,7 @@ class WindowError:
         # the carried error moves linearly between points: the exact integral of its square
         a = e0 + (e1 - e0) * (lo - t0) / (t1 - t0)
         b = e0 + (e1 - e0) * (hi - t0) / (t1 - t0)
-        square = (hi - lo) * (a * a + a * b + b * b) / 3.0
+        square = linear_square_integral(a, b, hi - lo)
         h = t1 - t0
         if fourth:
             peak = fourth * h ** 4 / 24.0  # the interpolant misses by peak u^2 (1 - u)^2, u = s / h
