@@ -2,8 +2,8 @@
 step-size bounds, the motion's magnitudes the errors are measured against, the global error
 estimate, the accept / reject / land bookkeeping, where a slip step would pass over a stick
 (:func:`grazing_crossing`, which the step then lands on), and for a run that aims at its
-window, the one tightening of its tolerance its lead-in decides (coupling/lead_in.py). The adaptive coupling
-(coupling/embedded.py) estimates its errors on top of it."""
+window, the one tightening of its tolerance its lead-in decides (coupling/lead_in.py). The
+adaptive coupling (coupling/embedded.py) estimates its errors on top of it."""
 from __future__ import annotations
 
 import math

@@ -58,7 +58,7 @@ class LeadIn:
         self.applies = self.times[0] >= 0.0
         self.budget = budget
         self.stage = 0  # the next of times to reach
-        self.last = None  # (t, whole, old) of the last point inside a measured half period
+        self.last = None  # (t, whole, old) of the last point observed (a measured half period integrates from it)
         self.squares = [0.0, 0.0]  # [(m/s)^2 s] the whole and old error's squares over it
         self.v_max = 0.0  # [m/s] over the measured half period
         self.before = math.nan  # [m/s] the whole error's RMS over the half period up to the mark
@@ -102,18 +102,22 @@ class LeadIn:
         run's error expected to fall as the per-step tolerance to the power order; 1 where the
         measure is not finite, the window meets the budget as it is, or what is left of the
         steps before reaches it (see the module's docstring)."""
-        now, left = self.now, self.now * self.decay
+        now, left = self.now, self.left
         if not (math.isfinite(now) and math.isfinite(left)) or now <= self.budget or left >= self.budget \
                 or order <= 0.0:
             return 1.0
         return (math.sqrt(self.budget ** 2 - left ** 2) / now) ** (1.0 / order)
 
+    @property
+    def left(self) -> float:
+        """[1] What the steps before the decision leave as the window opens: d times the error now."""
+        return self.now * self.decay
 
     def decision(self, order: float) -> dict:
         """What was measured and decided, for stats.json: the error now and what is left of it as
         the window opens, each over the budget, d, the run's order and the factor (None where a
         measure is not finite: stats.json is JSON)."""
         values = {"error_now_over_budget": self.now / self.budget, "decay_per_period": self.decay,
-                  "left_over_budget": self.now * self.decay / self.budget, "order": order,
+                  "left_over_budget": self.left / self.budget, "order": order,
                   "factor": self.factor(order)}
         return {key: value if math.isfinite(value) else None for key, value in values.items()}
