@@ -21,10 +21,13 @@ class StepLog:
     which a restore replays: the same calls from the same state, so the same state to the bit
     (an FMU is deterministic). A slave the coupling saves at every point and restores at few
     (a block whose answers are predicted steps once a point, after its step is kept; the drive
-    of a rejected try) needs a real save every m points only: a checkpoint every m saves costs
-    1/m a save, a restore about m/2 steps replayed and one save more (the restored state
-    becomes a checkpoint: a second restore of it is one call), so m = 1/sqrt(r) where r is the
-    slave's restores per save so far (1 before any save: a real save at every point).
+    of a rejected try) needs a real save every m points only. A checkpoint every m saves costs
+    1/m of a save a point; a restore costs one call and replays (m - 1)/2 steps on average, c
+    calls each (a doStep, and a set where the steps set inputs); with r restores a save, the
+    calls a point, 1/m + r (1 + c (m - 1)/2), are fewest at m = sqrt(2 / (r c)), r the slave's
+    restores per save so far (1 before any save: a real save at every point). A replayed state
+    is not saved again: that save would spare a second restore of the same state its replay,
+    which costs no more than the save and comes at one restore in several.
 
     ``inputs``: the references of the inputs its steps set (None: its steps set none)."""
 
@@ -34,6 +37,7 @@ class StepLog:
         self.steps: tuple = ()  # the steps made from it since: (input values, t [s], h [s])
         self.users: dict[int, list] = {}  # id(checkpoint) -> [checkpoint, the saved states on it]
         self.saves = self.restores = 0
+        self.calls_per_replayed_step = 1 if inputs is None else 2  # (c: a doStep, and a set of its inputs)
 
     def stepped(self, values, t: float, h: float) -> None:
         """The slave was stepped by h from t with these input values (set just before)."""
@@ -41,11 +45,17 @@ class StepLog:
 
     def save(self) -> Logged:
         self.saves += 1
-        interval = max(1, int(((self.restores + 1) / (self.saves + 1)) ** -0.5))
-        if self.checkpoint is None or len(self.steps) >= interval:
+        if self.checkpoint is None or len(self.steps) >= self._interval():
             self._new_checkpoint()
         self.users[id(self.checkpoint)][1] += 1
         return Logged(self.checkpoint, self.steps)
+
+    def _interval(self) -> int:
+        """m, the whole number of saves a checkpoint that costs the fewest calls a point:
+        1/m + r (1 + c (m - 1)/2) is least at sqrt(2 / (r c)), so at its floor or the next."""
+        r, c = (self.restores + 1) / (self.saves + 1), self.calls_per_replayed_step
+        low = max(1, int((2.0 / (r * c)) ** 0.5))
+        return min((low, low + 1), key=lambda m: 1.0 / m + r * (1.0 + c * (m - 1) / 2.0))
 
     def _new_checkpoint(self) -> None:
         """A real save of the present state, the checkpoint from here: into the last one where
@@ -79,11 +89,6 @@ class StepLog:
                 self.slave.set_reals(self.inputs, values)
             self.slave.do_step(t, h)
         self.checkpoint, self.steps = logged.checkpoint, logged.steps
-        if logged.steps:  # (replayed: a checkpoint of it, and logged stands on it)
-            self.users[id(logged.checkpoint)][1] -= 1
-            self._new_checkpoint()
-            logged.checkpoint, logged.steps = self.checkpoint, ()
-            self.users[id(self.checkpoint)][1] += 1
 
     def save_over(self, logged: Logged) -> Logged:
         """:meth:`save`, in place of ``logged`` (freed; its checkpoint may be saved into)."""
