@@ -96,4 +96,4 @@ def lubricant_step(law, start, end, h: float, velocity_per_impulse: float) -> tu
         return None
     stepped = law.step_sensitivities(start.f, end.dv, 0.5 * (start.n + end.n), 0.5 * (start.T + end.T), h,
                                      RESOLUTION.map_kinetics_tol, RESOLUTION.map_kinetics_tol, dv_start=start.dv)
-    return None if stepped is None else (velocity_per_impulse, stepped[2])
+    return None if stepped is None else (velocity_per_impulse, stepped[1])

@@ -184,7 +184,8 @@ class BoundaryLaw(FrictionLaw):
         extra two sub-steps; sub-steps grow where f sits near its equilibrium.
 
         tangent: a :class:`StepTangent` for this step, given each accepted sub-step to follow
-        (:meth:`step_sensitivities`); None: none (the FMUs).
+        (:meth:`step_sensitivities`), the mean force then not summed (NaN: the map takes the
+        force's sensitivities only, from the tangent); None: none (the FMUs).
         """
         dv0 = dv if dv_start is None else dv_start
         if not self.effects.melting or h <= 0.0:
@@ -196,6 +197,8 @@ class BoundaryLaw(FrictionLaw):
         r0 = rate(f, dv0)
         impulse = 0.0  # N s, the force integrated over the accepted sub-steps
         halfway, switched = self.MAX_SUBSTEPS // 2, False
+        if tangent is not None:
+            impulse = math.nan
         for count in range(self.MAX_SUBSTEPS):
             if s >= h:
                 return f, impulse / h
@@ -215,8 +218,9 @@ class BoundaryLaw(FrictionLaw):
                 # the force's mean over the sub-step along f's own path (the elastic term is
                 # f times dv, dv linear in time: its mean is dv_s f_mean + (dv_s1 - dv_s) f_late;
                 # the viscous term integrated exactly)
-                impulse += (s1 - s) * mean_force(dv_s, dv_s1, f_mean, dv_s * f_mean + (dv_s1 - dv_s) * f_late)
-                if tangent is not None:
+                if tangent is None:
+                    impulse += (s1 - s) * mean_force(dv_s, dv_s1, f_mean, dv_s * f_mean + (dv_s1 - dv_s) * f_late)
+                else:  # (its map needs the force's sensitivities only, the tangent's)
                     tangent.substep(f, f1, dv_s, dv_s1, 1.0 if switched else s / h, 1.0 if switched else s1 / h, s1 - s)
                 f, r0, s = f1, r1, s1
                 # Floored: a sub-step forced through at the minimum must not shrink the next
@@ -233,21 +237,21 @@ class BoundaryLaw(FrictionLaw):
 
     def step_sensitivities(self, f: float, dv: float, n: float, T: float, h: float, rtol: float = 1e-6,
                            atol: float = 1e-6, dv_start: float | None = None):
-        """:meth:`advance` over the step with its first-order sensitivities: (f1, F_mean [N],
-        (d f1, d F_mean) each against (f, dv_start, dv)), the derivatives of the step's own map
+        """:meth:`advance`'s f over the step with its first-order sensitivities: (f1, (d f1,
+        d F_mean) each against (f, dv_start, dv), F_mean [N] the mean force), the derivatives of the step's own map
         along the path its sub-steps take (:class:`StepTangent`); None where the melting is
         off (f does not move) or a slope is not finite (a shear-thinning term at rest)."""
         dv0 = dv if dv_start is None else dv_start
         if not self.effects.melting or h <= 0.0:
             return None
         tangent = StepTangent(self, n, T)
-        f1, F_mean = self.advance(f, dv, n, T, h, rtol, atol, dv0, tangent)
+        f1, _ = self.advance(f, dv, n, T, h, rtol, atol, dv0, tangent)
         viscous0, viscous1 = self._viscous_mean_slopes(dv0, dv)  # (the elastic term's: the tangent's)
         elastic = tangent.impulse
         sensitivities = (tuple(tangent.f), (elastic[0] / h, elastic[1] / h + viscous0, elastic[2] / h + viscous1))
         if not all(math.isfinite(value) for row in sensitivities for value in row):
             return None
-        return f1, F_mean, sensitivities
+        return f1, sensitivities
 
     def _viscous_mean_slopes(self, dv0: float, dv1: float) -> tuple[float, float]:
         """d/d(dv0) and d/d(dv1) [N s/m] of the viscous term's mean along dv linear from dv0 to
