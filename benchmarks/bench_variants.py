@@ -1,0 +1,286 @@
+"""Where one Fig. 6 run's time goes, and variants of the adaptive step tried against the shipped
+one (docs/coupling.md, "Speed against the monolithic solvers", session 14).
+
+    python benchmarks/bench_variants.py --where [--repeat 5]
+    python benchmarks/bench_variants.py --variant shipped,no-force-term --scene fig6_boundary --tols 1e-3,2e-4
+    python benchmarks/bench_variants.py --variant map-tol=1e-5,map-tol=1e-8 --scene fig6_boundary \
+        --set drive.omega=20.56 --set block.M=0.2035 --set block.K=4005 --set friction.gamma=0.893 \
+        --set conditions.T=262 --tols 1e-2,3e-3,1e-3
+    python benchmarks/bench_variants.py --lengths [--tols 1e-3]
+
+``--where``: the default Fig. 6 call (``api.simulate``, one worker) with ``perf_counter`` around
+every FMI call of the master's instances and around the step map's pass
+(``variational.lubricant_step``): medians over ``--repeat`` calls, each kind's share of the call.
+What is left is the master's own coupling (and the timers' few per cent).
+
+``--variant``: one run (``api.one_run``: per-step tolerance fixed, no check, no lead-in) per
+tolerance of ``--tols`` at the point, each variant in turn: accepted and rejected steps, the
+run's own estimate and the true nRMS(v) on the window against the reference (rtol 1e-10).
+Variants (each patches the shipped code for its runs only, and puts it back):
+  * ``shipped``: as shipped;
+  * ``no-force-term``: the step's error without the force term of a friction with state
+    (``EmbeddedCoupling.state_force_error``'s |local.F| part; the state's term stays);
+  * ``measured-power``: after a rejection, the next try sized from the power of h the last two
+    tries of the same step showed (within [1, order + 1]) instead of order + 1;
+  * ``map-tol=X``: the step map's pass with the kinetics at tolerance X (shipped: 1e-6);
+  * ``map-tangent-ends``: the map's tangent with each sub-step's slope averaged over its ends
+    instead of taken at its middle;
+  * ``a+b``: both (``map-tol=1e-5+map-tangent-ends``).
+
+``--lengths``: Fig. 6's one run at ``--tols``' first value: its accepted steps by length, the
+share of the drive's period they cover, and which term of the step's error was the largest at
+each (accepted and rejected).
+
+Not collected by pytest (no test_ prefix). Timings are of a shared machine: the load is printed.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import contextlib
+import dataclasses
+import datetime
+import math
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+
+@contextlib.contextmanager
+def patched(owner, name: str, value):
+    """owner.name = value for the block's runs, put back after."""
+    old = getattr(owner, name)
+    setattr(owner, name, value)
+    try:
+        yield
+    finally:
+        setattr(owner, name, old)
+
+
+def where(repeat: int) -> None:
+    from tribofmu import api
+    from tribofmu.coupling import embedded
+    from tribofmu.master.instance import FMUInstance
+
+    spent = collections.defaultdict(float)
+
+    def timed(function, key):
+        def wrapper(*args, **kwargs):
+            begin = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                spent[key] += time.perf_counter() - begin
+        return wrapper
+
+    names = ("do_step", "get_reals", "set_reals", "_get_state", "restore", "free_state")
+    with contextlib.ExitStack() as stack:
+        for name in names:
+            stack.enter_context(patched(FMUInstance, name, timed(getattr(FMUInstance, name), f"FMI {name}")))
+        stack.enter_context(patched(embedded, "lubricant_step", timed(embedded.lubricant_step, "the map's pass")))
+        api.simulate("fig6_boundary", check_workers=1)  # (the FMUs unzipped, the code warm)
+        calls = []
+        for _ in range(repeat):
+            spent.clear()
+            begin = time.perf_counter()
+            api.simulate("fig6_boundary", check_workers=1)
+            calls.append((time.perf_counter() - begin, dict(spent)))
+    whole = statistics.median(total for total, _ in calls)
+    median = {key: statistics.median(parts.get(key, 0.0) for _, parts in calls) for key in calls[0][1]}
+    fmi = sum(value for key, value in median.items() if key.startswith("FMI"))
+    print(f"Fig. 6's default call, one worker: {whole:.3f} s (median of {repeat})")
+    for key, value in sorted(median.items(), key=lambda item: -item[1]):
+        print(f"  {key:22s} {value:7.3f} s {100 * value / whole:4.0f} %")
+    rest = whole - fmi - median.get("the map's pass", 0.0)
+    print(f"  {'FMI calls in all':22s} {fmi:7.3f} s {100 * fmi / whole:4.0f} %")
+    print(f"  {'the coupling and rest':22s} {rest:7.3f} s {100 * rest / whole:4.0f} %")
+
+
+def measured_power_patches() -> list:
+    """ErrorControlledCoupling._accepted with the next try after a rejection sized from the
+    power of h the step's last two tries showed (forgotten after an accepted or landed try)."""
+    from tribofmu.coupling import controlled
+
+    owner = controlled.ErrorControlledCoupling
+    shipped, landed, landed_at_crossing = owner._accepted, owner._landed, owner._landed_at_crossing
+
+    def accepted(self, system, start, h_ns, error, order, min_ns, steps):
+        last, rule, power = getattr(self, "_variant_rejected", None), self.controller, None
+        if last is not None and last[2] == order and last[0] > h_ns > 0 and last[1] > 0.0 and error > 0.0:
+            power = min(max(math.log(last[1] / error) / math.log(last[0] / h_ns), 1.0), order + 1.0)
+        if power is not None:
+            self.controller = _PowerRule(rule, power)
+        try:
+            kept = shipped(self, system, start, h_ns, error, order, min_ns, steps)
+        finally:
+            self.controller = rule
+        self._variant_rejected = None if kept else (h_ns, error, order)
+        return kept
+
+    def forgetting(function):
+        def wrapper(self, *args):
+            landing = function(self, *args)
+            if landing:
+                self._variant_rejected = None
+            return landing
+        return wrapper
+
+    return [(owner, "_accepted", accepted), (owner, "_landed", forgetting(landed)),
+            (owner, "_landed_at_crossing", forgetting(landed_at_crossing))]
+
+
+class _PowerRule:
+    """A step-size rule whose exponent is 1 / power instead of 1 / (order + 1)."""
+
+    def __init__(self, rule, power: float):
+        self.rule, self.power = rule, power
+        self.max_factor = rule.max_factor
+
+    def factor(self, error, order, after_reject=False, previous_error=1.0):
+        rule = self.rule
+        grow = min(1.0, rule.max_factor) if after_reject else rule.max_factor
+        raw = rule.safety * max(error, 1e-300) ** -(1.0 / self.power - 0.75 * rule.beta)
+        if rule.beta:
+            raw *= max(previous_error, rule.min_previous_error) ** rule.beta
+        return min(max(raw, rule.min_factor), grow)
+
+
+def tangent_at_ends(shipped_substep):
+    """StepTangent.substep with the slope g_f averaged over the sub-step's ends (shipped: at
+    the middle)."""
+    def substep(self, f_a, f_b, dv_a, dv_b, u_a, u_b, dt):
+        slope = self.slope
+        middle = 0.5 * (slope(f_a) + slope(f_b))
+        with patched(self, "slope", lambda f: middle):
+            shipped_substep(self, f_a, f_b, dv_a, dv_b, u_a, u_b, dt)
+    return substep
+
+
+def variant_patches(name: str) -> list:
+    """(owner, attribute, value) for the variant's runs; "a+b": both."""
+    if "+" in name:
+        return [patch for part in name.split("+") for patch in variant_patches(part)]
+    from tribofmu.coupling import embedded, variational
+    from tribofmu.coupling.settings import RESOLUTION
+    from tribofmu.physics.laws.tangent import StepTangent
+
+    if name == "shipped":
+        return []
+    if name == "no-force-term":
+        def state_error_only(self, error, point, new, local, h):
+            f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
+            return max(error, self.errors.state_weight * abs(local.f) / (self.tol * f_scale))
+        return [(embedded.EmbeddedCoupling, "state_force_error", state_error_only)]
+    if name == "measured-power":
+        return measured_power_patches()
+    if name.startswith("map-tol="):
+        tol = float(name.split("=", 1)[1])
+        return [(variational, "RESOLUTION", dataclasses.replace(RESOLUTION, map_kinetics_tol=tol))]
+    if name == "map-tangent-ends":
+        return [(StepTangent, "substep", tangent_at_ends(StepTangent.substep))]
+    raise SystemExit(f"bench_variants: no variant {name!r}")
+
+
+def variants(names: list[str], scene: str, overrides: dict, tols: list[float]) -> None:
+    import bench_trust
+    from tribofmu import api
+    from tribofmu.fmu_cache import find_fmus
+    from tribofmu.studies.reference import nrms
+
+    scenario = api.load(scene, overrides)
+    reference = bench_trust.trusted_reference(scenario, scene)
+    fmu_dir = find_fmus(tuple(scenario.fmus))
+    print(f"{'variant':18s} {'per-step':>8s} {'steps':>6s} {'rejected':>8s} {'estimate':>9s} {'true':>9s} "
+          f"{'est/true':>8s} {'wall s':>6s}", flush=True)
+    for name in names:
+        with contextlib.ExitStack() as stack:
+            for owner, attribute, value in variant_patches(name):
+                stack.enter_context(patched(owner, attribute, value))
+            for tol in tols:
+                begin = time.perf_counter()
+                result = api.one_run(scenario, tol, fmu_dir)
+                wall = time.perf_counter() - begin
+                stats = result.stats
+                true = nrms(result.time, result.v, reference.time, reference.v, scenario.window)
+                estimate = stats["estimated_error"].get("nrms_v")
+                ratio = estimate / true if estimate is not None and true > 0 else math.nan
+                print(f"{name:18s} {tol:8.2g} {stats['communication_steps']:6d} {stats['rejected_steps']:8d} "
+                      f"{estimate if estimate is not None else math.nan:9.3g} {true:9.3g} {ratio:8.2f} {wall:6.2f}",
+                      flush=True)
+
+
+def lengths(tol: float) -> None:
+    """Fig. 6's run at tol: its steps by length and each step's largest error term."""
+    import numpy as np
+
+    from tribofmu import api
+    from tribofmu.coupling import embedded
+    from tribofmu.fmu_cache import find_fmus
+
+    scenario = api.load("fig6_boundary", {})
+    largest = []
+    shipped = embedded.EmbeddedCoupling.error_ratio
+
+    def named(self, point, new, local, h):
+        error = shipped(self, point, new, local, h)
+        allowance = self.errors.error_weight * self.tol
+        v_scale, x_scale = self.velocity_scale(point, new), self.position_scale(point, new)
+        terms = {"v": abs(local.v) / (allowance * v_scale), "x": abs(local.x) / (allowance * x_scale),
+                 "impulse": abs(local.impulse) / (allowance * v_scale)}
+        if not (local.stuck and new.F_rate != 0.0) and (new.f != 0.0 or point.f != 0.0):
+            F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
+            terms["force"] = abs(local.F) / (self.tol * F_scale + self.force_term_floor(point, new, h))
+            f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
+            terms["state"] = self.errors.state_weight * abs(local.f) / (self.tol * f_scale)
+        if local.path is not None:
+            terms["path"] = max(abs(local.path[0]) / (allowance * x_scale), abs(local.path[1]) / (allowance * v_scale))
+        term = max(terms, key=terms.get)
+        # (the interpolation and breakaway terms: named where they are the largest)
+        largest.append((h, term if terms[term] >= error else "interpolation or breakaway", error <= 1.0))
+        return error
+
+    with patched(embedded.EmbeddedCoupling, "error_ratio", named):
+        result = api.one_run(scenario, tol, find_fmus(tuple(scenario.fmus)), keep_points=True)
+    t = np.array([p.t_ns for p in result.points]) / 1e9
+    h = np.diff(t)
+    period = 2.0 * math.pi / scenario.drive.omega
+    print(f"Fig. 6, one run at per-step {tol:g}: {len(h)} steps")
+    for low, high in ((0.0, 1e-7), (1e-7, 1e-6), (1e-6, 1e-5), (1e-5, 1e-4), (1e-4, 1e-3), (1e-3, 1.0)):
+        inside = (h >= low) & (h < high)
+        kept = collections.Counter(term for length, term, ok in largest if ok and low <= length < high)
+        rejected = collections.Counter(term for length, term, ok in largest if not ok and low <= length < high)
+        print(f"  h in [{low:g}, {high:g}) s: {int(inside.sum()):5d} steps over {h[inside].sum() / period:.3f} "
+              f"periods; largest term, accepted {dict(kept)}, rejected {dict(rejected)}")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--where", action="store_true")
+    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--variant", default=None, help="comma-separated: shipped, no-force-term, measured-power, "
+                                                        "map-tol=X, map-tangent-ends")
+    parser.add_argument("--scene", default="fig6_boundary")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--tols", default="1e-3")
+    parser.add_argument("--lengths", action="store_true")
+    args = parser.parse_args(argv)
+    print(f"# bench_variants {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
+          f"load {os.getloadavg()[0]:.1f}", flush=True)
+    tols = [float(value) for value in args.tols.split(",")]
+    if args.where:
+        where(args.repeat)
+    if args.variant:
+        overrides = {key: float(value) for key, value in (item.split("=", 1) for item in args.set)}
+        variants(args.variant.split(","), args.scene, overrides, tols)
+    if args.lengths:
+        lengths(tols[0])
+    print(f"# load at the end {os.getloadavg()[0]:.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
