@@ -23,11 +23,11 @@ class StepLog:
     (a block whose answers are predicted steps once a point, after its step is kept; the drive
     of a rejected try) needs a real save every m points only. A checkpoint every m saves costs
     1/m of a save a point; a restore costs one call and replays (m - 1)/2 steps on average, c
-    calls each (a doStep, and a set where the steps set inputs); with r restores a save, the
-    calls a point, 1/m + r (1 + c (m - 1)/2), are fewest at m = sqrt(2 / (r c)), r the slave's
-    restores per save so far (1 before any save: a real save at every point). A replayed state
-    is not saved again: that save would spare a second restore of the same state its replay,
-    which costs no more than the save and comes at one restore in several.
+    calls each (a doStep, and a set where the steps set inputs). With r the slave's restores
+    per save so far (1 before any save: a real save at every point), the calls a point, 1/m +
+    r (1 + c (m - 1)/2), are fewest near m = sqrt(2 / (r c)) (:meth:`_interval`). A replayed
+    state is not saved again: that save would spare a second restore of the same state its
+    replay, which costs no more than the save and comes at one restore in several.
 
     ``inputs``: the references of the inputs its steps set (None: its steps set none)."""
 
@@ -51,8 +51,8 @@ class StepLog:
         return Logged(self.checkpoint, self.steps)
 
     def _interval(self) -> int:
-        """m, the whole number of saves a checkpoint that costs the fewest calls a point:
-        1/m + r (1 + c (m - 1)/2) is least at sqrt(2 / (r c)), so at its floor or the next."""
+        """m, the saves a checkpoint: of the whole numbers either side of sqrt(2 / (r c)), the one
+        whose calls a point, 1/m + r (1 + c (m - 1)/2), are fewer."""
         r, c = (self.restores + 1) / (self.saves + 1), self.calls_per_replayed_step
         low = max(1, int((2.0 / (r * c)) ** 0.5))
         return min((low, low + 1), key=lambda m: 1.0 / m + r * (1.0 + c * (m - 1) / 2.0))

@@ -195,10 +195,9 @@ class BoundaryLaw(FrictionLaw):
         substep, grow = self._substep, _SUBSTEP_FACTOR
         s, sub, min_sub = 0.0, h, 1e-12 * h
         r0 = rate(f, dv0)
-        impulse = 0.0  # N s, the force integrated over the accepted sub-steps
+        # N s, the force integrated over the accepted sub-steps (not with a tangent: its map's)
+        impulse = 0.0 if tangent is None else math.nan
         halfway, switched = self.MAX_SUBSTEPS // 2, False
-        if tangent is not None:
-            impulse = math.nan
         for count in range(self.MAX_SUBSTEPS):
             if s >= h:
                 return f, impulse / h
@@ -238,9 +237,10 @@ class BoundaryLaw(FrictionLaw):
     def step_sensitivities(self, f: float, dv: float, n: float, T: float, h: float, rtol: float = 1e-6,
                            atol: float = 1e-6, dv_start: float | None = None):
         """:meth:`advance`'s f over the step with its first-order sensitivities: (f1, (d f1,
-        d F_mean) each against (f, dv_start, dv), F_mean [N] the mean force), the derivatives of the step's own map
-        along the path its sub-steps take (:class:`StepTangent`); None where the melting is
-        off (f does not move) or a slope is not finite (a shear-thinning term at rest)."""
+        d F_mean) each against (f, dv_start, dv)), F_mean [N] the step's mean force; the
+        derivatives of the step's own map along the path its sub-steps take
+        (:class:`StepTangent`). None where the melting is off (f does not move) or a slope is
+        not finite (a shear-thinning term at rest)."""
         dv0 = dv if dv_start is None else dv_start
         if not self.effects.melting or h <= 0.0:
             return None
