@@ -72,6 +72,17 @@ def load_avg() -> str:
         return "load average n/a"
 
 
+def timed(spent: dict, key: str, function):
+    """function, its wall time [s] added to spent[key] at every call (returns or raises)."""
+    def wrapper(*args, **kwargs):
+        begin = time.perf_counter()
+        try:
+            return function(*args, **kwargs)
+        finally:
+            spent[key] = spent.get(key, 0.0) + time.perf_counter() - begin
+    return wrapper
+
+
 def fmt(value, spec: str = ".3g") -> str:
     return "n/a" if value is None or (isinstance(value, float) and math.isnan(value)) else format(value, spec)
 

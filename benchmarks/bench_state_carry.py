@@ -25,6 +25,7 @@ def main() -> None:
     parser.add_argument("--tol", type=float, default=1e-3)
     args = parser.parse_args()
 
+    import bench_front
     from tribofmu import api
     from tribofmu.coupling import embedded, estimate
     from tribofmu.fmu_cache import find_fmus
@@ -36,13 +37,7 @@ def main() -> None:
     spent: dict[str, float] = {}
 
     def timed(name, function):
-        def wrapper(*a, **k):
-            begin = time.perf_counter()
-            try:
-                return function(*a, **k)
-            finally:
-                spent[name] = spent.get(name, 0.0) + time.perf_counter() - begin
-        return wrapper
+        return bench_front.timed(spent, name, function)
 
     carry = estimate.GlobalErrorEstimate
     slopes, state_flow, flow = carry.state_slopes, estimate.state_flow, carry._flow

@@ -48,6 +48,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench_front  # noqa: E402
 
 
 @contextlib.contextmanager
@@ -66,16 +67,10 @@ def where(repeat: int) -> None:
     from tribofmu.coupling import embedded
     from tribofmu.master.instance import FMUInstance
 
-    spent = collections.defaultdict(float)
+    spent: dict[str, float] = {}
 
     def timed(function, key):
-        def wrapper(*args, **kwargs):
-            begin = time.perf_counter()
-            try:
-                return function(*args, **kwargs)
-            finally:
-                spent[key] += time.perf_counter() - begin
-        return wrapper
+        return bench_front.timed(spent, key, function)
 
     names = ("do_step", "get_reals", "set_reals", "_get_state", "restore", "free_state")
     with contextlib.ExitStack() as stack:
