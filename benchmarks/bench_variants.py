@@ -129,19 +129,15 @@ def measured_power_patches() -> list:
 
 
 class _PowerRule:
-    """A step-size rule whose exponent is 1 / power instead of 1 / (order + 1)."""
+    """The shipped step-size rule with its exponent 1 / power instead of 1 / (order + 1): its
+    own factor() at the order power - 1 (the rule reads the order through that exponent only)."""
 
     def __init__(self, rule, power: float):
         self.rule, self.power = rule, power
         self.max_factor = rule.max_factor
 
     def factor(self, error, order, after_reject=False, previous_error=1.0):
-        rule = self.rule
-        grow = min(1.0, rule.max_factor) if after_reject else rule.max_factor
-        raw = rule.safety * max(error, 1e-300) ** -(1.0 / self.power - 0.75 * rule.beta)
-        if rule.beta:
-            raw *= max(previous_error, rule.min_previous_error) ** rule.beta
-        return min(max(raw, rule.min_factor), grow)
+        return self.rule.factor(error, self.power - 1.0, after_reject, previous_error)
 
 
 def tangent_at_ends(shipped_substep):
