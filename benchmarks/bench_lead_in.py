@@ -1,4 +1,4 @@
-"""What a call's first run decides a drive period before its window (coupling/lead_in.py).
+"""What a call's first run decides some drive periods before its window (coupling/lead_in.py).
 
     python benchmarks/bench_lead_in.py [--tol 1e-3] [--only SUBSTRING] [--extra]
     python benchmarks/bench_lead_in.py --scene fig6_boundary --set conditions.T=300 [--set ...]
@@ -6,7 +6,7 @@
 For each point of bench_trust.py's list (or ``--extra``'s), the call's first run (per-step
 tolerance = tol, aiming at tol): the error's RMS before the decision and what is left of it as
 the window opens, each over the budget (0.9 tol / 2), d (how much of an error is left a period
-on), the factor on the per-step tolerance, the tolerance the window ran at, and the run's own
+on), k (the periods before the window it tightened at), the factor on the per-step tolerance, the tolerance the window ran at, and the run's own
 estimate (a call ends on this run where twice it meets tol) against the true error.
 Not collected by pytest (no test_ prefix).
 """
@@ -44,7 +44,7 @@ def main(argv=None) -> int:
     fmu_dir = find_fmus(("Drive", "BlockSpring", "Friction"))
     print(f"# bench_lead_in {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, tol {args.tol:g}, "
           f"load {os.getloadavg()[0]:.1f}", flush=True)
-    print(f"{'point':36s} {'now/b':>6s} {'d':>6s} {'left/b':>6s} {'factor':>7s} {'window tol':>10s} "
+    print(f"{'point':36s} {'now/b':>6s} {'d':>6s} {'k':>3s} {'left/b':>6s} {'factor':>7s} {'window tol':>10s} "
           f"{'estimate':>9s} {'true':>9s} {'one run':>7s} {'wall s':>6s}", flush=True)
     for label, scene, overrides in points:
         if args.only and args.only not in label:
@@ -62,7 +62,8 @@ def main(argv=None) -> int:
             value = decision.get(key)
             return f"{value:{width}.3g}" if value is not None else f"{'-':>{width}s}"
 
-        print(f"{label:36s} {cell('error_now_over_budget')} {cell('decay_per_period')} {cell('left_over_budget')} "
+        print(f"{label:36s} {cell('error_now_over_budget')} {cell('decay_per_period')} "
+              f"{cell('periods_before_window', 3)} {cell('left_over_budget')} "
               f"{cell('factor', 7)} {result.stats['window_step_tol']:10.2g} "
               f"{estimate if estimate is not None else math.nan:9.2e} {true:9.2e} {str(ends):>7s} "
               f"{result.stats['wall_time']:6.2f}", flush=True)

@@ -37,17 +37,24 @@ CASES = [
 ]
 
 
-def apply(variant: str) -> None:
-    """Set the variant's values on the classes that read them."""
+def setting(item: str):
+    """(the class that reads it, its attribute, the new settings object) of one
+    ``group.name=value``."""
     from tribofmu.coupling import controlled, embedded, implicit
 
     owners = {"coupling": (implicit.ImplicitCoupling, "settings"), "errors": (embedded.EmbeddedCoupling, "errors"),
               "step": (controlled.ErrorControlledCoupling, "controller")}
+    key, value = item.split("=")
+    group, name = key.strip().split(".")
+    owner, attribute = owners[group]
+    return owner, attribute, dataclasses.replace(getattr(owner, attribute), **{name: float(value)})
+
+
+def apply(variant: str) -> None:
+    """Set the variant's values on the classes that read them."""
     for item in filter(None, variant.split(";")):
-        key, value = item.split("=")
-        group, name = key.strip().split(".")
-        owner, attribute = owners[group]
-        setattr(owner, attribute, dataclasses.replace(getattr(owner, attribute), **{name: float(value)}))
+        owner, attribute, value = setting(item)
+        setattr(owner, attribute, value)
 
 
 def run_cases(only: str | None) -> int:

@@ -25,6 +25,8 @@ Variants (each patches the shipped code for its runs only, and puts it back):
   * ``map-tol=X``: the step map's pass with the kinetics at tolerance X (shipped: 1e-6);
   * ``map-tangent-ends``: the map's tangent with each sub-step's slope averaged over its ends
     instead of taken at its middle;
+  * ``group.name=V``: one tuning value of coupling/settings.py set to V, named as
+    ``bench_settings.py`` names them (``coupling.root_tol_fraction=1e-2``);
   * ``a+b``: both (``map-tol=1e-5+map-tangent-ends``).
 
 ``--lengths``: Fig. 6's one run at ``--tols``' first value: its accepted steps by length, the
@@ -173,6 +175,10 @@ def variant_patches(name: str) -> list:
         return [(variational, "RESOLUTION", dataclasses.replace(RESOLUTION, map_kinetics_tol=tol))]
     if name == "map-tangent-ends":
         return [(StepTangent, "substep", tangent_at_ends(StepTangent.substep))]
+    if "." in name.split("=", 1)[0]:
+        import bench_settings
+        owner, attribute, value = bench_settings.setting(name)
+        return [(owner, attribute, value)]
     raise SystemExit(f"bench_variants: no variant {name!r}")
 
 

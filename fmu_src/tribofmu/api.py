@@ -189,7 +189,8 @@ def _run_once(scenario: Scenario, name: str, step: float | None, step_tol: float
     coupling = make_algorithm(name, step=step, tol=step_tol)
     asked_tol = coupling.tol
     if aim is not None and name == "adaptive":
-        coupling.aim_window(scenario.window[0], STEP_CONTROL.safety * aim / CHECK_SETTINGS.estimate_safety)
+        coupling.aim_window(scenario.window[0], STEP_CONTROL.safety * aim / CHECK_SETTINGS.estimate_safety,
+                            scenario.stop_time)
     grid = np.linspace(0.0, scenario.stop_time, n + 1)
     keep = None
     if keep_window:

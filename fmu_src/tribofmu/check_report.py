@@ -13,7 +13,9 @@ def method_text(checked: bool, sequence, stats: dict) -> str:
     """How the reported error was made, for stats.json (sequence: checked.CheckSequence; stats:
     the reported run's), and where the run tightened its per-step tolerance for its window."""
     asked, window = stats.get("step_tol"), stats.get("window_step_tol")
-    tightened = (f"; its per-step tolerance tightened from {asked:.2g} to {window:.2g} a drive period before "
+    periods = (stats.get("lead_in") or {}).get("periods_before_window") or 1.0
+    when = "a drive period" if periods == 1.0 else f"{periods:.0f} drive periods"
+    tightened = (f"; its per-step tolerance tightened from {asked:.2g} to {window:.2g} {when} before "
                  "the window, as its own carried error asked (coupling/lead_in.py)"
                  if asked is not None and window is not None and window < asked else "")
     return _method(checked, sequence) + tightened

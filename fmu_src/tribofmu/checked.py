@@ -19,9 +19,9 @@ One run where one is enough: where a run's own carried estimate vouches for it (
 holds for the scene: coupling/estimate.py ``carry_problem``), the run is reported alone with
 ESTIMATE_SAFETY times that estimate as its error when that meets tol, and otherwise the next run
 is planned from it (:meth:`CheckSequence._own_tightening`) and stands on its own estimate in turn.
-The first such run aims at the window: a drive period before it, its per-step tolerance may
-tighten once, as its own carried error asks (coupling/lead_in.py); the next run is planned
-from the tolerance it ended at.
+The first such run aims at the window: some drive periods before it (as many as cost the fewest
+steps), its per-step tolerance may tighten once, as its own carried error asks
+(coupling/lead_in.py); the next run is planned from the tolerance it ended at.
 """
 from __future__ import annotations
 

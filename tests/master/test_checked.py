@@ -519,3 +519,18 @@ def test_a_first_run_that_aimed_and_meets_tol_ends_the_call_and_says_it_tightene
     assert len(runs.calls) == 1 and result.ok
     method = result.stats["estimated_error"]["method"]
     assert method.startswith("own") and "tightened from 0.001 to 0.00025" in method and "lead_in" in method
+
+
+@pytest.mark.parametrize("decision, when", [
+    (None, "a drive period before the window"),
+    ({"periods_before_window": 1.0}, "a drive period before the window"),
+    ({"periods_before_window": 3.0}, "3 drive periods before the window"),
+])
+def test_the_method_says_how_many_periods_before_the_window_the_tolerance_tightened(decision, when):
+    from types import SimpleNamespace
+
+    from tribofmu.check_report import method_text
+
+    stats = {"step_tol": 1e-3, "window_step_tol": 2.5e-4, "lead_in": decision}
+    unchecked = SimpleNamespace(limit="--max-wall")  # (a call whose run was not repeated)
+    assert f"tightened from 0.001 to 0.00025 {when}" in method_text(False, unchecked, stats)

@@ -9,14 +9,14 @@ from tribofmu.coupling.lead_in import LeadIn
 PERIOD, WINDOW_START, V_MAX = 1.0, 5.0, 2.0
 
 
-def feed(lead_in: LeadIn, whole, old_from_mark, end=4.2, dt=1e-3):
+def feed(lead_in: LeadIn, whole, old_from_mark, end=4.2, dt=1e-3, order=1.0):
     """Points every dt [s] to end: the whole error whole(t) [m/s], and once marked, the old one
-    old_from_mark(t - t_mark, whole at the mark); |v| peaks at V_MAX each stroke. Returns
-    the times lead_in said "mark" and "decide"."""
+    old_from_mark(t - t_mark, whole at the mark) (from the latest mark); |v| peaks at V_MAX each
+    stroke; the run's order ``order``. Returns the times lead_in last said "mark" and "decide"."""
     said, marked, t = {}, None, 0.0
     while t <= end + 1e-12:
         old = old_from_mark(t - marked[0], marked[1]) if marked is not None else 0.0
-        stage = lead_in.observe(t, whole(t), old, V_MAX * math.sin(math.pi * t))
+        stage = lead_in.observe(t, whole(t), old, V_MAX * math.sin(math.pi * t), order)
         if stage == "mark":
             marked = (t, whole(t))
         if stage is not None:
@@ -49,6 +49,36 @@ def test_an_error_the_motion_forgets_tightens_the_tolerance_to_what_the_window_l
     decision = lead_in.decision(order)
     assert decision["factor"] == lead_in.factor(order) and decision["decay_per_period"] == decay
     assert decision["left_over_budget"] == pytest.approx(now * decay / budget)
+
+
+def test_an_error_kept_for_periods_tightens_as_early_as_costs_the_fewest_steps():
+    """A steady error 2x the budget whose old part falls to 0.4 a period: tightened a period
+    before the window, what is left (~ the budget) leaves the new steps almost no room; two
+    periods before, it leaves most of it, and the longer stretch of tighter steps costs fewer
+    steps in all (three periods: more again). The run decides at the second mark before the
+    window, tightening for what d^2 leaves, and keeps marking until then."""
+    budget, order = 1e-3, 2.0 / 3.0
+    lead_in = LeadIn(WINDOW_START, PERIOD, budget, window_end=WINDOW_START + 1.5 * PERIOD)
+    assert lead_in.times[0] == pytest.approx(WINDOW_START - 4.5 * PERIOD)  # (three marks fit)
+    said = feed(lead_in, lambda t: 2.0 * budget * V_MAX, lambda s, e: e * 0.4 ** s, order=order)
+    assert said["decide"] == pytest.approx(WINDOW_START - 2 * PERIOD, abs=2e-3)
+    assert said["mark"] == pytest.approx(WINDOW_START - 3 * PERIOD, abs=2e-3)
+    assert lead_in.periods == 2
+    now, decay = lead_in.now / budget, lead_in.decay  # (now over the budget)
+    assert now == pytest.approx(2.0, rel=1e-2) and 0.4 < decay < 0.4 ** 0.5
+
+    def extra(k):  # the module docstring's cost, written out
+        left = now * decay ** k
+        if left >= 1.0:
+            return math.inf
+        factor = (math.sqrt(1.0 - left ** 2) / now) ** (1.0 / order)
+        return (k + 1.5) * (factor ** (order - 1.0) - 1.0)
+
+    assert extra(2) < min(extra(1), extra(3))
+    expected = (math.sqrt(1.0 - (now * decay ** 2) ** 2) / now) ** (1.0 / order)
+    assert lead_in.factor(order) == pytest.approx(expected, rel=1e-12)
+    decision = lead_in.decision(order)
+    assert decision["periods_before_window"] == 2 and decision["left_over_budget"] == pytest.approx(now * decay ** 2)
 
 
 @pytest.mark.parametrize("whole, old, why", [

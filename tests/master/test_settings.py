@@ -83,9 +83,6 @@ NOT_TUNING = {
     "coupling/interpolation.py": {"NS", "SAMPLES_PER_PERIOD", "HERMITE_ERROR_DIVISOR"},
     "coupling/blocks.py": {"SERIES_BELOW"},  # where a closed form's round-off passes its Taylor series'
     "coupling/estimate.py": {"EXP_LIMIT"},  # exp() overflows a float past it
-    # the lead-in's stages in drive periods: a stroke (half a period) measured, the decay over one
-    # period (the same phase compared), decided a period before the window (the decay measured)
-    "coupling/lead_in.py": {"_STAGES"},
     "coupling/variational.py": {"PADE_POLE", "PADE_RESIDUE"},  # the (1,2) Pade approximant's pole and residue
     "coupling/quadrature.py": {"GAUSS_NODES", "GAUSS_WEIGHTS"},  # the three-point Gauss rule
     # the (2,3) Pade approximant of e^z: its denominator, poles and residues; k! of the cubic's terms

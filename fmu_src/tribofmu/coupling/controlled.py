@@ -47,7 +47,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
     step_granularity = 1
     carried = ControlledState
     state_names = tuple(field.name for field in fields(ControlledState))
-    aim: tuple[float, float] | None = None  # (window start [s], its budget): see aim_window
+    aim: tuple[float, float, float | None] | None = None  # (window start [s], its budget, its end [s]): see aim_window
 
     def prepare(self, system, scales):
         super().prepare(system, scales)
@@ -60,15 +60,16 @@ class ErrorControlledCoupling(ImplicitCoupling):
         self.magnitudes = Magnitudes()
         self.rejected_last = False  # the last step was rejected (its successor may not grow)
         self.accepted_error = 1.0  # the last accepted step's error ratio (the controller's PI term)
-        lead_in = LeadIn(self.aim[0], scales.period, self.aim[1]) if self.aim is not None else None
+        lead_in = LeadIn(self.aim[0], scales.period, self.aim[1], self.aim[2]) if self.aim is not None else None
         self.lead_in = lead_in if lead_in is not None and lead_in.applies else None  # (none: nothing to follow)
         self.lead_in_decision = None  # what the lead-in measured and decided (LeadIn.decision), once it has
 
-    def aim_window(self, window_start: float, budget: float) -> None:
-        """Before the run: the shown window opens at window_start [s] and is to meet budget
-        (nRMS(v)); the per-step tolerance may tighten once, a drive period before it, as the
-        run's own carried error asks (coupling/lead_in.py). Without it the tolerance is fixed."""
-        self.aim = (window_start, budget)
+    def aim_window(self, window_start: float, budget: float, window_end: float | None = None) -> None:
+        """Before the run: the shown window opens at window_start [s] (and the run ends at
+        window_end [s]) and is to meet budget (nRMS(v)); the per-step tolerance may tighten
+        once, some drive periods before it, as the run's own carried error asks
+        (coupling/lead_in.py). Without it the tolerance is fixed."""
+        self.aim = (window_start, budget, window_end)
 
     def observe(self, points: list[Point]) -> None:
         """The run's newly accepted points (after each advance): where the run aims at a window
@@ -79,7 +80,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
             return
         for p in points:
             old = self.estimate.old[1] if self.estimate.old is not None else 0.0
-            stage = lead_in.observe(p.t_ns / NS, p.global_error, old, p.v)
+            stage = lead_in.observe(p.t_ns / NS, p.global_error, old, p.v, self.convergence_order() or 1.0)
             if stage == "mark":
                 self.estimate.mark()
             elif stage == "decide":

@@ -4,37 +4,43 @@
 tol lands there at 0.2-0.5 tol for dry friction and at 1-3 tol for a lubricated film, and
 where its estimate misses, the call runs again, tighter (tribofmu/checked.py). Which steps
 made the window's error depends on the motion. Where the motion forgets an error (a damped
-block), the last periods before the window made it. Where it keeps one (a film whose error
-drifts), every step since the start did. The run can tell which from its own carry, so it
-decides once, a drive period T before the window:
+block), the last periods before the window made it. Where it keeps one for several periods (a
+film whose error decays slowly), the steps of those periods did; where it keeps one for good (a
+drift), every step since the start did. The run can tell which from its own carry, and decides
+once, at one of the period marks k drive periods T before the window (k = K ... 1, K the most
+that fit after the start):
 
-- it marks its carried error two periods before the window
-  (:meth:`~.estimate.GlobalErrorEstimate.mark`) and carries that error on without the local
-  errors made since;
-- d is that old error's RMS over the half period before the decision, over the whole error's
-  RMS over the half period before the mark: how much of an error is left one period on;
-- the error left from before the decision is taken as d times the error's RMS now: what is
-  left of it as the window opens, a period later. It falls further inside the window, but the
+- at each mark it marks its carried error (:meth:`~.estimate.GlobalErrorEstimate.mark`) and
+  carries that error on without the local errors made since;
+- a period on, d is that old error's RMS over the half period before this mark, over the whole
+  error's RMS over the half period before the last: how much of an error is left one period
+  on; and the error now is the whole error's RMS over that half period, over max |v| there;
+- the error left from before a tightening k periods before the window is taken as d^k times the
+  error now: what is left of it as the window opens. It falls further inside the window, but the
   decision is made once, and a shortfall costs a whole second run where a margin costs a share
   of one. (Its RMS over the window, taken as d per period in closed form, sent Fig. 6's run to
   1.17 x budget; this, to 0.78.);
-- the error the steps from the decision on make is taken as that RMS times the factor on the
-  per-step tolerance, raised to the run's convergence order (the error adds up over as many
-  periods as the old one lasts);
-- the two are taken as independent (they add as squares), and the factor is the largest that
-  meets the budget.
+- the error the steps from the tightening on make is taken as the error now times the factor on
+  the per-step tolerance, raised to the run's convergence order (the error adds up over as many
+  periods as the old one lasts); the two are taken as independent (they add as squares), and
+  the factor is the largest that meets the budget;
+- the run's steps grow as the per-step tolerance to the power order - 1 (a step of order p is
+  ~tol^(1/(p + 1)) long, the run's order p/(p + 1)), so tightening k periods before the window
+  costs (k T + the window) (factor^(order - 1) - 1) more steps per loose step's length: the
+  earlier, the less tightening and the longer it lasts. At each mark the run takes the k of 1 up
+  to the present one that costs the fewest extra steps, and tightens now where that is now;
+  else it waits for a later mark, measured again (an error still growing toward its level reads
+  low early, so a choice for later is made again when later comes). At the last mark, a
+  period before the window, it decides whatever the numbers.
 
-Where d times the error now reaches the budget, or the error now is already within it, the
-tolerance stays. Then the steps before the decision made the window's error (a drift), or the
-window meets tol as it is, and the call's next run is planned from this run's estimate. The
-tolerance only ever tightens. Half periods are measured because one stroke of the drive holds
-a whole swing of the motion: the same phase, a period apart, compares like with like.
+Where d^k times the error now reaches the budget at every k, or the error now is already within
+it, the tolerance stays. Then the steps before the last mark made the window's error (a drift),
+or the window meets tol as it is, and the call's next run is planned from this run's estimate.
+The tolerance only ever tightens. Half periods are measured because one stroke of the drive
+holds a whole swing of the motion: the same phase, a period apart, compares like with like.
 
-Measured (``benchmarks/bench_lead_in.py``, the trust list at the default tol, 2026-11-28): Fig. 6's
-rig d = 0.40, what is left 0.75 of the budget, the tolerance tightened 0.21x. Boundary films at
-other viscous exponents give d = 0.66-0.82 and a dilatant fluid 0.72, with what is left 2.9-5.8
-budgets: their tolerance stays. Dry, Newtonian and shear-thinning rigs are within budget as
-they are.
+Measured (``benchmarks/bench_lead_in.py``, the trust list at the default tol): see
+docs/coupling.md, "One run where one is enough".
 """
 from __future__ import annotations
 
@@ -42,36 +48,45 @@ import math
 
 from .window_error import linear_square_integral
 
-# the stages, in drive periods T before the window: measure the whole error for half a period
-# up to the mark, mark, then measure the whole and the old error for the half period up to the
-# decision
-_STAGES = (2.5, 2.0, 1.5, 1.0)
 
 
 class LeadIn:
     """One run's decision, fed its accepted points in order (:meth:`observe`); applies only
     where the window opens at least 2.5 drive periods after the start."""
 
-    def __init__(self, window_start: float, period: float, budget: float):
-        """window_start, period [s]; budget: the nRMS(v) on the window the run is to meet."""
-        self.times = tuple(window_start - k * period for k in _STAGES)
-        self.applies = self.times[0] >= 0.0
-        self.budget = budget
+    def __init__(self, window_start: float, period: float, budget: float, window_end: float | None = None):
+        """window_start, period [s]; budget: the nRMS(v) on the window the run is to meet;
+        window_end [s]: where the run's steps end (None: at window_start)."""
+        # the most marks k periods before the window that fit: the first measures the half
+        # period before its own mark, (K + 1.5) T before the window, at t >= 0 (tested as the
+        # times are computed, so that a quotient's round-off does not decide)
+        marks = math.floor(window_start / period - 1.5)
+        while window_start - (marks + 2.5) * period >= 0.0:
+            marks += 1
+        while marks >= 1 and window_start - (marks + 1.5) * period < 0.0:
+            marks -= 1
+        # measured half periods [times[2i], times[2i + 1]], the first (K + 1.5) T before the window
+        self.times = tuple(window_start - (k + offset) * period for k in range(marks, -1, -1)
+                           for offset in (1.5, 1.0))
+        self.applies = marks >= 1
+        self.budget, self.period = budget, period
+        self.window = max(0.0, window_end - window_start) if window_end is not None else 0.0  # [s]
         self.stage = 0  # the next of times to reach
         self.last = None  # (t, whole, old) of the last point observed (a measured half period integrates from it)
         self.squares = [0.0, 0.0]  # [(m/s)^2 s] the whole and old error's squares over it
         self.v_max = 0.0  # [m/s] over the measured half period
-        self.before = math.nan  # [m/s] the whole error's RMS over the half period up to the mark
-        self.now = math.nan  # [1] the whole error's RMS over the half period up to the decision / v_max
-        self.decay = math.nan  # [1] d: the old error's RMS up to the decision over ``before``
+        self.before = math.nan  # [m/s] the whole error's RMS over the half period up to the last mark
+        self.now = math.nan  # [1] the whole error's RMS over the half period up to this mark / v_max
+        self.decay = math.nan  # [1] d: the old error's RMS up to this mark over ``before``
+        self.periods = 1  # k: this mark's periods before the window
 
-    def observe(self, t: float, whole: float, old: float, v: float) -> str | None:
+    def observe(self, t: float, whole: float, old: float, v: float, order: float = 1.0) -> str | None:
         """The accepted point at t [s] with the carried error in v, whole and old [m/s] (the
-        latter from the mark on), and its v [m/s]: "mark" when the carry is to be marked now,
-        "decide" when :meth:`factor` is ready, else None."""
+        latter from the mark on), and its v [m/s], the run's convergence order so far: "mark"
+        when the carry is to be marked now, "decide" when :meth:`factor` is ready, else None."""
         if not self.applies or self.stage >= len(self.times):
             return None
-        if self.stage in (1, 3):  # inside a measured half period
+        if self.stage % 2:  # inside a measured half period
             self._add(t, whole, old, v)
         self.last = (t, whole, old)
         if t < self.times[self.stage]:
@@ -80,14 +95,17 @@ class LeadIn:
         self.stage += 1
         whole_rms, old_rms = (math.sqrt(square / span) if span > 0.0 else math.nan for square in self.squares)
         v_max, self.squares, self.v_max = self.v_max, [0.0, 0.0], 0.0
-        if self.stage == 2:
-            self.before = whole_rms
-            return "mark"
-        if self.stage == 4:
+        if self.stage % 2:  # a measured half period begins
+            return None
+        if self.stage > 2:  # a period after a mark
             self.now = whole_rms / v_max if v_max > 0.0 else math.nan
             self.decay = old_rms / self.before if self.before > 0.0 else math.nan
-            return "decide"
-        return None
+            self.periods = (len(self.times) - self.stage) // 2 + 1
+            if self.periods == 1 or self.cheapest(order) == self.periods:
+                self.stage = len(self.times)
+                return "decide"
+        self.before = whole_rms
+        return "mark"
 
     def _add(self, t: float, whole: float, old: float, v: float) -> None:
         """The squares' integrals from the last point to this one (linear between points)."""
@@ -97,27 +115,50 @@ class LeadIn:
             self.squares[1] += linear_square_integral(o0, old, t - t0)
         self.v_max = max(self.v_max, abs(v))
 
+    def cheapest(self, order: float) -> int:
+        """The k of 1 up to this mark's at which tightening costs the fewest extra steps by what
+        this mark measured (ties: the later; 0: tightening helps at none)."""
+        costs = [(self.extra_steps(k, order), k) for k in range(1, self.periods + 1)]
+        feasible = [(cost, k) for cost, k in costs if cost is not None]
+        return min(feasible)[1] if feasible else 0
+
+    def extra_steps(self, k: int, order: float) -> float | None:
+        """The steps [in loose steps' lengths, s] that tightening k periods before the window
+        adds (see the module's docstring); None where what is left reaches the budget then or
+        nothing is measured."""
+        factor = self._factor(self.now * self.decay ** k, order)
+        if factor is None:
+            return None
+        return (k * self.period + self.window) * (factor ** (order - 1.0) - 1.0)
+
+    def _factor(self, left: float, order: float) -> float | None:
+        """The factor that meets the budget with left [1] what the steps before leave; 1 where
+        the error now is within it; None where left is not finite or reaches it."""
+        now = self.now
+        if not (math.isfinite(now) and math.isfinite(left)) or left >= self.budget:
+            return None
+        if now <= self.budget or order <= 0.0:
+            return 1.0
+        return (math.sqrt(self.budget ** 2 - left ** 2) / now) ** (1.0 / order)
+
     def factor(self, order: float) -> float:
         """The factor (<= 1) on the per-step tolerance for the steps from the decision on, the
         run's error expected to fall as the per-step tolerance to the power order; 1 where the
         measure is not finite, the window meets the budget as it is, or what is left of the
         steps before reaches it (see the module's docstring)."""
-        now, left = self.now, self.left
-        if not (math.isfinite(now) and math.isfinite(left)) or now <= self.budget or left >= self.budget \
-                or order <= 0.0:
-            return 1.0
-        return (math.sqrt(self.budget ** 2 - left ** 2) / now) ** (1.0 / order)
+        factor = self._factor(self.left, order)
+        return 1.0 if factor is None else factor
 
     @property
     def left(self) -> float:
-        """[1] What the steps before the decision leave as the window opens: d times the error now."""
-        return self.now * self.decay
+        """[1] What the steps before the decision leave as the window opens: d^k times the error now."""
+        return self.now * self.decay ** self.periods
 
     def decision(self, order: float) -> dict:
         """What was measured and decided, for stats.json: the error now and what is left of it as
-        the window opens, each over the budget, d, the run's order and the factor (None where a
-        measure is not finite: stats.json is JSON)."""
+        the window opens, each over the budget, d, the periods before the window it was made at,
+        the run's order and the factor (None where a measure is not finite: stats.json is JSON)."""
         values = {"error_now_over_budget": self.now / self.budget, "decay_per_period": self.decay,
-                  "left_over_budget": self.left / self.budget, "order": order,
-                  "factor": self.factor(order)}
+                  "left_over_budget": self.left / self.budget, "periods_before_window": float(self.periods),
+                  "order": order, "factor": self.factor(order)}
         return {key: value if math.isfinite(value) else None for key, value in values.items()}
