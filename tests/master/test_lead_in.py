@@ -58,7 +58,7 @@ def test_an_error_kept_for_periods_tightens_as_early_as_costs_the_fewest_steps()
     steps in all (three periods: more again). The run decides at the second mark before the
     window, tightening for what d^2 leaves, and keeps marking until then."""
     budget, order = 1e-3, 2.0 / 3.0
-    lead_in = LeadIn(WINDOW_START, PERIOD, budget, window_end=WINDOW_START + 1.5 * PERIOD)
+    lead_in = LeadIn(WINDOW_START, PERIOD, budget, run_end=WINDOW_START + 1.5 * PERIOD)
     assert lead_in.times[0] == pytest.approx(WINDOW_START - 4.5 * PERIOD)  # (three marks fit)
     said = feed(lead_in, lambda t: 2.0 * budget * V_MAX, lambda s, e: e * 0.4 ** s, order=order)
     assert said["decide"] == pytest.approx(WINDOW_START - 2 * PERIOD, abs=2e-3)

@@ -47,7 +47,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
     step_granularity = 1
     carried = ControlledState
     state_names = tuple(field.name for field in fields(ControlledState))
-    aim: tuple[float, float, float | None] | None = None  # (window start [s], its budget, its end [s]): see aim_window
+    aim: tuple[float, float, float | None] | None = None  # (window start [s], its budget, the run's end [s]): see aim_window
 
     def prepare(self, system, scales):
         super().prepare(system, scales)
@@ -64,12 +64,12 @@ class ErrorControlledCoupling(ImplicitCoupling):
         self.lead_in = lead_in if lead_in is not None and lead_in.applies else None  # (none: nothing to follow)
         self.lead_in_decision = None  # what the lead-in measured and decided (LeadIn.decision), once it has
 
-    def aim_window(self, window_start: float, budget: float, window_end: float | None = None) -> None:
-        """Before the run: the shown window opens at window_start [s] (and the run ends at
-        window_end [s]) and is to meet budget (nRMS(v)); the per-step tolerance may tighten
-        once, some drive periods before it, as the run's own carried error asks
-        (coupling/lead_in.py). Without it the tolerance is fixed."""
-        self.aim = (window_start, budget, window_end)
+    def aim_window(self, window_start: float, budget: float, run_end: float | None = None) -> None:
+        """Before the run: the shown window opens at window_start [s] and is to meet budget
+        (nRMS(v)), and the run ends at run_end [s] (None: as the window opens); the per-step
+        tolerance may tighten once, some drive periods before the window, as the run's own
+        carried error asks (coupling/lead_in.py). Without it the tolerance is fixed."""
+        self.aim = (window_start, budget, run_end)
 
     def observe(self, points: list[Point]) -> None:
         """The run's newly accepted points (after each advance): where the run aims at a window

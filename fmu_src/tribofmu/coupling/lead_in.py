@@ -54,9 +54,9 @@ class LeadIn:
     """One run's decision, fed its accepted points in order (:meth:`observe`); applies only
     where the window opens at least 2.5 drive periods after the start."""
 
-    def __init__(self, window_start: float, period: float, budget: float, window_end: float | None = None):
+    def __init__(self, window_start: float, period: float, budget: float, run_end: float | None = None):
         """window_start, period [s]; budget: the nRMS(v) on the window the run is to meet;
-        window_end [s]: where the run's steps end (None: at window_start)."""
+        run_end [s]: where the run's steps end (None: as the window opens)."""
         # the most marks k periods before the window that fit: the first measures the half
         # period before its own mark, (K + 1.5) T before the window, at t >= 0 (tested as the
         # times are computed, so that a quotient's round-off does not decide)
@@ -70,7 +70,7 @@ class LeadIn:
                            for offset in (1.5, 1.0))
         self.applies = marks >= 1
         self.budget, self.period = budget, period
-        self.window = max(0.0, window_end - window_start) if window_end is not None else 0.0  # [s]
+        self.from_opening = max(0.0, run_end - window_start) if run_end is not None else 0.0  # [s] the run from the window on
         self.stage = 0  # the next of times to reach
         self.last = None  # (t, whole, old) of the last point observed (a measured half period integrates from it)
         self.squares = [0.0, 0.0]  # [(m/s)^2 s] the whole and old error's squares over it
@@ -129,7 +129,7 @@ class LeadIn:
         factor = self._factor(self.now * self.decay ** k, order)
         if factor is None:
             return None
-        return (k * self.period + self.window) * (factor ** (order - 1.0) - 1.0)
+        return (k * self.period + self.from_opening) * (factor ** (order - 1.0) - 1.0)
 
     def _factor(self, left: float, order: float) -> float | None:
         """The factor that meets the budget with left [1] what the steps before leave; 1 where
