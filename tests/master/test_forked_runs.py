@@ -153,6 +153,47 @@ def test_a_first_run_that_tightens_for_its_window_stops_the_run_ahead_of_it():
     assert leftovers() == before
 
 
+class AimingRuns(TimedVouchingRuns):
+    """TimedVouchingRuns whose first run aims at its window and tells, a second into it and
+    with half of it to go, what its lead-in's mark found: the budget in reach or not."""
+
+    def __init__(self, error, own, reachable, order=None):
+        super().__init__(error, own=own, wall_time=10 * forked_runs.PROGRESS_EVERY_S, order=order)
+        self.reachable = reachable
+
+    def __call__(self, step_tol=None, max_wall=None, sink=None, progress=None, notice=None, aim=False):
+        if progress is not None:
+            progress(RunProgress(t=0.8, stop_time=2.0, steps=4, rejected=0, wall_time=self.wall_time,
+                                 step_tol=step_tol, aims_at_window=True, window_reachable=self.reachable))
+            time.sleep(0.2)  # (a child ahead, if any, has started)
+            self.children = child_processes()
+        return VouchingRuns.__call__(self, step_tol, max_wall=max_wall, sink=sink, notice=notice)
+
+
+def test_a_first_run_whose_window_is_in_reach_starts_nothing_ahead():
+    """Its lead-in's mark finds the budget in reach: the run most likely ends the call, and a
+    fork ahead of it would only cost (however long it has run)."""
+    before = leftovers()
+    runs = AimingRuns(power_law(0.2), own=power_law(0.2), reachable=True)
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, workers=2, vouches=True)
+    assert result.ok and len(result.stats["check"]["runs"]) == 1 and not runs.children
+    assert result.stats["check"]["runs_stopped_unused"] == 0
+    assert leftovers() == before
+
+
+def test_a_first_run_whose_window_is_out_of_reach_starts_its_successor_ahead():
+    """Its lead-in's mark finds no tightening that meets the budget, with half of it to go:
+    the run its plan most likely asks for next starts ahead, and is the one taken."""
+    before = leftovers()
+    own = power_law(0.09, 2.0 / 3.0)
+    runs = AimingRuns(own, own=own, reachable=False, order=2.0 / 3.0)
+    result = checked.checked_simulation(runs, tol=1e-3, max_wall=None, workers=2, vouches=True)
+    taken = [r["step_tol"] for r in result.stats["check"]["runs"]]
+    assert result.ok and runs.children and len(runs.calls) == 1  # (the second ran in the child)
+    assert taken == [1e-3, pytest.approx(AHEAD)] and result.stats["check"]["runs_stopped_unused"] == 0
+    assert leftovers() == before
+
+
 def test_a_first_run_that_vouches_and_ends_before_its_first_progress_report_starts_nothing_ahead():
     """(A fork costs the parent its copied pages while the child lives: a short run does not
     wait for one ahead.)"""

@@ -79,17 +79,20 @@ def test_an_error_kept_for_periods_tightens_as_early_as_costs_the_fewest_steps()
     assert lead_in.factor(order) == pytest.approx(expected, rel=1e-12)
     decision = lead_in.decision(order)
     assert decision["periods_before_window"] == 2 and decision["left_over_budget"] == pytest.approx(now * decay ** 2)
+    assert lead_in.reachable is True
 
 
-@pytest.mark.parametrize("whole, old, why", [
-    (lambda t: 4e-3 * V_MAX, lambda s, e: e, "an error that does not fall: the steps before made the window's"),
-    (lambda t: 1e-3 * (1.0 + t) * V_MAX, lambda s, e: e, "a drift: every step since the start made it"),
-    (lambda t: 0.5e-3 * V_MAX, lambda s, e: e * 0.1 ** s, "within the budget as it is"),
+@pytest.mark.parametrize("whole, old, reachable, why", [
+    (lambda t: 4e-3 * V_MAX, lambda s, e: e, False, "an error that does not fall: the steps before made the window's"),
+    (lambda t: 1e-3 * (1.0 + t) * V_MAX, lambda s, e: e, False, "a drift: every step since the start made it"),
+    (lambda t: 0.5e-3 * V_MAX, lambda s, e: e * 0.1 ** s, True, "within the budget as it is"),
 ])
-def test_the_tolerance_stays_where_tightening_cannot_help_or_is_not_needed(whole, old, why):
+def test_the_tolerance_stays_where_tightening_cannot_help_or_is_not_needed(whole, old, reachable, why):
     lead_in = LeadIn(WINDOW_START, PERIOD, budget=1e-3)
+    assert lead_in.reachable is None  # (nothing measured yet)
     feed(lead_in, whole, old)
     assert lead_in.factor(2.0 / 3.0) == 1.0, why
+    assert lead_in.reachable is reachable, why  # (False: the call's next run may start ahead)
 
 
 def test_a_window_that_opens_within_two_and_a_half_periods_has_no_lead_in():

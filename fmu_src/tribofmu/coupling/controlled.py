@@ -63,6 +63,10 @@ class ErrorControlledCoupling(ImplicitCoupling):
         lead_in = LeadIn(self.aim[0], scales.period, self.aim[1], self.aim[2]) if self.aim is not None else None
         self.lead_in = lead_in if lead_in is not None and lead_in.applies else None  # (none: nothing to follow)
         self.lead_in_decision = None  # what the lead-in measured and decided (LeadIn.decision), once it has
+        self.aims_at_window = self.lead_in is not None  # (its progress says what its lead-in expects)
+        # whether, by its lead-in's latest mark, this run can still meet its window's budget
+        # (None: nothing measured yet): False, a next run will be needed (LeadIn.reachable)
+        self.window_reachable: bool | None = None
 
     def aim_window(self, window_start: float, budget: float, run_end: float | None = None) -> None:
         """Before the run: the shown window opens at window_start [s] and is to meet budget
@@ -81,6 +85,7 @@ class ErrorControlledCoupling(ImplicitCoupling):
         for p in points:
             old = self.estimate.old[1] if self.estimate.old is not None else 0.0
             stage = lead_in.observe(p.t_ns / NS, p.global_error, old, p.v, self.convergence_order() or 1.0)
+            self.window_reachable = lead_in.reachable
             if stage == "mark":
                 self.estimate.mark()
             elif stage == "decide":

@@ -79,6 +79,9 @@ class LeadIn:
         self.now = math.nan  # [1] the whole error's RMS over the half period up to this mark / v_max
         self.decay = math.nan  # [1] d: the old error's RMS up to this mark over ``before``
         self.periods = 1  # k: this mark's periods before the window
+        # whether a tightening at some k of this mark's or later meets the budget by what the
+        # latest mark measured (None: no mark measured yet): False says a next run will be needed
+        self.reachable: bool | None = None
 
     def observe(self, t: float, whole: float, old: float, v: float, order: float = 1.0) -> str | None:
         """The accepted point at t [s] with the carried error in v, whole and old [m/s] (the
@@ -101,7 +104,9 @@ class LeadIn:
             self.now = whole_rms / v_max if v_max > 0.0 else math.nan
             self.decay = old_rms / self.before if self.before > 0.0 else math.nan
             self.periods = (len(self.times) - self.stage) // 2 + 1
-            if self.periods == 1 or self.cheapest(order) == self.periods:
+            cheapest = self.cheapest(order)
+            self.reachable = cheapest != 0
+            if self.periods == 1 or cheapest == self.periods:
                 self.stage = len(self.times)
                 return "decide"
         self.before = whole_rms
@@ -133,11 +138,16 @@ class LeadIn:
 
     def _factor(self, left: float, order: float) -> float | None:
         """The factor that meets the budget with left [1] what the steps before leave; 1 where
-        the error now is within it; None where left is not finite or reaches it."""
+        the error now is within it (the window meets it as it is); None where nothing is
+        measured, or left is not finite or reaches it."""
         now = self.now
-        if not (math.isfinite(now) and math.isfinite(left)) or left >= self.budget:
+        if not math.isfinite(now):
             return None
-        if now <= self.budget or order <= 0.0:
+        if now <= self.budget:
+            return 1.0
+        if not math.isfinite(left) or left >= self.budget:
+            return None
+        if order <= 0.0:
             return 1.0
         return (math.sqrt(self.budget ** 2 - left ** 2) / now) ** (1.0 / order)
 

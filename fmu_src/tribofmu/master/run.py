@@ -36,6 +36,11 @@ class RunProgress:
     # the run's per-step tolerance now: tighter than asked once its lead-in tightened it for its
     # window (coupling/lead_in.py); None: a coupling without one
     step_tol: float | None = None
+    # whether the run aims at its window (a lead-in: coupling/lead_in.py), and whether by its
+    # lead-in's latest mark it can still meet the window's budget (None: not measured yet); a
+    # call starts a next run ahead of it only once it cannot (tribofmu/forked_runs.py)
+    aims_at_window: bool = False
+    window_reachable: bool | None = None
 
     @property
     def fraction(self) -> float:
@@ -272,7 +277,8 @@ def run(system: CoupledSystem, algorithm: CouplingAlgorithm, stop_time: float, s
             c = algorithm.counters
             if progress is not None:
                 progress(RunProgress(current.t_ns / NS, stop_ns / NS, c.steps, c.rejected, wall,
-                                     getattr(algorithm, "tol", None)))
+                                     getattr(algorithm, "tol", None), getattr(algorithm, "aims_at_window", False),
+                                     getattr(algorithm, "window_reachable", None)))
             pace.judge(wall, current.t_ns, lambda: f"step now {h_ns / NS:.3g} s, {c.steps} steps and "
                                                    f"{c.rejected} rejections so far")
     except FMUCallError as exc:
