@@ -26,12 +26,12 @@ that fit after the start):
   the factor is the largest that meets the budget;
 - the run's steps grow as the per-step tolerance to the power order - 1 (a step of order p is
   ~tol^(1/(p + 1)) long, the run's order p/(p + 1)), so tightening k periods before the window
-  costs (k T + the window) (factor^(order - 1) - 1) more steps per loose step's length: the
-  earlier, the less tightening and the longer it lasts. At each mark the run takes the k of 1 up
-  to the present one that costs the fewest extra steps, and tightens now where that is now;
-  else it waits for a later mark, measured again (an error still growing toward its level reads
-  low early, so a choice for later is made again when later comes). At the last mark, a
-  period before the window, it decides whatever the numbers.
+  costs (k T + the run after the window opens) (factor^(order - 1) - 1) more steps, in loose
+  steps' lengths: the earlier, the less tightening and the longer it lasts. At each mark the run
+  takes the k of 1 up to the present one that costs the fewest extra steps, and tightens now
+  where that is now; else it waits for a later mark, measured again (an error still growing
+  toward its level reads low early, so a choice for later is made again when later comes). At
+  the last mark, a period before the window, it decides whatever the numbers.
 
 Where d^k times the error now reaches the budget at every k, or the error now is already within
 it, the tolerance stays. Then the steps before the last mark made the window's error (a drift),
@@ -47,7 +47,6 @@ from __future__ import annotations
 import math
 
 from .window_error import linear_square_integral
-
 
 
 class LeadIn:
@@ -169,6 +168,6 @@ class LeadIn:
         the window opens, each over the budget, d, the periods before the window it was made at,
         the run's order and the factor (None where a measure is not finite: stats.json is JSON)."""
         values = {"error_now_over_budget": self.now / self.budget, "decay_per_period": self.decay,
-                  "left_over_budget": self.left / self.budget, "periods_before_window": float(self.periods),
+                  "left_over_budget": self.left / self.budget, "periods_before_window": self.periods,
                   "order": order, "factor": self.factor(order)}
         return {key: value if math.isfinite(value) else None for key, value in values.items()}
