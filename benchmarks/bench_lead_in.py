@@ -7,7 +7,9 @@ For each point of bench_trust.py's list (or ``--extra``'s), the call's first run
 tolerance = tol, aiming at tol): the error's RMS before the decision and what is left of it as
 the window opens, each over the budget (0.9 tol / 2), d (how much of an error is left a period
 on), k (the periods before the window it tightened at), the factor on the per-step tolerance, the tolerance the window ran at, and the run's own
-estimate (a call ends on this run where twice it meets tol) against the true error.
+estimate (a call ends on this run where twice it meets tol) against the true error. ``--marks``
+also prints what each mark measured: its k, the error now over the budget, d, what d^k leaves
+over the budget, and the k it found cheapest (0: none within the budget).
 Not collected by pytest (no test_ prefix).
 """
 from __future__ import annotations
@@ -20,6 +22,24 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+
+def show_marks() -> None:
+    """Print each mark's measure as the lead-in takes it (LeadIn.observe wrapped in place)."""
+    from tribofmu.coupling.lead_in import LeadIn
+
+    observe = LeadIn.observe
+
+    def told(self, t, whole, old, v, order=1.0):
+        stage = self.stage
+        said = observe(self, t, whole, old, v, order)
+        if said is not None and stage >= 2:  # (a period after a mark: measured)
+            left = self.now * self.decay ** self.periods / self.budget
+            print(f"    mark t={t:.3f} s k={self.periods} now/b={self.now / self.budget:.3g} d={self.decay:.3g} "
+                  f"left/b={left:.3g} cheapest k={self.cheapest(order)}", flush=True)
+        return said
+
+    LeadIn.observe = told
 
 
 def main(argv=None) -> int:
@@ -36,7 +56,10 @@ def main(argv=None) -> int:
     parser.add_argument("--extra", action="store_true")
     parser.add_argument("--scene", default=None, help="one point: this scene with --set's overrides")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--marks", action="store_true", help="print what each mark measured")
     args = parser.parse_args(argv)
+    if args.marks:
+        show_marks()
     points = bench_trust.EXTRA_POINTS if args.extra else bench_trust.POINTS
     if args.scene:
         overrides = {key: float(value) for key, value in (item.split("=", 1) for item in args.set)}
