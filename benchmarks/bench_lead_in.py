@@ -6,8 +6,9 @@
 For each point of bench_trust.py's list (or ``--extra``'s), the call's first run (per-step
 tolerance = tol, aiming at tol): the error's RMS before the decision and what is left of it as
 the window opens, each over the budget (0.9 tol / 2), d (how much of an error is left a period
-on), k (the periods before the window it tightened at), the factor on the per-step tolerance, the tolerance the window ran at, and the run's own
-estimate (a call ends on this run where twice it meets tol) against the true error. ``--marks``
+on), k (the periods before the window it tightened at), the factor on the per-step tolerance,
+the tolerance the window ran at, and the run's own estimate (a call ends on this run where twice
+it meets tol) against the true error. ``--marks``
 also prints what each mark measured: its k, the error now over the budget, d, what d^k leaves
 over the budget, and the k it found cheapest (0: none within the budget).
 Not collected by pytest (no test_ prefix).
@@ -34,9 +35,8 @@ def show_marks() -> None:
         stage = self.stage
         said = observe(self, t, whole, old, v, order)
         if said is not None and stage >= 2:  # (a period after a mark: measured)
-            left = self.now * self.decay ** self.periods / self.budget
             print(f"    mark t={t:.3f} s k={self.periods} now/b={self.now / self.budget:.3g} d={self.decay:.3g} "
-                  f"left/b={left:.3g} cheapest k={self.cheapest(order)}", flush=True)
+                  f"left/b={self.left / self.budget:.3g} cheapest k={self.cheapest(order)}", flush=True)
         return said
 
     LeadIn.observe = told
