@@ -23,6 +23,13 @@ Variants (each patches the shipped code for its runs only, and puts it back):
   * ``measured-power``: after a rejection, the next try sized from the power of h the last two
     tries of the same step showed (within [1, order + 1]) instead of order + 1;
   * ``map-tol=X``: the step map's pass with the kinetics at tolerance X (shipped: 1e-6);
+  * ``no-trend``: the step-size rule before session 16, without the predictive term on top of
+    its PI term (``ErrorControlledCoupling.trend`` None for every step);
+  * ``no-map``: every slip step of a lubricant carried by the variational equations at its
+    middle (``variational.state_flow``), none by the step map;
+  * ``map-where=A|B``: the step map only on the slip steps A or B name (``phase``: across the
+    melt threshold; ``slow``: |g_f| h < 1 at the middle, f not relaxing within the step;
+    ``fast``: the others), the rest as ``no-map``;
   * ``map-tangent-ends``: the map's tangent with each sub-step's slope averaged over its ends
     instead of taken at its middle;
   * ``group.name=V``: one tuning value of coupling/settings.py set to V, named as
@@ -153,6 +160,22 @@ def tangent_at_ends(shipped_substep):
     return substep
 
 
+def map_where(shipped, where: list[str]):
+    """variational.lubricant_step only on the slip steps ``where`` names, the others carried by
+    the variational equations at the step's middle (state_flow): "phase", across the melt
+    threshold (the law's melt margin changes sign); "slow", f not relaxing within the step
+    (|g_f| h < 1 at the step's middle); "fast", f relaxing within it."""
+    def lubricant_step(law, start, end, h, velocity_per_impulse):
+        crossed = (law.melt_margin(start.f) > 0.0) != (law.melt_margin(end.f) > 0.0)
+        g_f = law.state_jacobian(0.5 * (start.dv + end.dv), 0.5 * (start.f + end.f), 0.5 * (start.n + end.n),
+                                 0.5 * (start.T + end.T))[3]
+        slow = abs(g_f) * h < 1.0
+        if ("phase" in where and crossed) or ("slow" in where and slow) or ("fast" in where and not slow):
+            return shipped(law, start, end, h, velocity_per_impulse)
+        return None
+    return lubricant_step
+
+
 def variant_patches(name: str) -> list:
     """(owner, attribute, value) for the variant's runs; "a+b": both."""
     if "+" in name:
@@ -173,6 +196,13 @@ def variant_patches(name: str) -> list:
     if name.startswith("map-tol="):
         tol = float(name.split("=", 1)[1])
         return [(variational, "RESOLUTION", dataclasses.replace(RESOLUTION, map_kinetics_tol=tol))]
+    if name == "no-trend":
+        from tribofmu.coupling import controlled
+        return [(controlled.ErrorControlledCoupling, "trend", lambda self, h_ns, order: None)]
+    if name == "no-map":
+        return [(embedded, "lubricant_step", lambda *args: None)]
+    if name.startswith("map-where="):
+        return [(embedded, "lubricant_step", map_where(embedded.lubricant_step, name.split("=", 1)[1].split("|")))]
     if name == "map-tangent-ends":
         return [(StepTangent, "substep", tangent_at_ends(StepTangent.substep))]
     if "." in name.split("=", 1)[0]:
