@@ -1,7 +1,7 @@
 """How late or early the adaptive coupling locates stick onsets and breakaways, over many
 drive frequencies (tests/master/test_contract.py checks three).
 
-    python benchmarks/bench_events.py [--tols 1e-3,1e-4] [--omegas 10:88.9:22]
+    python benchmarks/bench_events.py [--tols 1e-3,1e-4] [--omegas 10:88.9:22 | --omegas 13,30,80]
 
 Fig. 2's rig (fake slaves, the exact dry motion known: tests/master/fakes.py) over two drive
 periods at each frequency and per-step tolerance: the run's events against the exact ones,
@@ -25,7 +25,7 @@ sys.path[:0] = [str(ROOT / "tests" / "master"), str(ROOT / "tests")]
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tols", default="1e-3,1e-4")
-    parser.add_argument("--omegas", default="10:88.9:22", metavar="FIRST:LAST:COUNT")
+    parser.add_argument("--omegas", default="10:88.9:22", metavar="FIRST:LAST:COUNT or W1,W2,...")
     args = parser.parse_args()
     from fakes import drive_scales, fig2_system
     from test_contract import exact_events, located_events
@@ -33,9 +33,12 @@ def main() -> int:
     from tribofmu.coupling.algorithms import make_algorithm
     from tribofmu.master.run import run
 
-    first, last, count = args.omegas.split(":")
-    count = int(count)
-    omegas = [float(first) + k * (float(last) - float(first)) / max(count - 1, 1) for k in range(count)]
+    if ":" in args.omegas:
+        first, last, count = args.omegas.split(":")
+        omegas = [float(first) + k * (float(last) - float(first)) / max(int(count) - 1, 1) for k in range(int(count))]
+    else:
+        omegas = [float(omega) for omega in args.omegas.split(",")]
+    count = len(omegas)
     print(f"# bench_events {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
           f"{count} frequencies {omegas[0]:g}-{omegas[-1]:g} rad/s", flush=True)
     for tol in (float(t) for t in args.tols.split(",")):
