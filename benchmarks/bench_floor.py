@@ -3,7 +3,7 @@
 
     python benchmarks/bench_floor.py [--repeat 3] [--algorithms adaptive,doubling] [--cases fig2,fig6]
                                      [--workers 1,2] [--span] [--out FILE.json]
-    python benchmarks/bench_floor.py --rejections [--rules shipped,no-trend] [--only NAME]
+    python benchmarks/bench_floor.py --rejections [--betas 0,0.06] [--only NAME]
 
 Per case and algorithm (every case and algorithm once per round, ``--repeat`` rounds, median
 wall times), measured with ``tribofmu.api.simulate`` (the whole call: an adaptive run's check
@@ -27,9 +27,8 @@ at 1x, 4x and 16x its periods for "wall time linear in the span" and the peak RS
 ``--rejections`` runs instead every shipped scene and the off-scene ``CASES`` once each (the
 whole checked call) and prints the reported run's rejected / accepted and FMU calls per step,
 the check's runs and the FMU calls of all its runs: the target "rejected <= 20 % on every scene
-and off-scene point". ``--rules`` repeats that with other step-size rules for comparison
-(``no-trend``: the rule before session 16, without the predictive term the shipped rule adds
-to its PI term; ``bench_variants.py`` patches it in).
+and off-scene point". ``--betas`` repeats that with the coupling's step-size rule at other PI
+weights (``physics/stepsize.py``; 0 is the plain rule) for comparison.
 
 Load-independent numbers (calls, solves, rejections) are the ones to compare across runs on
 a shared machine; the wall-time ratios hold only within one run (interleaved).
@@ -111,25 +110,24 @@ def ours(scenario, ref, algorithm: str, workers: int | None = None) -> dict:
             "estimated_nrms_v": (s.get("estimated_error") or {}).get("nrms_v")}
 
 
-def rejections(rules: list[str], only: str | None = None) -> int:
-    """Every shipped scene and off-scene case (those whose name holds ``only``) once per
-    step-size rule (``shipped``, or a variant of bench_variants.py, ``no-trend``): rejections,
-    calls, runs."""
-    import contextlib
+def rejections(betas: list[float], only: str | None = None) -> int:
+    """Every shipped scene and off-scene case (those whose name holds ``only``) once per PI
+    weight: rejections, calls, runs."""
+    from dataclasses import replace
 
-    import bench_variants
     from tribofmu import api
+    from tribofmu.coupling import algorithms
     from tribofmu.scene.library import resolve_scene, scene_names
 
     cases = [(name, resolve_scene(name), {}) for name in scene_names()]
     cases += [(name, SCENES / f"{scene}.toml", overrides) for name, (scene, overrides) in CASES.items() if overrides]
     cases = [case for case in cases if only is None or only in case[0]]
-    print(f"bench_floor --rejections: {load_avg()}, rules {rules}", flush=True)
-    print("rule      case                  rejected/accepted  calls/step  runs  calls in all runs  ok")
-    for rule in rules:
-        with contextlib.ExitStack() as stack:
-            for owner, attribute, value in bench_variants.variant_patches(rule):
-                stack.enter_context(bench_variants.patched(owner, attribute, value))
+    shipped = algorithms.ErrorControlledCoupling.controller
+    print(f"bench_floor --rejections: {load_avg()}, PI weights {betas} (shipped: {shipped.beta})", flush=True)
+    print("beta   case                  rejected/accepted  calls/step  runs  calls in all runs  ok")
+    try:
+        for beta in betas:
+            algorithms.ErrorControlledCoupling.controller = replace(shipped, beta=beta)
             worst, total = 0.0, 0
             for name, path, overrides in cases:
                 result = api.simulate(api.load(path, overrides or None), max_wall=300.0)
@@ -139,11 +137,13 @@ def rejections(rules: list[str], only: str | None = None) -> int:
                 rejected = s["rejected_steps"] / steps
                 calls = sum(run["fmu_calls_total"] for run in runs)
                 worst, total = max(worst, rejected), total + calls
-                print(f"{rule:9s} {name:22s} {rejected:17.2f}  {s['fmu_calls_per_step']['total']:10.1f}  "
+                print(f"{beta:<6g} {name:22s} {rejected:17.2f}  {s['fmu_calls_per_step']['total']:10.1f}  "
                       f"{len(runs):4d}  {calls:17d}  {result.ok}", flush=True)
-            print(f"{rule:9s} largest rejected/accepted {worst:.2f} "
+            print(f"{beta:<6g} largest rejected/accepted {worst:.2f} "
                   f"({'MET' if worst <= REJECTED_FRACTION else 'MISSED'} <= {REJECTED_FRACTION:.0%}), "
                   f"FMU calls of all runs {total}", flush=True)
+    finally:
+        algorithms.ErrorControlledCoupling.controller = shipped
     return 0
 
 
@@ -155,14 +155,15 @@ def main() -> int:
     parser.add_argument("--span", action="store_true")
     parser.add_argument("--out", default=None)
     parser.add_argument("--rejections", action="store_true", help="every scene and off-scene case once: rejections")
-    parser.add_argument("--rules", default="shipped",
-                        help="with --rejections: step-size rules to compare (shipped, no-trend: bench_variants.py's)")
+    parser.add_argument("--betas", default=None, help="with --rejections: PI weights to compare (default: the shipped)")
     parser.add_argument("--only", default=None, help="with --rejections: the cases whose name holds this")
     parser.add_argument("--workers", default="default",
                         help="the check's workers to compare, e.g. 1,2 (default: the user's default)")
     args = parser.parse_args()
     if args.rejections:
-        return rejections(args.rules.split(","), args.only)
+        from tribofmu.coupling.settings import STEP_CONTROL as COUPLING_STEPS
+
+        return rejections([float(b) for b in args.betas.split(",")] if args.betas else [COUPLING_STEPS.beta], args.only)
     from tribofmu import api
     from tribofmu.studies.reference import reference_solution
 

@@ -23,8 +23,10 @@ Variants (each patches the shipped code for its runs only, and puts it back):
   * ``measured-power``: after a rejection, the next try sized from the power of h the last two
     tries of the same step showed (within [1, order + 1]) instead of order + 1;
   * ``map-tol=X``: the step map's pass with the kinetics at tolerance X (shipped: 1e-6);
-  * ``no-trend``: the step-size rule before session 16, without the predictive term on top of
-    its PI term (``ErrorControlledCoupling.trend`` None for every step);
+  * ``trend-on-reject``: a rejected slip try's retry sized with Gustafsson's predictive term
+    too (scipy's radau.py ``predict_factor``): the shipped factor times min(1, (h / h_old)
+    (err_old / err)^(1/(p+1))), h_old and err_old the last accepted step's where it was of the
+    try's order and the try not stuck (tried in session 16, not shipped: docs/coupling.md);
   * ``no-map``: every slip step of a lubricant carried by the variational equations at its
     middle (``variational.state_flow``), none by the step map;
   * ``map-where=A|B``: the step map only on the slip steps A or B name (``phase``: across the
@@ -160,6 +162,31 @@ def tangent_at_ends(shipped_substep):
     return substep
 
 
+def trend_on_reject_patches() -> list:
+    """ErrorControlledCoupling._accepted with a rejected slip try's retry sized with the
+    predictive term (the ``trend-on-reject`` variant); the last accepted step's length, error
+    and order kept on the coupling for it."""
+    from tribofmu.coupling import controlled
+
+    owner = controlled.ErrorControlledCoupling
+    shipped = owner._accepted
+
+    def accepted(self, system, start, h_ns, error, order, min_ns, steps):
+        last = getattr(self, "_variant_last", None)  # (h_ns, error, order) of the last accepted step
+        kept = shipped(self, system, start, h_ns, error, order, min_ns, steps)
+        if kept:
+            self._variant_last = (h_ns, error, order)
+        elif last is not None and last[2] == order and order < 3 and error > 0.0 and last[1] > 0.0:
+            rule = self.controller
+            trend = min(1.0, h_ns / last[0] * (last[1] / error) ** (1.0 / (order + 1)))
+            g = self.step_granularity
+            self.h_ns = max(int(h_ns * max(rule.factor(error, order, self.rejected_last, self.accepted_error) * trend,
+                                           rule.min_factor)), self.min_ns) // g * g
+        return kept
+
+    return [(owner, "_accepted", accepted)]
+
+
 def map_where(shipped, where: list[str]):
     """variational.lubricant_step only on the slip steps ``where`` names, the others carried by
     the variational equations at the step's middle (state_flow): "phase", across the melt
@@ -196,9 +223,8 @@ def variant_patches(name: str) -> list:
     if name.startswith("map-tol="):
         tol = float(name.split("=", 1)[1])
         return [(variational, "RESOLUTION", dataclasses.replace(RESOLUTION, map_kinetics_tol=tol))]
-    if name == "no-trend":
-        from tribofmu.coupling import controlled
-        return [(controlled.ErrorControlledCoupling, "trend", lambda self, h_ns, order: None)]
+    if name == "trend-on-reject":
+        return trend_on_reject_patches()
     if name == "no-map":
         return [(embedded, "lubricant_step", lambda *args: None)]
     if name.startswith("map-where="):
