@@ -15,7 +15,8 @@ What is left is the master's own coupling (and the timers' few per cent).
 
 ``--variant``: one run (``api.one_run``: per-step tolerance fixed, no check, no lead-in) per
 tolerance of ``--tols`` at the point, each variant in turn: accepted and rejected steps, the
-run's own estimate and the true nRMS(v) on the window against the reference (rtol 1e-10).
+run's own estimate and the true nRMS(v) on the window against the reference (rtol 1e-10), and
+whether the run's estimate vouches for it (a call may end on it alone).
 Variants (each patches the shipped code for its runs only, and puts it back):
   * ``shipped``: as shipped;
   * ``no-force-term``: the step's error without the force term of a friction with state
@@ -248,7 +249,7 @@ def variants(names: list[str], scene: str, overrides: dict, tols: list[float]) -
     reference = bench_trust.trusted_reference(scenario, scene)
     fmu_dir = find_fmus(tuple(scenario.fmus))
     print(f"{'variant':18s} {'per-step':>8s} {'steps':>6s} {'rejected':>8s} {'estimate':>9s} {'true':>9s} "
-          f"{'est/true':>8s} {'wall s':>6s}", flush=True)
+          f"{'est/true':>8s} {'vouches':>7s} {'wall s':>6s}", flush=True)
     for name in names:
         with contextlib.ExitStack() as stack:
             for owner, attribute, value in variant_patches(name):
@@ -262,7 +263,8 @@ def variants(names: list[str], scene: str, overrides: dict, tols: list[float]) -
                 estimate = stats["estimated_error"].get("nrms_v")
                 ratio = estimate / true if estimate is not None and true > 0 else math.nan
                 print(f"{name:18s} {tol:8.2g} {stats['communication_steps']:6d} {stats['rejected_steps']:8d} "
-                      f"{estimate if estimate is not None else math.nan:9.3g} {true:9.3g} {ratio:8.2f} {wall:6.2f}",
+                      f"{estimate if estimate is not None else math.nan:9.3g} {true:9.3g} {ratio:8.2f} "
+                      f"{str(stats['estimated_error'].get('vouches')):>7s} {wall:6.2f}",
                       flush=True)
 
 
