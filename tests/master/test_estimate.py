@@ -10,6 +10,7 @@ from scipy.linalg import expm
 
 from tribofmu.coupling.algorithms import AdaptiveCoupling
 from tribofmu.coupling.estimate import GlobalErrorEstimate
+from tribofmu.coupling.settings import STEP_CONTROL
 from tribofmu.coupling.window_error import WindowError
 from tribofmu.coupling.system import Contact
 from tribofmu.physics import FluidLaw
@@ -295,3 +296,26 @@ def test_window_inside_one_step_has_an_estimate():
     audit = WindowError((0.4, 0.6))
     audit.add(points)
     assert math.isfinite(audit.nrms())
+
+
+def test_local_errors_that_cancel_leave_the_spread_of_what_each_left_unknown():
+    """Two steps whose local errors in v cancel: the carried error is 0, but each step's
+    estimate was known only to a tenth of itself (1 - the step-size rule's safety), of
+    unknown sign: the run reports their root-sum-square, not 0 (a lubricant's runaway took
+    back the error it met, and the estimate read 0.17x its true one). Where they add up, the
+    spread is a small part of what is reported; a snapshot carries it."""
+    share = 1.0 - STEP_CONTROL.safety
+    cancelling = GlobalErrorEstimate()
+    first = cancelling.advance(1e-6, 0.0, 0.0, 1e-3, stuck=False)
+    second = cancelling.advance(1e-6, 0.0, 0.0, -1e-3, stuck=False)
+    assert cancelling.ev == pytest.approx(0.0, abs=1e-15)
+    assert first == pytest.approx(math.hypot(1e-3, share * 1e-3), rel=1e-12)
+    assert second == pytest.approx(math.sqrt(2.0) * share * 1e-3, rel=1e-9) and second > 0.1 * first
+    adding = GlobalErrorEstimate()
+    adding.advance(1e-6, 0.0, 0.0, 1e-3, stuck=False)
+    assert adding.advance(1e-6, 0.0, 0.0, 1e-3, stuck=False) == pytest.approx(2e-3, rel=share ** 2)
+    copy = GlobalErrorEstimate()
+    copy.restore(cancelling.export())
+    assert copy.spread == cancelling.spread and copy.advance(1e-6, 0.0, 0.0, 0.0, stuck=False) == pytest.approx(second)
+    stuck = copy.advance(1e-6, 0.0, 0.0, 0.0, stuck=True)  # (v rides on the drive: no error, known or not)
+    assert stuck == 0.0 and copy.spread[1] == 0.0

@@ -71,7 +71,7 @@ from dataclasses import asdict
 
 from .local_errors import RampStep, centred_ramp_miss, stiff_x_error
 from .passages import NearRunaways
-from .settings import CHECK_SETTINGS
+from .settings import CHECK_SETTINGS, STEP_CONTROL
 from .variational import state_flow, step_transition
 
 # exp() of more than this overflows a float: a carry that grows past it has long saturated
@@ -164,6 +164,9 @@ class GlobalErrorEstimate:
         # (ex, ev, ef) of the error carried since :meth:`mark`, with no local error added since:
         # how the error made before then decays (coupling/lead_in.py); None: not marked
         self.old: tuple[float, float, float] | None = None
+        # (x [m], v [m/s], f [1]) what the local error estimates leave unknown, carried as the
+        # error is (:meth:`advance`); reported beside it, as a root-sum-square
+        self.spread = (0.0, 0.0, 0.0)
 
     def export(self) -> list:
         """What a state snapshot carries of it (JSON-ready): ex, ev, w2, the last ramp, ef, and
@@ -172,7 +175,8 @@ class GlobalErrorEstimate:
         reports as if it had never gone past it."""
         passages = self.near_runaways.export() if self.near_runaways is not None else None
         return [self.ex, self.ev, self.w2, asdict(self.ramp) if self.ramp is not None else None, self.ef,
-                self.saturated, self.passed_event, passages, list(self.old) if self.old is not None else None]
+                self.saturated, self.passed_event, passages, list(self.old) if self.old is not None else None,
+                list(self.spread)]
 
     def restore(self, values: list) -> None:
         """Back to what :meth:`export` gave (or its first three, from a snapshot without a ramp;
@@ -187,6 +191,7 @@ class GlobalErrorEstimate:
                 self.near_runaways.restore(values[7])
         if len(values) > 8:
             self.old = tuple(values[8]) if values[8] is not None else None
+        self.spread = tuple(values[9]) if len(values) > 9 else (0.0, 0.0, 0.0)
 
     def mark(self) -> None:
         """From here on, also carry the error as it is now without the local errors to come
@@ -218,7 +223,15 @@ class GlobalErrorEstimate:
         The carried error saturates at the motion's own size (x_scale [m], v_scale [m/s], and
         f_scale [1] for f): a linearised carry is meaningless past it (a stiff spring whose
         2K/M the block's answers give only roughly would otherwise let it grow without bound,
-        as would a friction whose slope is negative)."""
+        as would a friction whose slope is negative).
+
+        The returned error in v is the carried one and its :attr:`spread` as a root-sum-square
+        (its sign the carried one's): the spread is what each step's local error estimate leaves
+        unknown, the share the step-size rule allows for its own estimate's miss (1 - its
+        safety: a tenth), of unknown sign, carried by the same
+        map and each step's share added to it as a square (component by component: the shares
+        are independent). Where the motion makes the carried terms cancel, the sum shrinks and
+        the spread does not."""
         if self.old is not None:  # (the same motion, no local errors: nothing to flag)
             ox, ov, of = self._carried(h, damping, stuck_through, slopes, transition, *self.old)
             self.old = (_saturated(ox, x_scale), 0.0 if stuck else _saturated(ov, v_scale), _saturated(of, f_scale))
@@ -227,9 +240,15 @@ class GlobalErrorEstimate:
         self.ex = _saturated(ex, x_scale)
         self.ev = 0.0 if stuck else _saturated(ev, v_scale)
         self.ef = _saturated(ef, f_scale)
-        if self.ex != ex or (not stuck and self.ev != ev) or self.ef != ef:
+        share = 1.0 - STEP_CONTROL.safety
+        sx, sv, sf = self._carried(h, damping, stuck_through, slopes, transition, *self.spread) \
+            if any(self.spread) else self.spread  # (none yet: an overflowing carry's inf is not it)
+        sx, sv, sf = (math.copysign(math.hypot(s, share * local), s)
+                      for s, local in ((sx, local_x), (sv, local_v), (sf, local_f)))
+        self.spread = (_saturated(sx, x_scale), 0.0 if stuck else _saturated(sv, v_scale), _saturated(sf, f_scale))
+        if self.ex != ex or (not stuck and self.ev != ev) or self.ef != ef or self.spread != (sx, 0.0 if stuck else sv, sf):
             self.saturated = True
-        return self.ev
+        return math.copysign(math.hypot(self.ev, self.spread[1]), self.ev)
 
     def watch(self, slopes: tuple[float, float, float, float] | None, f_start: float, f_end: float) -> None:
         """After :meth:`advance` over a step from f_start to f_end [1] with those slopes: follow

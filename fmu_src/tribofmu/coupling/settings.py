@@ -95,7 +95,10 @@ class ErrorSettings:
 # - safety 0.9, min_factor 0.1: the rule's (and scipy's rk.py's) usual values; a rejected
 #   step at an event is landed by the event logic, not by this. The safety is also the step
 #   planned from the interpolation bound's (embedded.py interpolation_limit), for the same
-#   reason: the jerk it is planned from is the last step's, not this one's;
+#   reason: the jerk it is planned from is the last step's, not this one's; and its
+#   complement, the tenth of a step's error estimate the rule allows for its own miss, is
+#   what the run's global estimate carries beside each step's local error as unknown
+#   (coupling/estimate.py, GlobalErrorEstimate.spread);
 # - max_factor 4: growth of 4 per accepted step (a slip phase after a transition);
 # - (no growth right after a rejection is the rule's own, as in scipy's rk.py: the step just
 #   failed at a larger size, growing again at once invites another. It was a value,
