@@ -26,11 +26,13 @@ class RecordingController:
     def __init__(self):
         self.calls = []
         self.previous_errors = []  # what it was told of the last accepted step (the PI term)
+        self.trends = []  # and for its predictive term
 
-    def factor(self, error, order, after_reject=False, previous_error=1.0):
-        value = COUPLING_STEPS.factor(error, order, after_reject, previous_error)
+    def factor(self, error, order, after_reject=False, previous_error=1.0, trend=None):
+        value = COUPLING_STEPS.factor(error, order, after_reject, previous_error, trend)
         self.calls.append((error, order, after_reject, value))
         self.previous_errors.append(previous_error)
+        self.trends.append(trend)
         return value
 
 
@@ -111,6 +113,46 @@ def test_the_controller_hears_the_last_accepted_step_s_error_not_a_rejected_one(
             accepted.append(error)
     assert algorithm.counters.rejected >= 1 and len(accepted) >= 5  # (both kinds were seen)
     assert algorithm.accepted_error == accepted[-1]
+
+
+def test_a_rejected_try_is_retried_with_the_trend_since_the_last_accepted_step_of_its_order():
+    """The predictive term's memory: the last accepted step's length and error (none before
+    any), kept across rejections, replaced by each acceptance; read for a rejected try of that
+    step's order only (a held step's error constant is not a ramped one's), never for a step
+    that is accepted (its successor is sized as before)."""
+    system, point = slipping_fluid()
+    algorithm = adaptive(system, tol=1e-4, step=5e-3)
+    last, read = None, 0  # (h_ns, error, order) of the last accepted step
+    for _ in range(30):
+        if last is not None and algorithm.accepted_h_ns == last[0] and not algorithm.rejected_last:
+            algorithm.h_ns *= 8  # (right after an acceptance, a try far longer: rejected, a trend to read)
+        h_ns = algorithm.h_ns
+        new = algorithm.advance(system, point, 10**9)
+        error, order, _, _ = algorithm.controller.calls[-1]
+        trend = algorithm.controller.trends[-1]
+        if new or last is None or last[2] != order:
+            assert trend is None
+        else:
+            assert trend == (h_ns / last[0], last[1])
+            read += 1
+        if new:
+            point = new[-1]
+            last = (h_ns, error, order)
+    assert read >= 1 and len([c for c in algorithm.controller.trends if c is None]) >= 5
+    assert (algorithm.accepted_h_ns, algorithm.accepted_error, algorithm.accepted_order) == last
+
+
+def test_no_trend_before_an_accepted_step_across_orders_or_for_a_stuck_step():
+    """The trend is (h over the last accepted step's, its error) for a step of that step's
+    order; none before any, none across orders, none for a stuck step (order 3: its error is
+    its breakaway's, weighed by how near the bound the force is)."""
+    algorithm = adaptive(slipping_fluid()[0])
+    assert algorithm.trend(1000, 2) is None
+    algorithm.accepted_h_ns, algorithm.accepted_error, algorithm.accepted_order = 500, 0.4, 2
+    assert algorithm.trend(1000, 2) == (2.0, 0.4)
+    assert algorithm.trend(1000, 1) is None
+    algorithm.accepted_order = 3
+    assert algorithm.trend(1000, 3) is None
 
 
 def test_the_minimum_step_is_forced_through_and_counted():

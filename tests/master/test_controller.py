@@ -67,6 +67,27 @@ def test_pi_term_answers_a_growing_error_harder_and_is_off_at_beta_zero():
     assert pi.factor(1e-12, 2, previous_error=0.5) == 4.0  # still clipped
 
 
+def test_the_predictive_term_shortens_a_step_whose_error_rises_and_never_grows_one():
+    """With a trend (this step's h over the last accepted one's, that step's error) the factor
+    is also Gustafsson's predictive one's, scipy's radau.py predict_factor: times min(1,
+    (h / h_old) (error_old / error)^(1 / (order + 1))), on top of the PI term."""
+    rule = COUPLING_STEPS
+    for error, ratio, previous, order in ((0.5, 1.0, 0.1, 2), (0.8, 1.3, 0.4, 1), (2.0, 0.7, 0.9, 2)):
+        multiplier = ratio * (previous / error) ** (1.0 / (order + 1))
+        expected = min(max(rule.factor(error, order, previous_error=previous) * min(1.0, multiplier), 0.1), 4.0)
+        assert rule.factor(error, order, previous_error=previous, trend=(ratio, previous)) == pytest.approx(
+            expected, rel=1e-14)
+    # an error that rose from 0.1 to 0.5 over equal steps: the next step a cube root of 5 shorter
+    assert PLAIN.factor(0.5, 2, trend=(1.0, 0.1)) == pytest.approx(PLAIN.factor(0.5, 2) / 5.0 ** (1 / 3), rel=1e-14)
+    # one that fell, or a step that grew: no more growth than without the term
+    assert PLAIN.factor(0.5, 2, trend=(1.0, 0.9)) == PLAIN.factor(0.5, 2)
+    assert PLAIN.factor(0.5, 2, trend=(2.0, 0.5)) == PLAIN.factor(0.5, 2)
+    # no trend read from a zero error on either side; still clipped
+    assert PLAIN.factor(0.5, 2, trend=(1.0, 0.0)) == PLAIN.factor(0.5, 2)
+    assert PLAIN.factor(0.0, 2, trend=(1.0, 0.5)) == 4.0
+    assert PLAIN.factor(1e6, 1, trend=(1.0, 1e-6)) == 0.1
+
+
 @pytest.mark.parametrize("rule", [PLAIN, KINETICS_SUBSTEPS, COUPLING_STEPS,
                                   StepSizeController(beta=0.1, min_previous_error=2.0)],
                          ids=["plain", "kinetics", "coupling", "pi-floored-above-1"])

@@ -81,6 +81,7 @@ NOT_TUNING = {
                              "ROUND_OFF"},  # a block step's round-off, which Resolution's fields are
     # a unit; the output grid, not the coupling's; the cubic Hermite error bound's 384
     "coupling/interpolation.py": {"NS", "SAMPLES_PER_PERIOD", "HERMITE_ERROR_DIVISOR"},
+    "coupling/controlled.py": {"STUCK_ORDER"},  # a stuck step's order (its breakaway miss ~ h^4): a definition
     "coupling/blocks.py": {"SERIES_BELOW"},  # where a closed form's round-off passes its Taylor series'
     "coupling/estimate.py": {"EXP_LIMIT"},  # exp() overflows a float past it
     "coupling/variational.py": {"PADE_POLE", "PADE_RESIDUE"},  # the (1,2) Pade approximant's pole and residue

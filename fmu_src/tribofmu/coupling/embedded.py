@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-from .controlled import W2_POSITION_FLOOR, ErrorControlledCoupling
+from .controlled import STUCK_ORDER, W2_POSITION_FLOOR, ErrorControlledCoupling
 from .estimate import chord_damping
 from .interpolation import NS
 from .limits import StepLimits
@@ -165,7 +165,7 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         err = self.error_ratio(point, new, local, h)
         # local error ~ h^(order + 1): ramped h^3, held h^2; a stick ramp's breakaway
         # miss dF^2 with dF ~ h^2: h^4
-        order = 3 if local.stuck else (2 if new.ramped else 1)
+        order = STUCK_ORDER if local.stuck else (2 if new.ramped else 1)
         # (_accepted's own condition: a step it keeps)
         if (err <= 1.0 or h_ns <= self.min_ns) and not self._committed(system, start, new):
             return self.advance(system, point, stop_ns)  # (once: the block's model is forgotten)

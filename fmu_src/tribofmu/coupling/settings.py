@@ -115,6 +115,9 @@ class ErrorSettings:
 #   from the rule, where it grows by max_factor, (safety / max_factor)^(order + 1),
 #   boundary_heating's reported run took 87 % more FMU calls, on a scratch copy: kept,
 #   2026-11-27.)
+# - (and, for a rejected slip try's retry, the error's trend since the last accepted step of
+#   its order: Gustafsson's predictive term, the one scipy's radau.py uses; the rule's own, no
+#   value; coupling/controlled.py trend.)
 # (The breakaway's reach is max_factor steps, derived: EmbeddedCoupling.breakaway_reach.)
 STEP_CONTROL = StepSizeController(safety=0.9, min_factor=0.1, max_factor=4.0, beta=0.06, min_previous_error=1e-4)
 

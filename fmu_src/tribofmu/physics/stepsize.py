@@ -28,7 +28,16 @@ class StepSizeController:
     error^-(1/(order + 1) - 0.75 beta) previous^beta, previous the last accepted step's
     error (floored at min_previous_error). An error that grew since the last step is answered
     harder, one that fell more gently, so the steps stop rocking between growth and
-    rejection."""
+    rejection.
+
+    Given the last accepted step's length ratio and error (``trend``: this step's h over that
+    step's, and its error), the factor is also Gustafsson's predictive one's (Hairer & Wanner,
+    Solving ODEs II, IV.8; scipy's radau.py ``predict_factor``): times min(1, (h / h_old)
+    (error_old / error)^(1 / (order + 1))). It reads the error's constant (error / h^(order +
+    1)) as moving on as it moved over the last step: an error rising from step to step (a
+    force curving ever faster toward an event) shortens the next step before it fails, where
+    the rule sized it from this step's constant and it was rejected; a falling one grows the
+    next no more than the rule does."""
 
     safety: float = 0.9
     min_factor: float = 0.1
@@ -37,17 +46,19 @@ class StepSizeController:
     min_previous_error: float = MIN_PREVIOUS_ERROR
 
     def factor(self, error: float, order: int, after_reject: bool = False,
-               previous_error: float = 1.0) -> float:
+               previous_error: float = 1.0, trend: tuple[float, float] | None = None) -> float:
         grow = min(1.0, self.max_factor) if after_reject else self.max_factor
         exponent = 1.0 / (order + 1) - 0.75 * self.beta
         raw = self.safety * max(error, 1e-300) ** -exponent
         if self.beta:
             raw *= max(previous_error, self.min_previous_error) ** self.beta
+        if trend is not None and error > 0.0 and trend[1] > 0.0:
+            raw *= min(1.0, trend[0] * (trend[1] / error) ** (1.0 / (order + 1)))
         return min(max(raw, self.min_factor), grow)
 
     def factor_function(self, order: int):
-        """:meth:`factor` for one order, not after a rejection and with the previous error at
-        its default, as a function of the error alone: the same numbers (the same operations,
+        """:meth:`factor` for one order, not after a rejection, with the previous error at its
+        default and no trend, as a function of the error alone: the same numbers (the same operations,
         the builtins' max and min written as the comparisons they make), its constants bound
         once, for an inner loop that asks on every sub-step (the lubricant kinetics)."""
         exponent = -(1.0 / (order + 1) - 0.75 * self.beta)
