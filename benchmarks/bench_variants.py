@@ -24,10 +24,14 @@ Variants (each patches the shipped code for its runs only, and puts it back):
   * ``measured-power``: after a rejection, the next try sized from the power of h the last two
     tries of the same step showed (within [1, order + 1]) instead of order + 1;
   * ``map-tol=X``: the step map's pass with the kinetics at tolerance X (shipped: 1e-6);
-  * ``trend-on-reject``: a rejected slip try's retry sized with Gustafsson's predictive term
-    too (scipy's radau.py ``predict_factor``): the shipped factor times min(1, (h / h_old)
-    (err_old / err)^(1/(p+1))), h_old and err_old the last accepted step's where it was of the
-    try's order and the try not stuck (tried in session 16, not shipped: docs/coupling.md);
+  * ``no-trend``: the step-size rule without the predictive term on rejected slip tries
+    (``ErrorControlledCoupling.trend`` None for every step), as shipped until session 17;
+  * ``spread=X``: the run's global estimate with each step's unknown share X of its local
+    error carried beside it (shipped: 1 - the step-size rule's safety, 0.1; 0: none, as
+    shipped until session 17; coupling/estimate.py ``GlobalErrorEstimate.spread``);
+  * ``exact-carry``: each slip step of a lubricant carried by the variational equations along
+    the friction's own path (32 sub-steps, the law's slopes at each one's middle) instead of
+    the step's map; slow (about twice the run's time), a check of the map, not a method;
   * ``no-map``: every slip step of a lubricant carried by the variational equations at its
     middle (``variational.state_flow``), none by the step map;
   * ``map-where=A|B``: the step map only on the slip steps A or B name (``phase``: across the
@@ -163,29 +167,47 @@ def tangent_at_ends(shipped_substep):
     return substep
 
 
-def trend_on_reject_patches() -> list:
-    """ErrorControlledCoupling._accepted with a rejected slip try's retry sized with the
-    predictive term (the ``trend-on-reject`` variant); the last accepted step's length, error
-    and order kept on the coupling for it."""
-    from tribofmu.coupling import controlled
+def exact_carry_patches(substeps: int = 32) -> list:
+    """GlobalErrorEstimate._carried with a lubricant's slip step carried by its variational
+    equations composed over ``substeps`` equal parts of the step along the friction's path (dv
+    on the straight line between the step's ends, f advanced along it by the law at 1e-8), the
+    law's slopes at each part's middle (the ``exact-carry`` variant): the linearised exact flow
+    the path's local errors (coupling/path_error.py) are measured against, where the shipped
+    carry takes the step's own map (the coupling's, which rings where the loop is stiff)."""
+    from tribofmu.coupling import embedded
+    from tribofmu.coupling import estimate as estimate_module
+    from tribofmu.coupling.variational import state_flow
 
-    owner = controlled.ErrorControlledCoupling
-    shipped = owner._accepted
+    carry_error = embedded.EmbeddedCoupling._carry_error
+    carried = estimate_module.GlobalErrorEstimate._carried
 
-    def accepted(self, system, start, h_ns, error, order, min_ns, steps):
-        last = getattr(self, "_variant_last", None)  # (h_ns, error, order) of the last accepted step
-        kept = shipped(self, system, start, h_ns, error, order, min_ns, steps)
-        if kept:
-            self._variant_last = (h_ns, error, order)
-        elif last is not None and last[2] == order and order < 3 and error > 0.0 and last[1] > 0.0:
-            rule = self.controller
-            trend = min(1.0, h_ns / last[0] * (last[1] / error) ** (1.0 / (order + 1)))
-            g = self.step_granularity
-            self.h_ns = max(int(h_ns * max(rule.factor(error, order, self.rejected_last, self.accepted_error) * trend,
-                                           rule.min_factor)), self.min_ns) // g * g
-        return kept
+    def carry_error_seen(self, point, new, local, h):
+        self.estimate.variant_step = (point, new, self.velocity_per_impulse, self.dv_resolution())
+        try:
+            return carry_error(self, point, new, local, h)
+        finally:
+            self.estimate.variant_step = None
 
-    return [(owner, "_accepted", accepted)]
+    def carried_along_path(self, h, damping, stuck_through, slopes, transition, ex, ev, ef):
+        step = getattr(self, "variant_step", None)
+        if transition is None or step is None or self.law is None:
+            return carried(self, h, damping, stuck_through, slopes, transition, ex, ev, ef)
+        start, end, velocity_per_impulse, dv_floor = step
+        n, T, f, part = 0.5 * (start.n + end.n), 0.5 * (start.T + end.T), start.f, h / substeps
+        for k in range(substeps):
+            dv0 = start.dv + (end.dv - start.dv) * k / substeps
+            dv1 = start.dv + (end.dv - start.dv) * (k + 1) / substeps
+            f1, _ = self.law.advance(f, dv1, n, T, part, 1e-8, 1e-8, dv0)
+            dv = 0.5 * (dv0 + dv1)
+            dv = math.copysign(dv_floor, dv) if abs(dv) < dv_floor else dv
+            F_dv, F_f, g_dv, g_f = self.law.state_jacobian(dv, 0.5 * (f + f1), n, T)
+            ex, ev, ef = state_flow(part, self.w2, F_dv * velocity_per_impulse, F_f * velocity_per_impulse,
+                                    -g_dv, g_f, ex, ev, ef)
+            f = f1
+        return ex, ev, ef
+
+    return [(embedded.EmbeddedCoupling, "_carry_error", carry_error_seen),
+            (estimate_module.GlobalErrorEstimate, "_carried", carried_along_path)]
 
 
 def map_where(shipped, where: list[str]):
@@ -224,8 +246,16 @@ def variant_patches(name: str) -> list:
     if name.startswith("map-tol="):
         tol = float(name.split("=", 1)[1])
         return [(variational, "RESOLUTION", dataclasses.replace(RESOLUTION, map_kinetics_tol=tol))]
-    if name == "trend-on-reject":
-        return trend_on_reject_patches()
+    if name == "no-trend":
+        from tribofmu.coupling import controlled
+        return [(controlled.ErrorControlledCoupling, "trend", lambda self, h_ns, order: None)]
+    if name.startswith("spread="):
+        from tribofmu.coupling import estimate as estimate_module
+        from tribofmu.coupling.settings import STEP_CONTROL
+        share = float(name.split("=", 1)[1])
+        return [(estimate_module, "STEP_CONTROL", dataclasses.replace(STEP_CONTROL, safety=1.0 - share))]
+    if name == "exact-carry":
+        return exact_carry_patches()
     if name == "no-map":
         return [(embedded, "lubricant_step", lambda *args: None)]
     if name.startswith("map-where="):
