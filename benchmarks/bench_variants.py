@@ -31,7 +31,7 @@ Variants (each patches the shipped code for its runs only, and puts it back):
     shipped until session 17; coupling/estimate.py ``GlobalErrorEstimate.spread``);
   * ``exact-carry``: each slip step of a lubricant carried by the variational equations along
     the friction's own path (32 sub-steps, the law's slopes at each one's middle) instead of
-    the step's map; slow (about twice the run's time), a check of the map, not a method;
+    the step's map; slow (4-5x the run's time), a check of the map, not a method;
   * ``no-map``: every slip step of a lubricant carried by the variational equations at its
     middle (``variational.state_flow``), none by the step map;
   * ``map-where=A|B``: the step map only on the slip steps A or B name (``phase``: across the

@@ -387,7 +387,8 @@ def estimated_error(coupling, audit: WindowError, problem: str | None = None) ->
             "near_melt": near.ratio if near is not None else None,
             "method": f"propagated: the {coupling.name} coupling's local error estimates (and the "
                       f"friction's impulse misses) carried through {motion} to the "
-                      "window (coupling/estimate.py); "
+                      "window, with the tenth of each that its step-size rule leaves unknown carried "
+                      "beside them (coupling/estimate.py); "
                       + ("it vouches for the run (its derivation holds here)" if problem is None
                          else f"it cannot vouch for the run: {problem}")}
 
