@@ -228,10 +228,10 @@ class GlobalErrorEstimate:
         The returned error in v is the carried one and its :attr:`spread` as a root-sum-square
         (its sign the carried one's): the spread is what each step's local error estimate leaves
         unknown, the share the step-size rule allows for its own estimate's miss (1 - its
-        safety: a tenth), of unknown sign, carried by the same
-        map and each step's share added to it as a square (component by component: the shares
-        are independent). Where the motion makes the carried terms cancel, the sum shrinks and
-        the spread does not."""
+        safety: a tenth), of unknown sign, carried by the same map, each step's share added to
+        it as a square (component by component: the shares are independent). Where the motion
+        makes the carried terms cancel (a lubricant's melt taking back the error it met:
+        docs/coupling.md, "The carried error's spread"), the sum shrinks and the spread does not."""
         if self.old is not None:  # (the same motion, no local errors: nothing to flag)
             ox, ov, of = self._carried(h, damping, stuck_through, slopes, transition, *self.old)
             self.old = (_saturated(ox, x_scale), 0.0 if stuck else _saturated(ov, v_scale), _saturated(of, f_scale))
