@@ -232,21 +232,20 @@ class GlobalErrorEstimate:
         it as a square (component by component: the shares are independent). Where the motion
         makes the carried terms cancel (a lubricant's melt taking back the error it met:
         docs/coupling.md, "The carried error's spread"), the sum shrinks and the spread does not."""
+        scales = (x_scale, v_scale, f_scale)
         if self.old is not None:  # (the same motion, no local errors: nothing to flag)
-            ox, ov, of = self._carried(h, damping, stuck_through, slopes, transition, *self.old)
-            self.old = (_saturated(ox, x_scale), 0.0 if stuck else _saturated(ov, v_scale), _saturated(of, f_scale))
-        ex, ev, ef = self._carried(h, damping, stuck_through, slopes, transition, self.ex, self.ev, self.ef)
-        ex, ev, ef = ex + local_x, ev + local_v, ef + local_f
-        self.ex = _saturated(ex, x_scale)
-        self.ev = 0.0 if stuck else _saturated(ev, v_scale)
-        self.ef = _saturated(ef, f_scale)
+            self.old = _bounded(self._carried(h, damping, stuck_through, slopes, transition, *self.old), scales, stuck)
+        locals_ = (local_x, local_v, local_f)
+        carried = self._carried(h, damping, stuck_through, slopes, transition, self.ex, self.ev, self.ef)
+        error = tuple(e + local for e, local in zip(carried, locals_))
         share = 1.0 - STEP_CONTROL.safety
-        sx, sv, sf = self._carried(h, damping, stuck_through, slopes, transition, *self.spread) \
+        spread = self._carried(h, damping, stuck_through, slopes, transition, *self.spread) \
             if any(self.spread) else self.spread  # (none yet: an overflowing carry's inf is not it)
-        sx, sv, sf = (math.copysign(math.hypot(s, share * local), s)
-                      for s, local in ((sx, local_x), (sv, local_v), (sf, local_f)))
-        self.spread = (_saturated(sx, x_scale), 0.0 if stuck else _saturated(sv, v_scale), _saturated(sf, f_scale))
-        if self.ex != ex or (not stuck and self.ev != ev) or self.ef != ef or self.spread != (sx, 0.0 if stuck else sv, sf):
+        spread = tuple(math.copysign(math.hypot(s, share * local), s) for s, local in zip(spread, locals_))
+        self.ex, self.ev, self.ef = _bounded(error, scales, stuck)
+        self.spread = _bounded(spread, scales, stuck)
+        if any(bounded != (x, 0.0 if stuck else v, f) for bounded, (x, v, f) in
+               (((self.ex, self.ev, self.ef), error), (self.spread, spread))):
             self.saturated = True
         return math.copysign(math.hypot(self.ev, self.spread[1]), self.ev)
 
@@ -327,6 +326,12 @@ class GlobalErrorEstimate:
         nx = (e1 * (ax - l2 * ex) - e2 * (ax - l1 * ex)) / d
         nv = (e1 * (av - l2 * ev) - e2 * (av - l1 * ev)) / d
         return nx.real, nv.real
+
+
+def _bounded(values, scales, stuck: bool) -> tuple[float, float, float]:
+    """(x, v, f) each within its scale (:func:`_saturated`), v 0 where the contact is stuck."""
+    (x, v, f), (x_scale, v_scale, f_scale) = values, scales
+    return _saturated(x, x_scale), 0.0 if stuck else _saturated(v, v_scale), _saturated(f, f_scale)
 
 
 def _saturated(value: float, scale: float) -> float:
