@@ -7,6 +7,8 @@ one (docs/coupling.md, "Speed against the monolithic solvers", session 14).
         --set drive.omega=20.56 --set block.M=0.2035 --set block.K=4005 --set friction.gamma=0.893 \
         --set conditions.T=262 --tols 1e-2,3e-3,1e-3
     python benchmarks/bench_variants.py --lengths [--tols 1e-3]
+    python benchmarks/bench_variants.py --variant shipped,spread=0 --steps 0.355:0.3875 --tols 7e-3 \
+        --set friction.gamma=-0.3
 
 ``--where``: the default Fig. 6 call (``api.simulate``, one worker) with ``perf_counter`` around
 every FMI call of the master's instances and around the step map's pass
@@ -29,6 +31,10 @@ Variants (each patches the shipped code for its runs only, and puts it back):
   * ``spread=X``: the run's global estimate with each step's unknown share X of its local
     error carried beside it (shipped: 1 - the step-size rule's safety, 0.1; 0: none, as
     shipped until session 17; coupling/estimate.py ``GlobalErrorEstimate.spread``);
+  * ``covariance``: the spread replaced by the carried error's full 3x3 covariance (each
+    step's unknown share as a rank-one term, carried by the step's matrix, three carries of the
+    unit vectors), the reported error the root-sum-square of the carried v and its variance's
+    root: a check of the carried spread, which keeps only its diagonal's square roots;
   * ``exact-carry``: each slip step of a lubricant carried by the variational equations along
     the friction's own path (32 sub-steps, the law's slopes at each one's middle) instead of
     the step's map; slow (4-5x the run's time), a check of the map, not a method;
@@ -42,6 +48,13 @@ Variants (each patches the shipped code for its runs only, and puts it back):
   * ``group.name=V``: one tuning value of coupling/settings.py set to V, named as
     ``bench_settings.py`` names them (``coupling.root_tol_fraction=1e-2``);
   * ``a+b``: both (``map-tol=1e-5+map-tangent-ends``).
+
+``--steps FROM:TO``: each variant's one run at ``--tols``' first value, step by step from FROM to
+TO [s]: each accepted point's step length and f, the local errors the step charged to the run's
+carried estimate (v over the window's max |v|, f), the carried error after it (v, f, and v's
+spread) and the true error against the reference at that point (v, f). The estimate's errors are
+exact less computed (coupling/path_error.py); they are printed as computed less exact, the
+true error's sign.
 
 ``--lengths``: Fig. 6's one run at ``--tols``' first value: its accepted steps by length, the
 share of the drive's period they cover, and which term of the step's error was the largest at
@@ -256,6 +269,8 @@ def variant_patches(name: str) -> list:
         return [(estimate_module, "STEP_CONTROL", dataclasses.replace(STEP_CONTROL, safety=1.0 - share))]
     if name == "exact-carry":
         return exact_carry_patches()
+    if name == "covariance":
+        return covariance_patches()
     if name == "no-map":
         return [(embedded, "lubricant_step", lambda *args: None)]
     if name.startswith("map-where="):
@@ -342,6 +357,86 @@ def lengths(tol: float) -> None:
               f"periods; largest term, accepted {dict(kept)}, rejected {dict(rejected)}")
 
 
+def covariance_patches() -> list:
+    """GlobalErrorEstimate.advance with the spread as a full covariance P: P' = S P S^T + (share
+    l)(share l)^T, S the step's carry (its columns the carried unit vectors), share 1 - the
+    step-size rule's safety, l the step's local errors; reported hypot(ev, sqrt(P_vv)) (the
+    ``covariance`` variant)."""
+    from tribofmu.coupling import estimate as estimate_module
+    from tribofmu.coupling.settings import STEP_CONTROL
+
+    advance = estimate_module.GlobalErrorEstimate.advance
+    share = 1.0 - STEP_CONTROL.safety  # (the shipped share; the carried spread itself is off)
+
+    def advance_with_covariance(self, h, damping, local_x, local_v, stuck, x_scale=math.inf, v_scale=math.inf,
+                                stuck_through=False, slopes=None, f_scale=math.inf, local_f=0.0, transition=None):
+        P = getattr(self, "variant_covariance", [[0.0] * 3 for _ in range(3)])
+        columns = [self._carried(h, damping, stuck_through, slopes, transition, *unit)
+                   for unit in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))]
+        S = [[columns[j][i] if math.isfinite(columns[j][i]) else 0.0 for j in range(3)] for i in range(3)]
+        SP = [[sum(S[i][k] * P[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+        unknown = [share * local for local in (local_x, local_v, local_f)]
+        Q = [[sum(SP[i][k] * S[j][k] for k in range(3)) + unknown[i] * unknown[j] for j in range(3)]
+             for i in range(3)]
+        if stuck:
+            for k in range(3):
+                Q[1][k] = Q[k][1] = 0.0
+        for i, scale in enumerate((x_scale, v_scale, f_scale)):
+            if math.isfinite(scale) and not Q[i][i] <= scale * scale:
+                Q[i][i] = scale * scale
+        self.variant_covariance = Q
+        advance(self, h, damping, local_x, local_v, stuck, x_scale, v_scale, stuck_through, slopes, f_scale,
+                local_f, transition)
+        return math.copysign(math.hypot(self.ev, math.sqrt(max(Q[1][1], 0.0))), self.ev)
+
+    return [(estimate_module, "STEP_CONTROL", dataclasses.replace(STEP_CONTROL, safety=1.0)),  # (spread off)
+            (estimate_module.GlobalErrorEstimate, "advance", advance_with_covariance)]
+
+
+def steps(names: list[str], scene: str, overrides: dict, tol: float, start: float, end: float) -> None:
+    """Each variant's run at tol, point by point from start to end [s] (``--steps``)."""
+    import numpy as np
+
+    from tribofmu import api
+    from tribofmu.coupling import estimate as estimate_module
+    from tribofmu.fmu_cache import find_fmus
+    from tribofmu.studies.reference import converged_reference
+
+    scenario = api.load(scene, overrides)
+    fmu_dir = find_fmus(tuple(scenario.fmus))
+    advance = estimate_module.GlobalErrorEstimate.advance
+    for name in names:
+        charged = []  # (local v, local f, carried v, carried f, spread v) at each accepted step
+
+        def logged(self, h, damping, local_x, local_v, stuck, *args, **kwargs):
+            reported = advance(self, h, damping, local_x, local_v, stuck, *args, **kwargs)
+            local_f = args[5] if len(args) > 5 else kwargs.get("local_f", 0.0)
+            charged.append((local_v, local_f, self.ev, self.ef, self.spread[1]))
+            return reported
+
+        with contextlib.ExitStack() as stack:
+            for owner, attribute, value in variant_patches(name):
+                stack.enter_context(patched(owner, attribute, value))
+            stack.enter_context(patched(estimate_module.GlobalErrorEstimate, "advance", logged))
+            result = api.one_run(scenario, tol, fmu_dir, keep_points=True)
+        points = result.points
+        t = np.array([p.t_ns for p in points]) / 1e9
+        reference = converged_reference(scenario, t_eval=t)
+        window = (t >= scenario.window[0]) & (t <= scenario.window[1])
+        v_max = float(np.max(np.abs(reference.v[window]))) if window.any() else float(np.max(np.abs(reference.v)))
+        print(f"{name}, per-step {tol:g}, {len(points)} points; v over max |v| on the window ({v_max:.4g} m/s); "
+              "local, carried: computed less exact", flush=True)
+        print(f"{'t s':>10s} {'h s':>8s} {'f':>6s} | {'local v':>9s} {'local f':>9s} | {'carried v':>9s} "
+              f"{'carried f':>9s} {'spread v':>8s} | {'true v':>9s} {'true f':>9s}")
+        for i in range(1, len(points)):
+            if not start <= t[i] <= end or i - 1 >= len(charged):
+                continue
+            local_v, local_f, ev, ef, spread_v = charged[i - 1]
+            print(f"{t[i]:10.6f} {t[i] - t[i - 1]:8.1e} {points[i].f:6.3f} | {-local_v / v_max:+9.2e} "
+                  f"{-local_f:+9.2e} | {-ev / v_max:+9.2e} {-ef:+9.2e} {spread_v / v_max:8.1e} | "
+                  f"{(points[i].v - reference.v[i]) / v_max:+9.2e} {points[i].f - reference.f[i]:+9.2e}", flush=True)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--where", action="store_true")
@@ -352,6 +447,8 @@ def main(argv=None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument("--tols", default="1e-3")
     parser.add_argument("--lengths", action="store_true")
+    parser.add_argument("--steps", default=None, metavar="FROM:TO",
+                        help="with --variant: each variant's run at the first tol, point by point over [FROM, TO] s")
     args = parser.parse_args(argv)
     print(f"# bench_variants {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
           f"load {os.getloadavg()[0]:.1f}", flush=True)
@@ -360,7 +457,11 @@ def main(argv=None) -> int:
         where(args.repeat)
     if args.variant:
         overrides = {key: float(value) for key, value in (item.split("=", 1) for item in args.set)}
-        variants(args.variant.split(","), args.scene, overrides, tols)
+        if args.steps:
+            start, end = (float(value) for value in args.steps.split(":"))
+            steps(args.variant.split(","), args.scene, overrides, tols[0], start, end)
+        else:
+            variants(args.variant.split(","), args.scene, overrides, tols)
     if args.lengths:
         lengths(tols[0])
     print(f"# load at the end {os.getloadavg()[0]:.1f}")
