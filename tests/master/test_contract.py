@@ -46,10 +46,10 @@ def test_stick_onsets_and_breakaways_are_located_on_time(omega, tol, within):
     rate). Over 22 frequencies from 10 to 88.9 rad/s (`python benchmarks/bench_events.py`,
     2026-11-28 10:35 UTC, again at 12:17 UTC) the largest misses are 7.9e-5 T at per-step 1e-3
     and 3.1e-5 T at 1e-4 (2.8e-5 T with the step-size rule before the trend on rejected tries,
-    session 17), medians 2.8e-5 and 1.7e-5 T; at these three frequencies (`--omegas 13,30,80`, 10:36 UTC) at most 4.5e-5 and
-    3.9e-5 T (the rule before: 4.5e-5 and 1.7e-5 T). The bound this test had at 1e-4, 2.5e-5 T,
-    was its three frequencies' (1.9e-5 T measured 2026-11-26): four of the 22 miss it with
-    either rule."""
+    session 17), medians 2.8e-5 and 1.7e-5 T; at these three frequencies (`--omegas 13,30,80`,
+    10:36 UTC) at most 4.5e-5 and 3.9e-5 T (the rule before: 4.5e-5 and 1.7e-5 T). The bound
+    this test had at 1e-4, 2.5e-5 T, was its three frequencies' (1.9e-5 T measured 2026-11-26):
+    four of the 22 miss it with either rule."""
     scales = drive_scales(omega)
     stop = 2 * scales.period
     out = run(fig2_system(omega=omega), make_algorithm("adaptive", tol=tol), stop, scales)
