@@ -108,7 +108,7 @@ EXTRA_POINTS = [
     # --kinds boundary, 2026-11-27): at tol 1e-2 their runs down to per-step 1e-3 (and 1e-4 for
     # the second) agree with each other on a motion 0.47 and 0.12 of max|v| off the reference,
     # their estimates 1e-3 to 1e-2 of that, and the calls say ok: silent misses, found after
-    # session 8's code, which misses them the same way (not yet understood; docs/coupling.md)
+    # session 8's code, which misses them the same way (not yet understood; docs/coupling-record.md)
     ("y boundary hot omega=11.33 gamma=1.7", "fig6_boundary",
      {"drive.omega": 11.33, "block.M": 0.9606, "block.K": 1761.0, "friction.gamma": 1.7, "conditions.T": 344.0}),
     ("y boundary hot omega=43.04 gamma=0.828", "fig6_boundary",

@@ -1,5 +1,5 @@
 """Where one Fig. 6 run's time goes, and variants of the adaptive step tried against the shipped
-one (docs/coupling.md, "Speed against the monolithic solvers", session 14).
+one (docs/coupling-record.md, "Speed against the monolithic solvers", session 14).
 
     python benchmarks/bench_variants.py --where [--repeat 5]
     python benchmarks/bench_variants.py --variant shipped,no-force-term --scene fig6_boundary --tols 1e-3,2e-4
