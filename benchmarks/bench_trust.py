@@ -5,6 +5,7 @@ run that misses it say so?
     python benchmarks/bench_trust.py --one-run [--tols default] [--only SUBSTRING]
     python benchmarks/bench_trust.py --extra [--tols ...]   (EXTRA_POINTS instead of POINTS)
     python benchmarks/bench_trust.py --settings "coupling.max_ramp_gain=inf" ...   (other tuning)
+    python benchmarks/bench_trust.py --variant no-force-term ...   (a bench_variants.py variant)
     python benchmarks/bench_trust.py --random 901:12 [--kinds boundary]   (seeded random points)
 
 At Fig. 2's and Fig. 6's scenes and at parameter points no scene uses (dry, fluid, boundary and
@@ -31,6 +32,7 @@ printed at the start and the end.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime
 import json
 import os
@@ -170,6 +172,9 @@ def random_points(seed: int, count: int, kinds: list[str]) -> list[tuple[str, st
     return points
 
 
+_VARIANT = contextlib.ExitStack()  # --variant's patches, held until the process ends
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tols", default="default,1e-3,1e-4")
@@ -190,7 +195,17 @@ def main(argv=None) -> int:
     parser.add_argument("--settings", default="", metavar="VARIANT",
                         help="run with these tuning values instead of coupling/settings.py's, as "
                              "benchmarks/bench_settings.py takes them (group.name=value;...)")
+    parser.add_argument("--variant", default="", metavar="NAME",
+                        help="run with one of benchmarks/bench_variants.py's variants patched in (its "
+                             "--variant names: no-force-term, a+b, ...) for the whole benchmark")
     args = parser.parse_args(argv)
+    if args.variant:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from bench_variants import patched, variant_patches
+
+        for owner, attribute, value in variant_patches(args.variant):  # (kept for the process: the
+            _VARIANT.enter_context(patched(owner, attribute, value))     # calls fork their runs from it)
+        print(f"# variant: {args.variant}", flush=True)
     if args.settings:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from bench_settings import apply

@@ -58,7 +58,8 @@ true error's sign.
 
 ``--lengths``: Fig. 6's one run at ``--tols``' first value: its accepted steps by length, the
 share of the drive's period they cover, and which term of the step's error was the largest at
-each (accepted and rejected).
+each (accepted and rejected); then where its steps shorter than 1e-4 s lie against the
+lubricant's melt threshold (their runs in a row, how many hold a crossing, their time to it).
 
 Not collected by pytest (no test_ prefix). Timings are of a shared machine: the load is printed.
 """
@@ -355,6 +356,41 @@ def lengths(tol: float) -> None:
         rejected = collections.Counter(term for length, term, ok in largest if not ok and low <= length < high)
         print(f"  h in [{low:g}, {high:g}) s: {int(inside.sum()):5d} steps over {h[inside].sum() / period:.3f} "
               f"periods; largest term, accepted {dict(kept)}, rejected {dict(rejected)}")
+    melts(scenario, result.points, t, h)
+
+
+def melts(scenario, points, t, h, short: float = 1e-4) -> None:
+    """Where the run's short steps (< short [s]) lie against the lubricant's melt threshold f =
+    mu/mu_bar: their runs in a row, how many hold a crossing of it, and each short step's time to
+    the nearest crossing (from its middle to the middle of the step that crosses)."""
+    import numpy as np
+
+    lubricant = scenario.friction.law().lubricant
+    threshold = lubricant.mu_shear / lubricant.mu_shear_bar
+    side = np.sign(np.array([p.f for p in points]) - threshold)
+    crossing = np.nonzero(side[1:] != side[:-1])[0]  # the steps that cross it
+    middle = t[:-1] + 0.5 * h
+    is_short = h < short
+    runs, i = [], 0
+    while i < len(h):
+        j = i
+        while j < len(h) and is_short[j]:
+            j += 1
+        if j > i:
+            runs.append((i, j))
+        i = j + 1
+    holding = sum(any(a <= c < b for c in crossing) for a, b in runs)
+    sizes = sorted(b - a for a, b in runs)
+    print(f"  steps shorter than {short:g} s: {int(is_short.sum())}, in {len(runs)} runs in a row "
+          f"(median {sizes[len(sizes) // 2] if sizes else 0} steps), {holding} of them holding one of the run's "
+          f"{len(crossing)} crossings of the melt threshold f = {threshold:g}")
+    if not len(crossing):
+        return
+    distance = np.min(np.abs(middle[is_short][:, None] - middle[crossing][None, :]), axis=1)
+    edges = (0.0, 1e-5, 1e-4, 1e-3, 1e-2, math.inf)
+    counts = [int(((distance >= low) & (distance < high)).sum()) for low, high in zip(edges, edges[1:])]
+    print("  their time to the nearest crossing: " + ", ".join(
+        f"[{low:g}, {high:g}) s {count}" for low, high, count in zip(edges, edges[1:], counts)))
 
 
 def covariance_patches() -> list:
