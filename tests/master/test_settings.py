@@ -86,8 +86,9 @@ NOT_TUNING = {
     "coupling/estimate.py": {"EXP_LIMIT"},  # exp() overflows a float past it
     "coupling/variational.py": {"PADE_POLE", "PADE_RESIDUE"},  # the (1,2) Pade approximant's pole and residue
     "coupling/quadrature.py": {"GAUSS_NODES", "GAUSS_WEIGHTS"},  # the three-point Gauss rule
-    # the (2,3) Pade approximant of e^z: its denominator, poles and residues; k! of the cubic's terms
-    "coupling/path_error.py": {"_DENOMINATOR", "PADE_POLES", "PADE_RESIDUES", "_FACTORIAL"},
+    # the (2,3) Pade approximant of e^z: its denominator, poles and residues, and those with the
+    # poles' inverse powers
+    "coupling/path_error.py": {"_DENOMINATOR", "PADE_POLES", "PADE_RESIDUES", "_POLE_TERMS"},
     # the rule's default (the coupling's is STEP_CONTROL's); the lubricant's sub-steps (physics')
     "physics/stepsize.py": {"MIN_PREVIOUS_ERROR", "KINETICS_SUBSTEPS"},
 }

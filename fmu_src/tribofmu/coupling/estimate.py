@@ -237,15 +237,15 @@ class GlobalErrorEstimate:
             self.old = _bounded(self._carried(h, damping, stuck_through, slopes, transition, *self.old), scales, stuck)
         locals_ = (local_x, local_v, local_f)
         carried = self._carried(h, damping, stuck_through, slopes, transition, self.ex, self.ev, self.ef)
-        error = tuple(e + local for e, local in zip(carried, locals_))
+        error = (carried[0] + local_x, carried[1] + local_v, carried[2] + local_f)
         share = 1.0 - STEP_CONTROL.safety
         spread = self._carried(h, damping, stuck_through, slopes, transition, *self.spread) \
             if any(self.spread) else self.spread  # (none yet: an overflowing carry's inf is not it)
         spread = tuple(math.copysign(math.hypot(s, share * local), s) for s, local in zip(spread, locals_))
         self.ex, self.ev, self.ef = _bounded(error, scales, stuck)
         self.spread = _bounded(spread, scales, stuck)
-        if any(bounded != (x, 0.0 if stuck else v, f) for bounded, (x, v, f) in
-               (((self.ex, self.ev, self.ef), error), (self.spread, spread))):
+        if ((self.ex, self.ev, self.ef) != (error[0], 0.0 if stuck else error[1], error[2])
+                or self.spread != (spread[0], 0.0 if stuck else spread[1], spread[2])):
             self.saturated = True
         return math.copysign(math.hypot(self.ev, self.spread[1]), self.ev)
 
@@ -338,7 +338,10 @@ def _saturated(value: float, scale: float) -> float:
     """value within [-scale, scale]; at the scale where the linear carry overflowed (nan)."""
     if math.isnan(value):
         return scale
-    return max(-scale, min(scale, value))
+    # max(-scale, min(scale, value)) with the builtins' comparisons written out, in their order
+    # (some nine times a step)
+    below = value if value < scale else scale
+    return below if below > -scale else -scale
 
 
 def _same(a: float, b: float) -> bool:

@@ -4,7 +4,7 @@ force the block felt and the friction at the resulting relative velocity agree (
 response) and its exported state."""
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, dataclass, fields
 
 from .base import Counters, CouplingAlgorithm, Scales
 from .blocks import ReuseCache
@@ -103,17 +103,18 @@ class ImplicitCoupling(CouplingAlgorithm):
         defer: its real step at the answer is then left to :attr:`pending_commit`."""
         h = h_ns / NS
         tuning = self.settings
+        reuse = self.reuse
         settings = StepSettings(self.expected_gain(h), self.root_tolerance(), RESOLUTION.zero_velocity * self.scales.velocity,
                                 self.scales.position, stepped_trials=self.switches.stepped_trials and self.stick_bounds is None,
-                                tuning=tuning)
-        reuse = self.reuse
-        settings = replace(settings, dv_slope_fit=reuse.slope_fit(point.t_ns, int(point.mode), point.aX - point.a),
-                           gain_miss=self.gain_miss)
+                                tuning=tuning, dv_slope_fit=reuse.slope_fit(point.t_ns, int(point.mode), point.aX - point.a),
+                                gain_miss=self.gain_miss)
         model = reuse.block.model() if predict else None
         known = self.trials.at((system.friction_n, point.T, point.f))  # (where the friction stands)
         new, report = solve_step(settings, system, point, saved, h_ns, drive, ramp, reuse.block_slopes.get(ramp),
                                  reuse.stick_jacobian, model, known, defer)
-        self.pending_commit = report.commit
+        # (taken off the report: commit closes over the step, which holds the report; the
+        # step's objects are then freed as soon as the commit is, not by the cycle collector)
+        self.pending_commit, report.commit = report.commit, None
         self.counters.iterations += report.iterations
         for answer in report.block_answers:
             reuse.block.observe(*answer)

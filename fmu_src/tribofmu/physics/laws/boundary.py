@@ -248,10 +248,10 @@ class BoundaryLaw(FrictionLaw):
         f1, _ = self.advance(f, dv, n, T, h, rtol, atol, dv0, tangent)
         viscous0, viscous1 = self._viscous_mean_slopes(dv0, dv)  # (the elastic term's: the tangent's)
         elastic = tangent.impulse
-        sensitivities = (tuple(tangent.f), (elastic[0] / h, elastic[1] / h + viscous0, elastic[2] / h + viscous1))
-        if not all(math.isfinite(value) for row in sensitivities for value in row):
+        f_row, mean_row = tuple(tangent.f), (elastic[0] / h, elastic[1] / h + viscous0, elastic[2] / h + viscous1)
+        if not all(map(math.isfinite, f_row + mean_row)):
             return None
-        return f1, sensitivities
+        return f1, (f_row, mean_row)
 
     def _viscous_mean_slopes(self, dv0: float, dv1: float) -> tuple[float, float]:
         """d/d(dv0) and d/d(dv1) [N s/m] of the viscous term's mean along dv linear from dv0 to
