@@ -72,13 +72,17 @@ def test_a_stuck_step_zeroes_the_error_in_v_but_carries_x():
 def test_the_error_marked_is_carried_by_the_same_motion_without_the_local_errors_that_follow():
     """After mark(), old is the marked error carried as the whole one is, no local error added
     (coupling/lead_in.py compares the two): it equals the flow of the marked error alone, the
-    whole is old plus the locals' own carry (linear), and a stuck end zeroes its v too."""
+    whole is old plus the locals' own carry (linear), and a stuck end zeroes its v too. Its
+    spread is the spread at the mark, carried by the same flow with no share added since, and
+    old_v() reports the two as advance() reports the whole (a root-sum-square, the carried
+    error's sign): d compares like with like."""
     w2, c, h = 1e4, 10.0, 1e-3
     estimate = estimate_at(w2, 3e-6, -2e-4)
     estimate.advance(h, c, 1e-7, 2e-6, stuck=False)
     assert estimate.old is None
     estimate.mark()
-    marked = (estimate.ex, estimate.ev)
+    marked, marked_spread = (estimate.ex, estimate.ev), estimate.spread[:2]
+    assert any(marked_spread)  # (the first step's share)
     locals_only = estimate_at(w2, 0.0, 0.0)
     for local in ((1e-7, -3e-6), (-2e-7, 5e-6), (4e-8, 1e-6)):
         estimate.advance(h, c, *local, stuck=False)
@@ -86,11 +90,14 @@ def test_the_error_marked_is_carried_by_the_same_motion_without_the_local_errors
     flow = expm(matrix(w2, c) * 3 * h) @ np.array(marked)
     assert estimate.old[:2] == pytest.approx(tuple(flow), rel=1e-9)
     assert estimate.ev == pytest.approx(estimate.old[1] + locals_only.ev, rel=1e-9)
+    assert estimate.old_spread[:2] == pytest.approx(tuple(expm(matrix(w2, c) * 3 * h) @ np.array(marked_spread)), rel=1e-9)
+    assert abs(estimate.spread[1]) > abs(estimate.old_spread[1])  # (the shares added since)
+    assert estimate.old_v() == math.copysign(math.hypot(estimate.old[1], estimate.old_spread[1]), estimate.old[1])
     estimate.advance(h, c, 0.0, 0.0, stuck=True)
     assert estimate.old[1] == 0.0 and estimate.old[0] != 0.0
     restored = GlobalErrorEstimate()
     restored.restore(estimate.export())
-    assert restored.old == estimate.old
+    assert restored.old == estimate.old and restored.old_spread == estimate.old_spread
 
 
 def test_a_carry_that_reaches_the_motions_size_says_it_saturated():

@@ -89,8 +89,8 @@ class ErrorControlledCoupling(ImplicitCoupling):
         if lead_in is None:
             return
         for p in points:
-            old = self.estimate.old[1] if self.estimate.old is not None else 0.0
-            stage = lead_in.observe(p.t_ns / NS, p.global_error, old, p.v, self.convergence_order() or 1.0)
+            stage = lead_in.observe(p.t_ns / NS, p.global_error, self.estimate.old_v(), p.v,
+                                    self.convergence_order() or 1.0)
             if stage is not None:  # (a mark measured: what it found)
                 self.window_reachable = lead_in.reachable
             if stage == "mark":

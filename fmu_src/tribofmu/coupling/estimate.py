@@ -162,8 +162,10 @@ class GlobalErrorEstimate:
         # the passages near a melt the run did not take (coupling/passages.py)
         self.near_runaways = NearRunaways(self.law, CHECK_SETTINGS.estimate_safety) if self.law is not None else None
         # (ex, ev, ef) of the error carried since :meth:`mark`, with no local error added since:
-        # how the error made before then decays (coupling/lead_in.py); None: not marked
+        # how the error made before then decays (coupling/lead_in.py); None: not marked. Its
+        # spread is the spread's at the mark, carried as it is (:meth:`old_v`)
         self.old: tuple[float, float, float] | None = None
+        self.old_spread = (0.0, 0.0, 0.0)
         # (x [m], v [m/s], f [1]) what the local error estimates leave unknown, carried as the
         # error is (:meth:`advance`); reported beside it, as a root-sum-square
         self.spread = (0.0, 0.0, 0.0)
@@ -176,7 +178,7 @@ class GlobalErrorEstimate:
         passages = self.near_runaways.export() if self.near_runaways is not None else None
         return [self.ex, self.ev, self.w2, asdict(self.ramp) if self.ramp is not None else None, self.ef,
                 self.saturated, self.passed_event, passages, list(self.old) if self.old is not None else None,
-                list(self.spread)]
+                list(self.spread), list(self.old_spread)]
 
     def restore(self, values: list) -> None:
         """Back to what :meth:`export` gave (or its first three, from a snapshot without a ramp;
@@ -192,11 +194,21 @@ class GlobalErrorEstimate:
         if len(values) > 8:
             self.old = tuple(values[8]) if values[8] is not None else None
         self.spread = tuple(values[9]) if len(values) > 9 else (0.0, 0.0, 0.0)
+        self.old_spread = tuple(values[10]) if len(values) > 10 else (0.0, 0.0, 0.0)
 
     def mark(self) -> None:
         """From here on, also carry the error as it is now without the local errors to come
         (:attr:`old`): what the steps before this point leave in the run later."""
         self.old = (self.ex, self.ev, self.ef)
+        self.old_spread = self.spread
+
+    def old_v(self) -> float:
+        """The error in v [m/s] made before the mark, as :meth:`advance` reports the whole one: the
+        carried old error and its spread as a root-sum-square, the sign the carried one's (0 before
+        a mark)."""
+        if self.old is None:
+            return 0.0
+        return math.copysign(math.hypot(self.old[1], self.old_spread[1]), self.old[1])
 
     def observe(self, x: float, a: float, F: float, velocity_per_impulse: float, x_floor: float) -> None:
         """Learn w2 from a point: a = F/M - w2 x, with 1/M the block's velocity per unit impulse
@@ -235,6 +247,9 @@ class GlobalErrorEstimate:
         scales = (x_scale, v_scale, f_scale)
         if self.old is not None:  # (the same motion, no local errors: nothing to flag)
             self.old = _bounded(self._carried(h, damping, stuck_through, slopes, transition, *self.old), scales, stuck)
+            if any(self.old_spread):
+                self.old_spread = _bounded(self._carried(h, damping, stuck_through, slopes, transition,
+                                                         *self.old_spread), scales, stuck)
         locals_ = (local_x, local_v, local_f)
         carried = self._carried(h, damping, stuck_through, slopes, transition, self.ex, self.ev, self.ef)
         error = (carried[0] + local_x, carried[1] + local_v, carried[2] + local_f)

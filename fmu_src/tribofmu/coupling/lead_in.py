@@ -11,7 +11,8 @@ once, at one of the period marks k drive periods T before the window (k = K ... 
 that fit after the start):
 
 - at each mark it marks its carried error (:meth:`~.estimate.GlobalErrorEstimate.mark`) and
-  carries that error on without the local errors made since;
+  carries that error on without the local errors made since, its spread with it (read as the
+  whole error is, :meth:`~.estimate.GlobalErrorEstimate.old_v`);
 - a period on, d is that old error's RMS over the half period before this mark, over the whole
   error's RMS over the half period before the last: how much of an error is left one period
   on; and the error now is the whole error's RMS over that half period, over max |v| there;
