@@ -243,7 +243,8 @@ class GlobalErrorEstimate:
         safety: a tenth), of unknown sign, carried by the same map, each step's share added to
         it as a square (component by component: the shares are independent). Where the motion
         makes the carried terms cancel (a lubricant's melt taking back the error it met:
-        docs/coupling.md, "The carried error's spread"), the sum shrinks and the spread does not."""
+        docs/coupling-record.md, "The carried error's spread"), the sum shrinks and the spread does
+        not."""
         scales = (x_scale, v_scale, f_scale)
         if self.old is not None:  # (the same motion, no local errors: nothing to flag)
             self.old = _bounded(self._carried(h, damping, stuck_through, slopes, transition, *self.old), scales, stuck)

@@ -41,7 +41,7 @@ The tolerance only ever tightens. Half periods are measured because one stroke o
 holds a whole swing of the motion: the same phase, a period apart, compares like with like.
 
 Measured (``benchmarks/bench_lead_in.py``, the trust list at the default tol): see
-docs/coupling.md, "One run where one is enough".
+docs/coupling-record.md, "A first run that aims at its window".
 """
 from __future__ import annotations
 
