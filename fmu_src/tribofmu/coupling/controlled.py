@@ -25,6 +25,16 @@ W2_POSITION_FLOOR = RESOLUTION.w2_position_floor
 STUCK_ORDER = 3
 
 
+def _largest(magnitude: float, floor: float, values: list[float]) -> float:
+    """max(magnitude, |each value|, floor), the builtin's comparisons written out in its order (a
+    scale is asked about 9 times a step; the generator the builtin unpacked cost twice the rest)."""
+    scale = magnitude
+    for value in values:
+        if abs(value) > scale:
+            scale = abs(value)
+    return floor if floor > scale else scale
+
+
 @dataclass(frozen=True)
 class ControlledState(LoopState):
     """What an error-controlled coupling carries besides the loop's measurements (besides its
@@ -122,24 +132,11 @@ class ErrorControlledCoupling(ImplicitCoupling):
         self.magnitudes = Magnitudes(**state["magnitudes"])
 
     # -- scales: pure, from the accepted points' magnitudes and the scene's floor ------------
-    # (Each is max(the magnitude, |p.v| or |p.x| of each point, the floor) with the builtin's
-    # comparisons written out in its order: asked ~9 times a step, the generator the builtin
-    # unpacked cost twice the rest.)
     def velocity_scale(self, *points: Point) -> float:
-        scale = self.magnitudes.v
-        for p in points:
-            if abs(p.v) > scale:
-                scale = abs(p.v)
-        floor = RESOLUTION.scale_floor * self.scales.velocity
-        return floor if floor > scale else scale
+        return _largest(self.magnitudes.v, RESOLUTION.scale_floor * self.scales.velocity, [p.v for p in points])
 
     def position_scale(self, *points: Point) -> float:
-        scale = self.magnitudes.x
-        for p in points:
-            if abs(p.x) > scale:
-                scale = abs(p.x)
-        floor = RESOLUTION.scale_floor * self.scales.position
-        return floor if floor > scale else scale
+        return _largest(self.magnitudes.x, RESOLUTION.scale_floor * self.scales.position, [p.x for p in points])
 
     def root_tolerance(self) -> float:
         return self.settings.root_tol_fraction * self.tol * self.velocity_scale()
