@@ -163,7 +163,7 @@ class GlobalErrorEstimate:
         self.near_runaways = NearRunaways(self.law, CHECK_SETTINGS.estimate_safety) if self.law is not None else None
         # (ex, ev, ef) of the error carried since :meth:`mark`, with no local error added since:
         # how the error made before then decays (coupling/lead_in.py); None: not marked. Its
-        # spread is the spread's at the mark, carried as it is (:meth:`old_v`)
+        # spread is the spread at the mark, carried as it is (:meth:`old_v`)
         self.old: tuple[float, float, float] | None = None
         self.old_spread = (0.0, 0.0, 0.0)
         # (x [m], v [m/s], f [1]) what the local error estimates leave unknown, carried as the
@@ -173,8 +173,8 @@ class GlobalErrorEstimate:
     def export(self) -> list:
         """What a state snapshot carries of it (JSON-ready): ex, ev, w2, the last ramp, ef, and
         what the run so far says of its own estimate (saturated, passed_event, the passages
-        near a melt), and the error carried since the mark: a run restored to a snapshot
-        reports as if it had never gone past it."""
+        near a melt), the error carried since the mark, the spread, and the spread carried since
+        the mark: a run restored to a snapshot reports as if it had never gone past it."""
         passages = self.near_runaways.export() if self.near_runaways is not None else None
         return [self.ex, self.ev, self.w2, asdict(self.ramp) if self.ramp is not None else None, self.ef,
                 self.saturated, self.passed_event, passages, list(self.old) if self.old is not None else None,
