@@ -23,6 +23,9 @@ Variants (each patches the shipped code for its runs only, and puts it back):
   * ``shipped``: as shipped;
   * ``no-force-term``: the step's error without the force term of a friction with state
     (``EmbeddedCoupling.state_force_error``'s |local.F| part; the state's term stays);
+  * ``state-from-path``: a lubricated slip step's state term from its path error in f (the f
+    its carry takes, against error_weight x tol x the largest |f|, as x's and v's are) instead of
+    f's miss of its extrapolation weighed by ``state_weight``;
   * ``measured-power``: after a rejection, the next try sized from the power of h the last two
     tries of the same step showed (within [1, order + 1]) instead of order + 1;
   * ``map-tol=X``: the step map's pass with the kinetics at tolerance X (shipped: 1e-6);
@@ -255,6 +258,17 @@ def variant_patches(name: str) -> list:
             f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
             return max(error, self.errors.state_weight * abs(local.f) / (self.tol * f_scale))
         return [(embedded.EmbeddedCoupling, "state_force_error", state_error_only)]
+    if name == "state-from-path":
+        shipped = embedded.EmbeddedCoupling.state_force_error
+
+        def state_from_path(self, error, point, new, local, h):
+            if local.path is None:
+                return shipped(self, error, point, new, local, h)
+            F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
+            error = max(error, abs(local.F) / (self.tol * F_scale + self.force_term_floor(point, new, h)))
+            f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
+            return max(error, abs(local.path[2]) / (self.errors.error_weight * self.tol * f_scale))
+        return [(embedded.EmbeddedCoupling, "state_force_error", state_from_path)]
     if name == "measured-power":
         return measured_power_patches()
     if name.startswith("map-tol="):
