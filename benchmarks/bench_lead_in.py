@@ -2,6 +2,7 @@
 
     python benchmarks/bench_lead_in.py [--tol 1e-3] [--only SUBSTRING] [--extra]
     python benchmarks/bench_lead_in.py --scene fig6_boundary --set conditions.T=300 [--set ...]
+    python benchmarks/bench_lead_in.py --scene fig6_boundary --marks --variant no-force-term
 
 For each point of bench_trust.py's list (or ``--extra``'s), the call's first run (per-step
 tolerance = tol, aiming at tol): the error's RMS before the decision and what is left of it as
@@ -57,7 +58,15 @@ def main(argv=None) -> int:
     parser.add_argument("--scene", default=None, help="one point: this scene with --set's overrides")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument("--marks", action="store_true", help="print what each mark measured")
+    parser.add_argument("--variant", default="", metavar="NAME",
+                        help="the first runs with one of bench_variants.py's variants patched in")
     args = parser.parse_args(argv)
+    if args.variant:
+        from bench_variants import patched, variant_patches
+
+        for owner, attribute, value in variant_patches(args.variant):  # (for the process)
+            bench_trust._VARIANT.enter_context(patched(owner, attribute, value))
+        print(f"# variant: {args.variant}", flush=True)
     if args.marks:
         show_marks()
     points = bench_trust.EXTRA_POINTS if args.extra else bench_trust.POINTS
