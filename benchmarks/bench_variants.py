@@ -18,7 +18,7 @@ What is left is the master's own coupling (and the timers' few per cent).
 ``--variant``: one run (``api.one_run``: per-step tolerance fixed, no check, no lead-in) per
 tolerance of ``--tols`` at the point, each variant in turn: accepted and rejected steps, the
 run's own estimate and the true nRMS(v) on the window against the reference (rtol 1e-10), and
-whether the run's estimate vouches for it (a call may end on it alone).
+whether the run's estimate vouches for it (a call may end on it alone; where not, why).
 Variants (each patches the shipped code for its runs only, and puts it back):
   * ``shipped``: as shipped;
   * ``no-force-term``: the step's error without the force term of a friction with state
@@ -326,6 +326,9 @@ def variants(names: list[str], scene: str, overrides: dict, tols: list[float]) -
                       f"{estimate if estimate is not None else math.nan:9.3g} {true:9.3g} {ratio:8.2f} "
                       f"{str(stats['estimated_error'].get('vouches')):>7s} {wall:6.2f}",
                       flush=True)
+                why = stats["estimated_error"].get("method", "").partition("it cannot vouch for the run: ")[2]
+                if why:  # (where it does not: why, as stats.json says it)
+                    print(f"{'':18s} cannot vouch: {why}", flush=True)
 
 
 def lengths(tol: float) -> None:
