@@ -62,11 +62,7 @@ def main(argv=None) -> int:
                         help="the first runs with one of bench_variants.py's variants patched in")
     args = parser.parse_args(argv)
     if args.variant:
-        from bench_variants import patched, variant_patches
-
-        for owner, attribute, value in variant_patches(args.variant):  # (for the process)
-            bench_trust._VARIANT.enter_context(patched(owner, attribute, value))
-        print(f"# variant: {args.variant}", flush=True)
+        bench_trust.patch_variant(args.variant)
     if args.marks:
         show_marks()
     points = bench_trust.EXTRA_POINTS if args.extra else bench_trust.POINTS

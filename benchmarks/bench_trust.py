@@ -175,6 +175,17 @@ def random_points(seed: int, count: int, kinds: list[str]) -> list[tuple[str, st
 _VARIANT = contextlib.ExitStack()  # --variant's patches, held until the process ends
 
 
+def patch_variant(name: str) -> None:
+    """One of bench_variants.py's variants patched in for the rest of the process (the calls
+    fork their runs from it)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_variants import patched, variant_patches
+
+    for owner, attribute, value in variant_patches(name):
+        _VARIANT.enter_context(patched(owner, attribute, value))
+    print(f"# variant: {name}", flush=True)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tols", default="default,1e-3,1e-4")
@@ -200,12 +211,7 @@ def main(argv=None) -> int:
                              "--variant names: no-force-term, a+b, ...) for the whole benchmark")
     args = parser.parse_args(argv)
     if args.variant:
-        sys.path.insert(0, str(Path(__file__).resolve().parent))
-        from bench_variants import patched, variant_patches
-
-        for owner, attribute, value in variant_patches(args.variant):  # (kept for the process: the
-            _VARIANT.enter_context(patched(owner, attribute, value))     # calls fork their runs from it)
-        print(f"# variant: {args.variant}", flush=True)
+        patch_variant(args.variant)
     if args.settings:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from bench_settings import apply
