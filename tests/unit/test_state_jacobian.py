@@ -114,6 +114,35 @@ def test_a_steps_sensitivities_are_its_own_map_differenced(gamma, f0, dv0, dv1, 
             assert got == pytest.approx((a[k] - b[k]) / (2.0 * step), abs=1e-3 * max(map(abs, row)))
 
 
+# Fig. 6's steps across the melt threshold f = 1.025 (f0, dv0, dv1 [m/s], h [s]): melting, re-solidifying
+CROSSING = [(1.0247397495283714, 2.2397193194669568e-06, 2.244063826983867e-06, 5.64e-07),
+            (1.0251026190446524, -2.183183177691766e-06, -2.1819477234249893e-06, 2.46e-07),
+            (1.0237121735528074, 2.2333871503355503e-06, 2.245390355763538e-06, 1.559e-06)]
+
+
+@pytest.mark.parametrize("f0,dv0,dv1,h", CROSSING)
+def test_a_step_across_the_melt_has_its_sensitivities_at_the_fmus_tolerance(f0, dv0, dv1, h):
+    """Across the melt threshold the elastic modulus and the rate's slope have a kink; the tangent
+    follows the sub-step that crosses it in two parts that meet there (StepTangent.substep). At the
+    FMUs' kinetics tolerance (1e-5), where one sub-step spans the crossing, the mean force's row
+    is within 2 % of its largest entry of central differences of advance at 1e-13 (each part at
+    the sub-step's middle slopes put the crossing's whole sub-step on one side: 30-80 % off)."""
+    law = BoundaryLaw(m=0.05, gamma=-2.0 / 3.0, S=3e-9)
+    n, T = -1e6, 290.0
+    f1, (f_row, F_row) = law.step_sensitivities(f0, dv1, n, T, h, 1e-5, 1e-5, dv_start=dv0)
+    assert (f0 - 1.025) * (f1 - 1.025) < 0.0  # (the step does cross)
+    base, tight = [f0, dv0, dv1], 1e-13
+    for j in range(3):
+        step = 1e-5 * max(abs(base[j]), 1e-3 if j == 0 else 1e-6)
+        up, down = list(base), list(base)
+        up[j] += step
+        down[j] -= step
+        a = law.advance(up[0], up[2], n, T, h, tight, tight, dv_start=up[1])
+        b = law.advance(down[0], down[2], n, T, h, tight, tight, dv_start=down[1])
+        assert F_row[j] == pytest.approx((a[1] - b[1]) / (2.0 * step), abs=2e-2 * max(map(abs, F_row)))
+        assert f_row[j] == pytest.approx((a[0] - b[0]) / (2.0 * step), abs=2e-2 * max(map(abs, f_row)))
+
+
 def test_a_lubricant_that_cannot_melt_has_no_step_sensitivities():
     """Melting off, f does not move: no step map to follow (the carry takes the law's slopes)."""
     law = BoundaryLaw(m=0.05, gamma=0.5, S=3e-9, effects=Effects(melting=False))

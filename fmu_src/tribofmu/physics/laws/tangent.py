@@ -40,10 +40,30 @@ class StepTangent:
         self.mu, self.mu_bar, self.k = lub.mu_shear, lub.mu_shear_bar, 2.0 * lub.tau_e / lub.h * law.S
         self.f = [1.0, 0.0, 0.0]  # d f / d (f0, dv0, dv1) where the sub-steps have reached
         self.impulse = [0.0, 0.0, 0.0]  # d (the elastic force's integral [N s]) / d (f0, dv0, dv1)
+        # The f where a modulus reaches 0 (eqs. 19, 21: mu_eff, and lam_eff in the pressure
+        # term), floored there: the force's modulus and the rate's slope jump. A sub-step across
+        # one is followed in two parts that meet there, each with its own side's slopes.
+        kinks = []
+        if lub.mu_shear_bar > 0.0 and (self.elastic or law.effects.pressure):
+            kinks.append(lub.mu_shear / lub.mu_shear_bar)
+        if lub.lam_bar > 0.0 and law.effects.pressure:
+            kinks.append(lub.lam / lub.lam_bar)
+        self.kinks = tuple(sorted(kinks))
 
     def substep(self, f_a: float, f_b: float, dv_a: float, dv_b: float, u_a: float, u_b: float, dt: float) -> None:
         """Follow one accepted sub-step of dt [s] from f_a to f_b, dv from dv_a to dv_b, at the
-        fractions u_a, u_b of the step (dv's weights on dv1 there)."""
+        fractions u_a, u_b of the step (dv's weights on dv1 there); where f crosses a kink, in
+        parts that end there (f taken linear in time across the sub-step to place it)."""
+        for kink in self.kinks if f_b >= f_a else reversed(self.kinks):
+            if (f_a - kink) * (f_b - kink) < 0.0:
+                c = (kink - f_a) / (f_b - f_a)
+                dv_c, u_c = dv_a + c * (dv_b - dv_a), u_a + c * (u_b - u_a)
+                self._follow(f_a, kink, dv_a, dv_c, u_a, u_c, c * dt)
+                f_a, dv_a, u_a, dt = kink, dv_c, u_c, (1.0 - c) * dt
+        self._follow(f_a, f_b, dv_a, dv_b, u_a, u_b, dt)
+
+    def _follow(self, f_a: float, f_b: float, dv_a: float, dv_b: float, u_a: float, u_b: float, dt: float) -> None:
+        """One part of a sub-step that crosses no kink (:meth:`substep`)."""
         f_mid, dv_mid = 0.5 * (f_a + f_b), 0.5 * (dv_a + dv_b)
         g_dv, z = self.rate_dv * dv_mid, self.slope(f_mid) * dt
         stiffness = F_f = 0.0  # the elastic term's slopes (its viscous part: the step's, in closed form)
