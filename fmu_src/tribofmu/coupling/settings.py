@@ -229,14 +229,6 @@ class Resolution:
     missed_breakaway_rtol: float = 1e-6
     # No per-step tolerance below this: past it the steps reach the coupling's round-off.
     min_step_tol: float = 1e-9
-    # The lubricant kinetics' tolerance on the master's pass that differentiates a slip step
-    # (coupling/variational.py lubricant_step), a tenth of the FMUs' own (KINETICS_TOL): the
-    # derivative of a sub-stepped map is less accurate than the map, and the carry compounds it
-    # over every melt and re-solidification (8-12 a period). Against central differences on a
-    # Fig. 6 run's thirty hardest steps: 3.6 % off at 1e-5, 0.67 % at 1e-6. At 1e-5 a cold
-    # dilatant film's runs at per-step 1e-2 to 3e-3 read 0.25-0.48x their true errors, and a
-    # call at tol 1e-2 said ok at 2x tol; at 1e-6, 0.52-1.16x (2026-11-28, session 13).
-    map_kinetics_tol: float = 1e-6
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 
-from .settings import RESOLUTION
+from ..physics.laws.boundary import KINETICS_TOL
 
 
 # The (1,2) Pade approximant of e^z, R(z) = (1 + z/3) / (1 - 2z/3 + z^2/6), in partial fractions:
@@ -88,12 +88,14 @@ def step_transition(h: float, w2: float, velocity_per_impulse: float, sensitivit
 def lubricant_step(law, start, end, h: float, velocity_per_impulse: float) -> tuple | None:
     """What :func:`step_transition` takes besides the error, for the slip step of h [s] from
     point start to point end of a friction with state: (1/M, the law's sensitivities over the
-    step from start's f and dv to end's dv, n and T their means), its kinetics at
-    ``RESOLUTION.map_kinetics_tol`` (a tenth of the FMUs' own: coupling/settings.py says why);
+    step from start's f and dv to end's dv, n and T their means), its kinetics at the FMUs' own
+    tolerance (``KINETICS_TOL``): the sub-steps across the melt threshold's kink followed in two
+    parts (physics/laws/tangent.py), the map's sensitivities are within 0.3 % (median) of central
+    differences there, as at 1e-6 (``benchmarks/bench_map_sensitivity.py``, docs/coupling-record.md);
     None where the law has none (its melting off, a slope not finite) or the block's mass is
     not yet known."""
     if velocity_per_impulse <= 0.0 or law is None or not law.gives_step_map:
         return None
     stepped = law.step_sensitivities(start.f, end.dv, 0.5 * (start.n + end.n), 0.5 * (start.T + end.T), h,
-                                     RESOLUTION.map_kinetics_tol, RESOLUTION.map_kinetics_tol, dv_start=start.dv)
+                                     KINETICS_TOL, KINETICS_TOL, dv_start=start.dv)
     return None if stepped is None else (velocity_per_impulse, stepped[1])
