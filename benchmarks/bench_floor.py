@@ -47,6 +47,12 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_front import anchor, fmt, load_avg, window_error  # noqa: E402
 
+
+def _now() -> str:
+    """When the numbers below were measured (UTC, to the minute)."""
+    import datetime
+    return f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC"
+
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "scenarios"
 CASES = {
@@ -123,7 +129,7 @@ def rejections(betas: list[float], only: str | None = None) -> int:
     cases += [(name, SCENES / f"{scene}.toml", overrides) for name, (scene, overrides) in CASES.items() if overrides]
     cases = [case for case in cases if only is None or only in case[0]]
     shipped = algorithms.ErrorControlledCoupling.controller
-    print(f"bench_floor --rejections: {load_avg()}, PI weights {betas} (shipped: {shipped.beta})", flush=True)
+    print(f"bench_floor --rejections {_now()}: {load_avg()}, PI weights {betas} (shipped: {shipped.beta})", flush=True)
     print("beta   case                  rejected/accepted  calls/step  runs  calls in all runs  ok")
     try:
         for beta in betas:
@@ -173,7 +179,7 @@ def main() -> int:
     if "doubling" in args.algorithms.split(","):  # (out of the package: benchmarks/doubling.py registers it here)
         __import__("doubling").register()
     shared = shared_anchor()
-    print(f"bench_floor: {load_avg()}, {args.repeat} interleaved rounds, algorithms {algorithms}", flush=True)
+    print(f"bench_floor {_now()}: {load_avg()}, {args.repeat} interleaved rounds, algorithms {algorithms}", flush=True)
     cases = []
     for name in args.cases.split(","):
         scene, overrides = CASES[name]
