@@ -48,6 +48,10 @@ Variants (each patches the shipped code for its runs only, and puts it back):
     ``fast``: the others), the rest as ``no-map``;
   * ``map-tangent-ends``: the map's tangent with each sub-step's slope averaged over its ends
     instead of taken at its middle;
+  * ``rms-norm``: the step's error with the vector its carry takes (a lubricated slip step's
+    path error in x, v and f; else x's local error, and v's with the impulse miss) combined as a
+    weighted RMS, each against error_weight x tol x its scale (issue 36's item 2), the limits
+    and the force and state terms still maxima (``rms_error_ratio``);
   * ``group.name=V``: one tuning value of coupling/settings.py set to V, named as
     ``bench_settings.py`` names them (``coupling.root_tol_fraction=1e-2``);
   * ``a+b``: both (``map-tol=1e-5+map-tangent-ends``).
@@ -243,6 +247,31 @@ def map_where(shipped, where: list[str]):
     return lubricant_step
 
 
+def rms_error_ratio(self, point, new, local, h):
+    """EmbeddedCoupling.error_ratio with the vector the carry takes (a lubricated slip step's path
+    error in x, v and f; else the local error in x and in v with the impulse miss) combined as a
+    weighted RMS, each component against error_weight x tol x its scale (issue 36, item 2); the
+    limits (interpolants, the breakaway's timing) and the force and state terms stay maxima."""
+    allowance = self.errors.error_weight * self.tol
+    v_scale, x_scale = self.velocity_scale(point, new), self.position_scale(point, new)
+    if local.path is not None:
+        x, v, f, _ = local.path
+        f_scale = max(self.magnitudes.f, abs(new.f), abs(point.f)) or 1.0
+        terms = (x / (allowance * x_scale), v / (allowance * v_scale), f / (allowance * f_scale))
+    else:
+        terms = (local.x / (allowance * x_scale), (local.v + local.impulse) / (allowance * v_scale))
+    error = math.sqrt(sum(term * term for term in terms) / len(terms))
+    if point.mode.stuck and new.mode.stuck:
+        error = max(error, self.stuck_interpolation_error(point, new, h, v_scale, x_scale))
+    if local.stuck and new.F_rate != 0.0:
+        error = max(error, self.breakaway_timing_error(point, new, local, h, allowance * v_scale))
+    elif new.f != 0.0 or point.f != 0.0:
+        error = self.state_force_error(error, point, new, local, h)
+    if new.mode.slipping and (point.mode == new.mode or point.mode.stuck):
+        error = max(error, self.interpolation_error(point, new, h, v_scale, x_scale))
+    return error
+
+
 def variant_patches(name: str) -> list:
     """(owner, attribute, value) for the variant's runs; "a+b": both."""
     if "+" in name:
@@ -273,6 +302,8 @@ def variant_patches(name: str) -> list:
     if name.startswith("map-tol="):
         tol = float(name.split("=", 1)[1])
         return [(variational, "KINETICS_TOL", tol)]
+    if name == "rms-norm":
+        return [(embedded.EmbeddedCoupling, "error_ratio", rms_error_ratio)]
     if name == "no-trend":
         from tribofmu.coupling import controlled
         return [(controlled.ErrorControlledCoupling, "trend", lambda self, h_ns, order: None)]
