@@ -102,16 +102,26 @@ def test_a_steps_sensitivities_are_its_own_map_differenced(gamma, f0, dv0, dv1, 
     n, T, tol = -1e6, 290.0, 1e-11
     f1, (f_row, F_row) = law.step_sensitivities(f0, dv1, n, T, h, tol, tol, dv_start=dv0)
     assert f1 == law.advance(f0, dv1, n, T, h, tol, tol, dv_start=dv0)[0]  # (the same path)
-    base = [f0, dv0, dv1]
+    for got, expected in zip((f_row, F_row), differenced(law, (f0, dv0, dv1), n, T, h, tol, 1e-4)):
+        for j in range(3):
+            assert got[j] == pytest.approx(expected[j], abs=1e-3 * max(map(abs, got)))
+
+
+def differenced(law, inputs, n: float, T: float, h: float, tol: float, relative: float):
+    """The rows (d f1, d F_mean) against (f0, dv0, dv1) of BoundaryLaw.advance at kinetics
+    tolerance tol, by central differences, each input moved by relative of itself (of 1e-3 for
+    f0 and 1e-6 m/s for dv at least)."""
+    rows = ([], [])
     for j in range(3):
-        step = 1e-4 * max(abs(base[j]), 1e-3 if j == 0 else 1e-6)
-        up, down = list(base), list(base)
+        step = relative * max(abs(inputs[j]), 1e-3 if j == 0 else 1e-6)
+        up, down = list(inputs), list(inputs)
         up[j] += step
         down[j] -= step
         a = law.advance(up[0], up[2], n, T, h, tol, tol, dv_start=up[1])
         b = law.advance(down[0], down[2], n, T, h, tol, tol, dv_start=down[1])
-        for got, k, row in ((f_row[j], 0, f_row), (F_row[j], 1, F_row)):
-            assert got == pytest.approx((a[k] - b[k]) / (2.0 * step), abs=1e-3 * max(map(abs, row)))
+        for k in (0, 1):
+            rows[k].append((a[k] - b[k]) / (2.0 * step))
+    return rows
 
 
 # Fig. 6's steps across the melt threshold f = 1.025 (f0, dv0, dv1 [m/s], h [s]): melting, re-solidifying
@@ -125,22 +135,16 @@ def test_a_step_across_the_melt_has_its_sensitivities_at_the_fmus_tolerance(f0, 
     """Across the melt threshold the elastic modulus and the rate's slope have a kink; the tangent
     follows the sub-step that crosses it in two parts that meet there (StepTangent.substep). At the
     FMUs' kinetics tolerance (1e-5), where one sub-step spans the crossing, the mean force's row
-    is within 2 % of its largest entry of central differences of advance at 1e-13 (each part at
-    the sub-step's middle slopes put the crossing's whole sub-step on one side: 30-80 % off)."""
+    and f's row are within 2 % of their largest entries of central differences of advance at
+    1e-13 (with the sub-step's middle slopes, the whole crossing sub-step was taken on one side:
+    30-80 % off)."""
     law = BoundaryLaw(m=0.05, gamma=-2.0 / 3.0, S=3e-9)
     n, T = -1e6, 290.0
     f1, (f_row, F_row) = law.step_sensitivities(f0, dv1, n, T, h, 1e-5, 1e-5, dv_start=dv0)
     assert (f0 - 1.025) * (f1 - 1.025) < 0.0  # (the step does cross)
-    base, tight = [f0, dv0, dv1], 1e-13
-    for j in range(3):
-        step = 1e-5 * max(abs(base[j]), 1e-3 if j == 0 else 1e-6)
-        up, down = list(base), list(base)
-        up[j] += step
-        down[j] -= step
-        a = law.advance(up[0], up[2], n, T, h, tight, tight, dv_start=up[1])
-        b = law.advance(down[0], down[2], n, T, h, tight, tight, dv_start=down[1])
-        assert F_row[j] == pytest.approx((a[1] - b[1]) / (2.0 * step), abs=2e-2 * max(map(abs, F_row)))
-        assert f_row[j] == pytest.approx((a[0] - b[0]) / (2.0 * step), abs=2e-2 * max(map(abs, f_row)))
+    for got, expected in zip((f_row, F_row), differenced(law, (f0, dv0, dv1), n, T, h, 1e-13, 1e-5)):
+        for j in range(3):
+            assert got[j] == pytest.approx(expected[j], abs=2e-2 * max(map(abs, got)))
 
 
 def test_a_lubricant_that_cannot_melt_has_no_step_sensitivities():
