@@ -62,7 +62,7 @@ step's middle, each slip step charged from its own path (coupling/path_error.py)
 (13:55 UTC); the step's own map 0.74-2.0, ``--extra``'s drifting rig 0.67-0.80 and cold film
 0.52-1.16 (0.27, 0.19-0.33 before; its kinetics at 1e-6, 2026-11-28 01:26 UTC; at 1e-5 the cold
 film read 0.25-0.48). That difference was the sub-steps across the melt threshold, whose mean
-force's dv entries the tangent had 5-50 % off (median) wherever one sub-step spanned the kink;
+force's dv entries the tangent had 5-48 % off (median) wherever one sub-step spanned the kink;
 followed in two parts that meet there, 0.3 % at 1e-5, and the map's pass runs at the FMUs' own
 tolerance (``benchmarks/bench_map_sensitivity.py``; docs/coupling-record.md, session 19).
 """

@@ -91,7 +91,8 @@ def lubricant_step(law, start, end, h: float, velocity_per_impulse: float) -> tu
     step from start's f and dv to end's dv, n and T their means), its kinetics at the FMUs' own
     tolerance (``KINETICS_TOL``): the sub-steps across the melt threshold's kink followed in two
     parts (physics/laws/tangent.py), the map's sensitivities are within 0.3 % (median) of central
-    differences there, as at 1e-6 (``benchmarks/bench_map_sensitivity.py``, docs/coupling-record.md);
+    differences there at 1e-5, 0.2 % at 1e-6 (``benchmarks/bench_map_sensitivity.py``,
+    docs/coupling-record.md);
     None where the law has none (its melting off, a slope not finite) or the block's mass is
     not yet known."""
     if velocity_per_impulse <= 0.0 or law is None or not law.gives_step_map:

@@ -44,8 +44,8 @@ class StepTangent:
         # term), floored there: the force's modulus and the rate's slope jump. A sub-step across
         # one is followed in two parts that meet there, each with its own side's slopes.
         kinks = []
-        if lub.mu_shear_bar > 0.0 and (self.elastic or law.effects.pressure):
-            kinks.append(lub.mu_shear / lub.mu_shear_bar)
+        if law.melt_threshold() is not None and (self.elastic or law.effects.pressure):
+            kinks.append(law.melt_threshold())
         if lub.lam_bar > 0.0 and law.effects.pressure:
             kinks.append(lub.lam / lub.lam_bar)
         self.kinks = tuple(sorted(kinks))
