@@ -11,9 +11,8 @@ each kinetics tolerance of --tols with central differences of ``BoundaryLaw.adva
 1e-12, the inputs moved by 1e-5 of themselves (at 1e-11 and 1e-7 of the input, sub-steps that
 change with the input made the differences noisy on microsecond steps), its ``MAX_SUBSTEPS``
 raised (at this tolerance a millisecond step reached half of it and held dv from there, another
-map). Steps that cross the
-melt threshold (the kink of the elastic modulus and of the rate's slope) and steps that do not
-are sampled apart, all crossing steps up to --samples. Prints per group the median, 90th
+map). Steps that cross the melt threshold (the kink of the elastic modulus and of the rate's
+slope) and steps that do not are sampled apart, all crossing steps up to --samples. Prints per group the median, 90th
 percentile and largest error of each row: f's row scaled by the inputs' sizes (f0 ~ 1, dv ~ the
 step's |dv|), and the mean force's dv entries against their larger one. --variant patches one of
 bench_variants.py's variants in for the differentiated map (e.g. map-tangent-ends).
