@@ -52,6 +52,8 @@ Variants (each patches the shipped code for its runs only, and puts it back):
     path error in x, v and f; else x's local error, and v's with the impulse miss) combined as a
     weighted RMS, each against error_weight x tol x its scale (issue 36's item 2), the limits
     and the force and state terms still maxima (``rms_error_ratio``);
+  * ``force-order``: the order handed to the step-size rule one below the step's kind's where a
+    friction with state's force term decided the step (that term grows as h held, h^2 ramped);
   * ``group.name=V``: one tuning value of coupling/settings.py set to V, named as
     ``bench_settings.py`` names them (``coupling.root_tol_fraction=1e-2``);
   * ``a+b``: both (``map-tol=1e-5+map-tangent-ends``).
@@ -272,6 +274,33 @@ def rms_error_ratio(self, point, new, local, h):
     return error
 
 
+def force_order_patches() -> list:
+    """The order handed to the step-size rule is the deciding term's own power of h less one:
+    where a friction with state's force term decides a slip step (its held form half the
+    force's change over the step, ~h; its ramped form the curvature's h^2 / 8, ~h^2), one
+    below the step's kind's (held 1, ramped 2), which the rule otherwise takes."""
+    from tribofmu.coupling import controlled, embedded
+
+    coupling, owner = embedded.EmbeddedCoupling, controlled.ErrorControlledCoupling
+    shipped_ratio, shipped_accepted = coupling.error_ratio, owner._accepted
+
+    def error_ratio(self, point, new, local, h):
+        error = shipped_ratio(self, point, new, local, h)
+        self._variant_force_decided = False
+        if not local.stuck and (new.f != 0.0 or point.f != 0.0) and new.mode.slipping:
+            F_scale = max(self.magnitudes.F, abs(new.F), abs(point.F)) or 1.0
+            force = abs(local.F) / (self.tol * F_scale + self.force_term_floor(point, new, h))
+            self._variant_force_decided = force == error
+        return error
+
+    def accepted(self, system, start, h_ns, error, order, min_ns, steps):
+        if getattr(self, "_variant_force_decided", False) and order in (1, 2):
+            order -= 1
+        return shipped_accepted(self, system, start, h_ns, error, order, min_ns, steps)
+
+    return [(coupling, "error_ratio", error_ratio), (owner, "_accepted", accepted)]
+
+
 def variant_patches(name: str) -> list:
     """(owner, attribute, value) for the variant's runs; "a+b": both."""
     if "+" in name:
@@ -304,6 +333,8 @@ def variant_patches(name: str) -> list:
         return [(variational, "KINETICS_TOL", tol)]
     if name == "rms-norm":
         return [(embedded.EmbeddedCoupling, "error_ratio", rms_error_ratio)]
+    if name == "force-order":
+        return force_order_patches()
     if name == "no-trend":
         from tribofmu.coupling import controlled
         return [(controlled.ErrorControlledCoupling, "trend", lambda self, h_ns, order: None)]
