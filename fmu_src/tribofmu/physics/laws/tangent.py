@@ -43,9 +43,9 @@ class StepTangent:
         # The f where a modulus reaches 0 (eqs. 19, 21: mu_eff, and lam_eff in the pressure
         # term), floored there: the force's modulus and the rate's slope jump. A sub-step across
         # one is followed in two parts that meet there, each with its own side's slopes.
-        kinks = []
-        if law.melt_threshold() is not None and (self.elastic or law.effects.pressure):
-            kinks.append(law.melt_threshold())
+        kinks, melt = [], law.melt_threshold()
+        if melt is not None and (self.elastic or law.effects.pressure):
+            kinks.append(melt)
         if lub.lam_bar > 0.0 and law.effects.pressure:
             kinks.append(lub.lam / lub.lam_bar)
         self.kinks = tuple(sorted(kinks))
