@@ -198,7 +198,6 @@ def test_dry_w30_sticks_four_times_per_period_symmetrically(fig2):
 def test_dry_w130_stuck_almost_always_and_asymmetric():
     sc = scenario("fig4_dry_w130")
     r = reference_solution(sc)
-    T = sc.drive.period
     w0, w1 = sc.window
     stuck = sum(max(0.0, min(b, w1) - max(a, w0)) for a, b in r.stats["stick_intervals"])
     assert 0.85 < stuck / (w1 - w0) < 1  # still one short slip per period at 5T..6.5T
@@ -265,6 +264,26 @@ def test_reference_converges_as_rtol_tightens(name, overrides):
             for rtol in (1e-8, 1e-10)}
     assert diff[1e-10] < 1e-6
     assert diff[1e-10] < 0.1 * diff[1e-8]
+
+
+# A dilatant fluid whose force hardly reaches the springs: the block moves at max|v| 1.4e-7 m/s
+# where the drive does at 1.1e-2 (a point no scene uses)
+STILL_BLOCK = {"drive.omega": 5.559, "block.M": 0.3524, "block.K": 8194.0, "friction.gamma": 1.6,
+               "friction.m": 44.9}
+
+
+def test_reference_of_a_block_that_hardly_moves_converges_on_its_own_scale():
+    """The absolute tolerances follow the block's own motion, not the drive's: with the drive's
+    (rtol times A omega), rtol 1e-10 was 3.5e-4 of max|v| off rtol 1e-12 on the window."""
+    sc = scenario("fig5_dilatant", **STILL_BLOCK)
+    runs = {rtol: reference_solution(sc, rtol=rtol) for rtol in (1e-10, 1e-12)}
+    assert all(r.ok for r in runs.values())
+    best = runs[1e-12]
+    assert nrms(runs[1e-10].time, runs[1e-10].v, best.time, best.v, sc.window) < 1e-6
+    win = (best.time >= sc.window[0]) & (best.time <= sc.window[1])
+    v_max = np.max(np.abs(best.v[win]))
+    assert v_max < 1e-4 * sc.drive.A * sc.drive.omega  # (the point is what the test says it is)
+    assert best.stats["atol"][1] == pytest.approx(1e-12 * v_max)
 
 
 NEAR_DRY_FLUID = {"drive.omega": 35.0, "block.M": 0.9, "block.K": 3000.0, "friction.m": 15.0,
