@@ -139,8 +139,9 @@ def reference_solution(scenario: Scenario, t_eval: np.ndarray | None = None, rto
             # Where the block moves far less than the drive, rtol times the drive's scale is a
             # loose tolerance on it: a dilatant fluid whose force hardly reaches the springs
             # (gamma = 1.6, m = 44.9, omega = 5.56, K = 8194: max|v| 1.4e-7 m/s against A omega
-            # 1.1e-2) was 3.5e-4 off at rtol 1e-10 (1e-12 agreed with a plain DOP853 at 1e-13
-            # to 3.5e-6). There the solve is repeated with the motion's own scales.
+            # 1.1e-2; bench_trust.py --random 2612:12) was 3.5e-4 of max|v| off rtol 1e-12 at
+            # rtol 1e-10 (tests/unit/test_reference.py). There the solve is repeated with the
+            # motion's own scales.
             own = _motion_scale(out, t_eval, scenario.window)
             if np.any(own * MOTION_SCALE_SLACK < atol_arr[:2] / rtol):
                 atol_arr = atol_arr.copy()
