@@ -65,7 +65,7 @@ spread) and the true error against the reference at that point (v, f). The estim
 exact less computed (coupling/path_error.py); they are printed as computed less exact, the
 true error's sign.
 
-``--lengths``: Fig. 6's one run at ``--tols``' first value: its accepted steps by length, the
+``--lengths``: one run of ``--scene`` (Fig. 6 unless given, with ``--set``) at ``--tols``' first value: its accepted steps by length, the
 share of the drive's period they cover, and which term of the step's error was the largest at
 each (accepted and rejected); then where its steps shorter than 1e-4 s lie against the
 lubricant's melt threshold (their runs in a row, how many hold a crossing, their time to it).
@@ -392,15 +392,16 @@ def variants(names: list[str], scene: str, overrides: dict, tols: list[float]) -
                     print(f"{'':18s} cannot vouch: {why}", flush=True)
 
 
-def lengths(tol: float) -> None:
-    """Fig. 6's run at tol: its steps by length and each step's largest error term."""
+def lengths(tol: float, scene: str = "fig6_boundary", overrides: dict | None = None) -> None:
+    """One run of scene (with overrides) at tol: its steps by length and each step's largest
+    error term."""
     import numpy as np
 
     from tribofmu import api
     from tribofmu.coupling import embedded
     from tribofmu.fmu_cache import find_fmus
 
-    scenario = api.load("fig6_boundary", {})
+    scenario = api.load(scene, overrides or {})
     largest = []
     shipped = embedded.EmbeddedCoupling.error_ratio
 
@@ -427,7 +428,7 @@ def lengths(tol: float) -> None:
     t = np.array([p.t_ns for p in result.points]) / 1e9
     h = np.diff(t)
     period = 2.0 * math.pi / scenario.drive.omega
-    print(f"Fig. 6, one run at per-step {tol:g}: {len(h)} steps")
+    print(f"{scene} {overrides or ''}, one run at per-step {tol:g}: {len(h)} steps")
     for low, high in ((0.0, 1e-7), (1e-7, 1e-6), (1e-6, 1e-5), (1e-5, 1e-4), (1e-4, 1e-3), (1e-3, 1.0)):
         inside = (h >= low) & (h < high)
         kept = collections.Counter(term for length, term, ok in largest if ok and low <= length < high)
@@ -567,17 +568,17 @@ def main(argv=None) -> int:
     print(f"# bench_variants {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
           f"load {os.getloadavg()[0]:.1f}", flush=True)
     tols = [float(value) for value in args.tols.split(",")]
+    overrides = {key: float(value) for key, value in (item.split("=", 1) for item in args.set)}
     if args.where:
         where(args.repeat)
     if args.variant:
-        overrides = {key: float(value) for key, value in (item.split("=", 1) for item in args.set)}
         if args.steps:
             start, end = (float(value) for value in args.steps.split(":"))
             steps(args.variant.split(","), args.scene, overrides, tols[0], start, end)
         else:
             variants(args.variant.split(","), args.scene, overrides, tols)
     if args.lengths:
-        lengths(tols[0])
+        lengths(tols[0], args.scene, overrides)
     print(f"# load at the end {os.getloadavg()[0]:.1f}")
     return 0
 
