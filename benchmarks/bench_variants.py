@@ -65,10 +65,11 @@ spread) and the true error against the reference at that point (v, f). The estim
 exact less computed (coupling/path_error.py); they are printed as computed less exact, the
 true error's sign.
 
-``--lengths``: one run of ``--scene`` (Fig. 6 unless given, with ``--set``) at ``--tols``' first value: its accepted steps by length, the
-share of the drive's period they cover, and which term of the step's error was the largest at
-each (accepted and rejected); then where its steps shorter than 1e-4 s lie against the
-lubricant's melt threshold (their runs in a row, how many hold a crossing, their time to it).
+``--lengths``: one run of ``--scene`` (Fig. 6 unless given; ``--set`` its overrides) at
+``--tols``' first value: its accepted steps by length, the share of the drive's period they
+cover, and which term of the step's error was the largest at each (accepted and rejected); then
+where its steps shorter than 1e-4 s lie against the lubricant's melt threshold (their runs in a
+row, how many hold a crossing, their time to it).
 
 Not collected by pytest (no test_ prefix). Timings are of a shared machine: the load is printed.
 """

@@ -283,7 +283,8 @@ def test_reference_of_a_block_that_hardly_moves_converges_on_its_own_scale():
     win = (best.time >= sc.window[0]) & (best.time <= sc.window[1])
     v_max = np.max(np.abs(best.v[win]))
     assert v_max < 1e-4 * sc.drive.A * sc.drive.omega  # (the point is what the test says it is)
-    assert best.stats["atol"][1] == pytest.approx(1e-12 * v_max)
+    # (the motion's own scale, from the first of its two solves: not the drive's, 1e5 times more)
+    assert best.stats["atol"][1] == pytest.approx(1e-12 * v_max, rel=1e-3)
 
 
 NEAR_DRY_FLUID = {"drive.omega": 35.0, "block.M": 0.9, "block.K": 3000.0, "friction.m": 15.0,

@@ -57,7 +57,8 @@ REFERENCE_RTOLS = (1e-10, 1e-9, 1e-8)
 # scales that the absolute tolerances take before the solve is repeated with the motion's own
 # (reference_solution): within it the reference stays within ten times its rtol of the motion,
 # still far below any tolerance a run is judged at, and a block that moves about as much as the
-# drive (every shipped scene) is solved once.
+# drive is solved once (every shipped scene but fig5_dilatant, whose block swings about 35 times
+# less far than the drive: solved twice).
 MOTION_SCALE_SLACK = 10.0
 
 
