@@ -174,6 +174,7 @@ class P:
     aX: float = 0.0
     mode: Contact = Contact.FORWARD
     inside_error: float = 0.0  # m/s, at the step's middle beyond the line of the carried errors
+    a_lag: float = 0.0  # m/s^2, how far the motion's slope lies beyond a
 
 
 def random_points(seed=3, n=60, span=1.0):

@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -71,9 +70,9 @@ def test_max_wall_is_zero_or_at_least_a_second(fig2, max_wall, ok):
 
 def test_sampling_points_far_beyond_int64_nanoseconds_does_not_overflow():
     from tribofmu.coupling.interpolation import sample
-    from tribofmu.coupling.system import Contact
+    from tribofmu.coupling.system import Contact, Point
     point = dict(X=0.0, V=0.0, aX=0.0, x=0.0, v=0.0, a=0.0, F=0.0, f=0.0, mode=Contact.FORWARD, T=290.0, n=-20.0, Q=0.0)
-    points = [SimpleNamespace(t_ns=0, **point), SimpleNamespace(t_ns=10**30, **point)]
+    points = [Point(t_ns=0, **point), Point(t_ns=10**30, **point)]
     out = sample(points, np.array([0.0, 1e20]))
     assert np.all(out["x"] == 0.0)
 

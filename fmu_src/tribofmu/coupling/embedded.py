@@ -44,7 +44,7 @@ from .estimate import chord_damping
 from .interpolation import NS
 from .limits import StepLimits
 from .path_error import passed_phase_change, path_local_error
-from .local_errors import (force_curvature, ramp_step, slip_x_error, stick_onset_x_error,
+from .local_errors import (force_curvature, held_slope_lag, ramp_step, slip_x_error, stick_onset_x_error,
                            unstable_loop_factor)
 from .settings import ERROR_SETTINGS, RESOLUTION
 from .system import Contact, CoupledSystem, Point
@@ -416,9 +416,8 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
 
     def _carry_error(self, point: Point, new: Point, local: LocalError, h: float) -> None:
         """Carry the global error estimate over the accepted step (coupling/estimate.py)."""
-        # (a chord over less than a point's dv resolution is that, not the slope; a fluid
-        # creeping at |dv| ~ 1e-9 m/s read chords of either sign: gamma = -0.9, 0.56
-        # estimated, 1.3e-3 true)
+        # (a chord over less than a point's dv resolution is that, not the slope; a fluid creeping
+        # at |dv| ~ 1e-9 m/s read chords of either sign: gamma = -0.9, 0.56 estimated, 1.3e-3 true)
         damping = chord_damping(point, new, self.velocity_per_impulse, self.dv_resolution())
         if damping is None:  # (the loop gain: the slope's size, of the block's share of the end force)
             damping = self.loop_gain / self.loop_gain_step * (2.0 if new.ramped else 1.0)
@@ -427,6 +426,7 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         stuck = new.mode.stuck  # (a friction with state: its error carried by the law's slopes, estimate.py)
         slopes = self.law_slopes(point, new)
         gain = self.expected_gain(h)
+        new.a_lag = held_slope_lag(point, new, h, self.history.h, gain, self.velocity_per_impulse)
         loop = unstable_loop_factor(damping, h, new.ramped, gain)  # (1 but on a Stribeck drop)
         # a slip step of a friction with state: its defect along its own path (coupling/path_error.py)
         path = local.path

@@ -41,7 +41,8 @@ def hermite_miss(w2: float, a_start: float, a_end: float, h: float, v_allowed: f
 
 def velocity_slopes(start, end) -> tuple[float, float]:
     """dv/dt [m/s^2] at both ends of the step start -> end, as results are interpolated:
-    where v follows V over the step, the drive's acceleration; else the block's own.
+    where v follows V over the step, the drive's acceleration; else the block's own, plus how
+    far that lags the motion's (``a_lag``: a held step's in a stiff loop, local_errors.py).
 
     v follows V over a step stuck at both ends, and over one that slips into stick with its
     stick onset at its start. The coupling lands a step on its stick onset, so a step that
@@ -51,7 +52,7 @@ def velocity_slopes(start, end) -> tuple[float, float]:
     of 0.0056 T (``bench_trust.py --random 2615:12``, tol 1e-4: 1.1e-3 off, said ok)."""
     if end.mode.stuck and (not start.mode.slipping or 1.0 - end.event > end.event):
         return start.aX, end.aX
-    return start.a, end.a
+    return start.a + start.a_lag, end.a + end.a_lag
 
 
 def hermite_basis(s):

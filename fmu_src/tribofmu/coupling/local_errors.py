@@ -10,7 +10,8 @@ derivation. Signs: true less computed.
   loop (:func:`stiff_x_error`), and of one that passed over a reversal (:func:`reversal_x_error`;
   both in :func:`slip_x_error`);
 - how far a held step's dense output may dip past dv = 0 by its end slope alone
-  (:func:`dense_output_miss`).
+  (:func:`dense_output_miss`), and how far its end's acceleration lags the motion's
+  (:func:`held_slope_lag`).
 """
 from __future__ import annotations
 
@@ -182,3 +183,34 @@ def dense_output_miss(start, end, h: float, gain: float, velocity_per_impulse: f
     if end.ramped or velocity_per_impulse <= 0.0:
         return 0.0
     return 4.0 / 27.0 * h * abs(end.F - start.F) * velocity_per_impulse * gain / (1.0 + gain)
+
+
+def held_slope_lag(start, end, h: float, h_prev: float, gain: float, velocity_per_impulse: float) -> float:
+    """How far [m/s^2] the motion's acceleration at the end of a held slip step (from point start
+    to point end, slipping the same way at both) lies beyond the block's own, end.a: what the
+    results' dense output adds to the end's slope (``Point.a_lag``, interpolation.py).
+
+    A held step's end force F1 is not the true end force F(t1): with the friction's slope s and
+    the block's velocity per impulse b (gain g = s b h), the end velocity's error b h (F1 - mean)
+    moves the force by -g (F1 - mean), so F1 = w mean + (1 - w) F(t1), w = g / (1 + g): a stiff
+    loop ends its step at the step's mean force, F's at the middle, and F(t1) - F1 = w F' h / 2.
+    F' comes from F1 - F0 = F' h / 2 + (F(t0) - F0): the start's own lag, w F' h_prev / 2 where
+    the step before (of h_prev [s], h where not known) was held in the same slip (its gain taken
+    as this one's per unit length), else 0 (a ramped step's end force is the true one, as a stuck start's is: a
+    breakaway is landed on). (The block's own end acceleration as the slope, a
+    shear-thinning fluid creeping at |dv| ~ 4e-7 m/s (gamma = -0.863, omega = 16.37, tol 1e-4:
+    bench_trust.py --random 2617:12, r2617.5) had its samples 5e-4 of max |v| off between
+    points 1e-7 off, and read 0.17x its true error. The start's lag taken as its recorded
+    a_lag instead feeds that estimate's own error back at -w / (2 - w), -1 in a stiff loop: the
+    lags rang from step to step.) 0 for a ramped step, or one that does not end in the slip it
+    began in or broke away into."""
+    b = velocity_per_impulse
+    same_slip = start.mode == end.mode
+    if end.ramped or b <= 0.0 or not end.mode.slipping or not (same_slip or start.mode.stuck):
+        return 0.0
+    w = gain / (1.0 + gain)
+    if same_slip and not start.ramped:
+        h_prev = h_prev if h_prev > 0.0 else h  # (0: the step before broke away, its length not kept)
+        gain_prev = gain * h_prev / h
+        return w * b * (end.F - start.F) * h / (h + gain_prev / (1.0 + gain_prev) * h_prev)
+    return w * b * (end.F - start.F)

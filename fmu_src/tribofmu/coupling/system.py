@@ -99,6 +99,9 @@ class Point:
     # m/s, its estimate of the error in v at the middle of the step to here beyond the line
     # between the carried errors at its ends (0: none; coupling/path_error.py)
     inside_error: float = 0.0
+    # m/s^2, how far the motion's acceleration here lies beyond a, the block's own: a held slip
+    # step in a stiff loop ends at its mean force (coupling/local_errors.py held_slope_lag)
+    a_lag: float = 0.0
     event: float = 1.0  # fraction of the step at which the contact broke away or stuck (1: none)
     ramped: bool = False  # the step ramped the force while slipping (else held or stuck)
     T: float = math.nan  # K, the friction's temperature input at this point (Thermal's output)
