@@ -91,23 +91,20 @@ def test_a_creeping_shear_thinning_fluid_is_not_rejected_for_its_interpolants_di
     assert coupling.counters.rejected <= 0.2 * coupling.counters.steps
 
 
-@pytest.mark.parametrize("start_ramped", [False, True])
-def test_a_stiff_held_steps_end_slope_is_the_force_at_its_end_not_its_mean(start_ramped):
-    """Under a force rising at F' [N/s], a stiff loop's held step ends at its mean force, F' h / 2
-    short of the true end force; the start is that short too after a held step (of h_prev), on
-    it after a ramped one: either way the lag recovers the true end force."""
+@pytest.mark.parametrize("gain, share", [(1e9, 1.0), (1.0, 0.5), (0.0, 0.0)])
+def test_a_held_steps_end_slope_moves_to_the_drives_less_the_creep_as_its_loop_stiffens(gain, share):
+    """A held slip step's end slope: the block's own (an open loop's end force is the law's at its
+    end), moved by g / (1 + g) towards the drive's acceleration less the creep's rate; nothing for
+    a ramped step."""
     from tribofmu.coupling.local_errors import held_slope_lag
     from tribofmu.coupling.system import Contact, Point
 
-    rate, h, h_prev, b, gain = 40.0, 2e-3, 3e-3, 1.0 / 0.8, 1e9  # N/s, s, s, m/s/(N s), [1]
-    start_F = rate * (-h_prev / 2.0 if not start_ramped else 0.0)  # (t0 = 0)
-    start = Point(t_ns=0, F=start_F, mode=Contact.FORWARD, ramped=start_ramped)
-    end = Point(t_ns=round(h * 1e9), F=rate * h / 2.0, mode=Contact.FORWARD)
-    lag = held_slope_lag(start, end, h, h_prev, gain, b)
-    assert lag == pytest.approx(b * rate * h / 2.0, rel=1e-6)
-    assert held_slope_lag(start, end, h, h_prev, 0.0, b) == 0.0  # (an open loop's end force is its own)
-    ramped = Point(t_ns=end.t_ns, F=end.F, mode=Contact.FORWARD, ramped=True)
-    assert held_slope_lag(start, ramped, h, h_prev, gain, b) == 0.0
+    h = 2e-3
+    start = Point(t_ns=0, V=0.010, v=0.010 - 3e-7, mode=Contact.FORWARD)
+    end = Point(t_ns=round(h * 1e9), V=0.011, v=0.011 - 4e-7, aX=0.53, a=0.50, mode=Contact.FORWARD)
+    assert held_slope_lag(start, end, h, gain) == pytest.approx(share * (0.53 - 1e-7 / h - 0.50), rel=1e-9)
+    ramped = Point(**{**vars(end), "ramped": True})
+    assert held_slope_lag(start, ramped, h, gain) == 0.0
 
 
 def test_a_creeping_shear_thinning_fluids_results_between_points_are_as_good_as_at_them():

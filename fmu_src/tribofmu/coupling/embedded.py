@@ -426,7 +426,7 @@ class EmbeddedCoupling(StepLimits, ErrorControlledCoupling):
         stuck = new.mode.stuck  # (a friction with state: its error carried by the law's slopes, estimate.py)
         slopes = self.law_slopes(point, new)
         gain = self.expected_gain(h)
-        new.a_lag = held_slope_lag(point, new, h, self.history.h, gain, self.velocity_per_impulse)
+        new.a_lag = held_slope_lag(point, new, h, gain)  # (the results' slope: local_errors.py)
         loop = unstable_loop_factor(damping, h, new.ramped, gain)  # (1 but on a Stribeck drop)
         # a slip step of a friction with state: its defect along its own path (coupling/path_error.py)
         path = local.path

@@ -185,32 +185,28 @@ def dense_output_miss(start, end, h: float, gain: float, velocity_per_impulse: f
     return 4.0 / 27.0 * h * abs(end.F - start.F) * velocity_per_impulse * gain / (1.0 + gain)
 
 
-def held_slope_lag(start, end, h: float, h_prev: float, gain: float, velocity_per_impulse: float) -> float:
-    """How far [m/s^2] the motion's acceleration at the end of a held slip step (from point start
-    to point end, slipping the same way at both) lies beyond the block's own, end.a: what the
-    results' dense output adds to the end's slope (``Point.a_lag``, interpolation.py).
+def held_slope_lag(start, end, h: float, gain: float) -> float:
+    """How far [m/s^2] the motion's acceleration at the end of a held slip step of h [s] (from
+    point start to point end, slipping the same way at both or breaking away at its start) lies
+    beyond the block's own, end.a: what the results' dense output adds to the end's slope
+    (``Point.a_lag``, interpolation.py).
 
     A held step's end force F1 is not the true end force F(t1): with the friction's slope s and
     the block's velocity per impulse b (gain g = s b h), the end velocity's error b h (F1 - mean)
-    moves the force by -g (F1 - mean), so F1 = w mean + (1 - w) F(t1), w = g / (1 + g): a stiff
-    loop ends its step at the step's mean force, F's at the middle, and F(t1) - F1 = w F' h / 2.
-    F' comes from F1 - F0 = F' h / 2 + (F(t0) - F0): the start's own lag, w F' h_prev / 2 where
-    the step before (of h_prev [s], h where not known) was held in the same slip (its gain taken
-    as this one's per unit length), else 0 (a ramped step's end force is the true one, as a stuck start's is: a
-    breakaway is landed on). (The block's own end acceleration as the slope, a
-    shear-thinning fluid creeping at |dv| ~ 4e-7 m/s (gamma = -0.863, omega = 16.37, tol 1e-4:
-    bench_trust.py --random 2617:12, r2617.5) had its samples 5e-4 of max |v| off between
-    points 1e-7 off, and read 0.17x its true error. The start's lag taken as its recorded
-    a_lag instead feeds that estimate's own error back at -w / (2 - w), -1 in a stiff loop: the
-    lags rang from step to step.) 0 for a ramped step, or one that does not end in the slip it
-    began in or broke away into."""
-    b = velocity_per_impulse
-    same_slip = start.mode == end.mode
-    if end.ramped or b <= 0.0 or not end.mode.slipping or not (same_slip or start.mode.stuck):
+    moves the force by -g (F1 - mean), so F1 = w mean + (1 - w) F(t1), w = g / (1 + g): an open
+    loop (w = 0) ends at the true force, a stiff one (w = 1) at the step's mean, and the block's
+    end acceleration a lags the motion's by w b (F(t1) - mean). Where the loop is stiff the block
+    follows the drive, its relative velocity creeping: the motion's acceleration is the drive's
+    less the creep's rate, aX - (dv1 - dv0) / h, off by dv'' h / 2 only (dv tiny and smooth).
+    The slope is a moved that way by w, so that it is exact at both ends of the range of w
+    (between them off by at most w (1 - w) b |F(t1) - mean|, half the unmoved slope's miss).
+    (With a alone, a shear-thinning fluid creeping at |dv| ~ 4e-7 m/s (gamma = -0.863,
+    omega = 16.37, tol 1e-4: bench_trust.py --random 2617:12, r2617.5) had its samples 5e-4 of
+    max |v| off between points 1e-7 off, and read 0.17x its true error; its held ends' slopes
+    were 0.04 m/s^2 off (RMS), with the lag of a force linear in time 1.6e-3, with this 3.9e-6.)
+    0 for a ramped step, whose end force is the true one, or one that does not end in the slip
+    it began in or broke away into."""
+    if end.ramped or h <= 0.0 or not end.mode.slipping or not (start.mode == end.mode or start.mode.stuck):
         return 0.0
-    w = gain / (1.0 + gain)
-    if same_slip and not start.ramped:
-        h_prev = h_prev if h_prev > 0.0 else h  # (0: the step before broke away, its length not kept)
-        gain_prev = gain * h_prev / h
-        return w * b * (end.F - start.F) * h / (h + gain_prev / (1.0 + gain_prev) * h_prev)
-    return w * b * (end.F - start.F)
+    creep_rate = ((end.V - end.v) - (start.V - start.v)) / h
+    return gain / (1.0 + gain) * (end.aX - creep_rate - end.a)
