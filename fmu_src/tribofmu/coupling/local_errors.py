@@ -199,7 +199,7 @@ def held_slope_lag(start, end, h: float, gain: float) -> float:
     follows the drive, its relative velocity creeping: the motion's acceleration is the drive's
     less the creep's rate, aX - (dv1 - dv0) / h, off by dv'' h / 2 only (dv tiny and smooth).
     The slope is a moved that way by w, so that it is exact at both ends of the range of w
-    (between them off by at most w (1 - w) b |F(t1) - mean|, half the unmoved slope's miss).
+    (between them off by w (1 - w) b |F(t1) - mean|, 1 - w of the unmoved slope's miss).
     (With a alone, a shear-thinning fluid creeping at |dv| ~ 4e-7 m/s (gamma = -0.863,
     omega = 16.37, tol 1e-4: bench_trust.py --random 2617:12, r2617.5) had its samples 5e-4 of
     max |v| off between points 1e-7 off, and read 0.17x its true error; its held ends' slopes
