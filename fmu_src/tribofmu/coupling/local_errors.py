@@ -9,9 +9,8 @@ derivation. Signs: true less computed.
 - the error in x of a step into stick (:func:`stick_onset_x_error`), of a slip step in a stiff
   loop (:func:`stiff_x_error`), and of one that passed over a reversal (:func:`reversal_x_error`;
   both in :func:`slip_x_error`);
-- how far a held step's dense output may dip past dv = 0 by its end slope alone
-  (:func:`dense_output_miss`), and how far its end's acceleration lags the motion's
-  (:func:`held_slope_lag`).
+- how far a held step's end acceleration lags the motion's (:func:`held_slope_lag`), the slope
+  of the results' dense output and of the grazing check's curve.
 """
 from __future__ import annotations
 
@@ -168,21 +167,6 @@ def slip_x_error(start, end, v: float, h: float, gain: float, velocity_per_impul
     x = stiff_x_error(v, h, gain, ramped)
     reversal = reversal_x_error(start, end, h, gain, velocity_per_impulse, course)
     return reversal if abs(reversal) > abs(x) else x
-
-
-def dense_output_miss(start, end, h: float, gain: float, velocity_per_impulse: float) -> float:
-    """How far [m/s] the cubic Hermite interpolant of dv over a held slip step of h [s] from
-    point start to point end can stray through its end slope alone: a stiff loop (gain g) pins
-    the end's velocity and holds the step's mean force, so the block's end acceleration misses
-    the true one by about the force's change over the step, b |F1 - F0| (b = velocity_per_impulse;
-    the true end force lies as far beyond the mean as the start force below it), weighed by
-    g / (1 + g); an end slope off by m moves the interpolant by up to 4/27 m h (the Hermite
-    basis h11's extreme). A dip that deep is the interpolant's, not a stick passed over (a
-    shear-thinning fluid at gamma = -0.9 creeping at |dv| ~ 1e-8 m/s: 227 of its 396 rejected
-    steps at per-step tol 1.3e-4). A ramped step's end force is the true one: 0."""
-    if end.ramped or velocity_per_impulse <= 0.0:
-        return 0.0
-    return 4.0 / 27.0 * h * abs(end.F - start.F) * velocity_per_impulse * gain / (1.0 + gain)
 
 
 def held_slope_lag(start, end, h: float, gain: float) -> float:
