@@ -283,8 +283,9 @@ def grazing_crossing(start: Point, end: Point, h: float, margin: float, end_lag:
     """Slipping one way at both ends of a step of h [s], the fraction of the step at which the
     interpolated relative velocity (the results' dense output, end_lag [m/s^2] the end's
     ``a_lag`` before the step is kept) first crosses 0 by margin [m/s] the other way: a stick
-    or a reversal the step would pass over, which the step is to end at (landed on). None where it stays within margin (a dip within the tolerance is not
-    worth a step). Located on the cubic itself, to 1 ns of the step, not sampled."""
+    or a reversal the step would pass over, which the step is to end at (landed on). None where
+    it stays within margin (a dip within the tolerance is not worth a step). Located on the
+    cubic itself, to 1 ns of the step, not sampled."""
     direction = start.mode.direction
     return hermite_first_below(direction * (start.V - start.v), direction * (end.V - end.v),
                                direction * (start.aX - start.a - start.a_lag),
