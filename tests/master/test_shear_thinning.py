@@ -107,30 +107,36 @@ def test_a_held_steps_end_slope_moves_to_the_drives_less_the_creep_as_its_loop_s
     assert held_slope_lag(start, ramped, h, gain) == 0.0
 
 
-def test_a_creeping_shear_thinning_fluids_results_between_points_are_as_good_as_at_them():
-    """gamma = -0.863 creeps at |dv| ~ 4e-7 m/s in held steps, each ending at its mean force: with
-    the block's own end acceleration as the results' slope, the samples between points missed by
-    5e-4 of max |v| where the points were 1e-7 off (2.2e-4 nRMS at per-step tol 1e-4; the call said
-    ok, reading 0.17x its error: bench_trust.py --random 2617:12, r2617.5)."""
+def fluid_scene_run(scene_name, overrides, tol):
+    """A fluid scene run through the in-process adaptive coupling at per-step tol: its points, its
+    window (s, s) and the true nRMS(v) of its samples there (the project's reference, rtol 1e-10)."""
     from tribofmu.coupling.interpolation import sample
     from tribofmu.scene.library import resolve_scene
     from tribofmu.scene.scenario import load_scenario
     from tribofmu.studies.measures import nrms
     from tribofmu.studies.reference import reference_solution
 
-    A, omega, M, K, periods, window = 2e-3, 16.37, 0.8186, 558.6, 6.5, (5.0, 6.5)
-    scales = drive_scales(omega, A)
-    coupling = AdaptiveCoupling(tol=1e-4)
-    out = run(fig2_system(FluidLaw(m=30.34, gamma=-0.863), omega, A, M, K), coupling, periods * scales.period,
-              scales)
-    scene = load_scenario(resolve_scene("fig5_newtonian"), {
-        "friction.gamma": -0.863, "friction.m": 30.34, "drive.omega": omega, "block.M": M, "block.K": K,
-        "time.periods": periods, "time.window": list(window)})
+    scene = load_scenario(resolve_scene(scene_name), overrides)
+    A, omega = scene.drive.A, scene.drive.omega
+    law = FluidLaw(m=scene.friction.m, gamma=scene.friction.gamma)
+    out = run(fig2_system(law, omega, A, scene.block.M, scene.block.K), AdaptiveCoupling(tol=tol),
+              scene.stop_time, drive_scales(omega, A))
     ref = reference_solution(scene)
     inside = (ref.time >= scene.window[0]) & (ref.time <= scene.window[1])
-    v = sample(out.points, ref.time[inside])["v"]
-    assert nrms(ref.time[inside], v, ref.time, ref.v, scene.window) < 1e-4
-    assert any(p.a_lag != 0.0 for p in out.points)  # (the point is what the test says it is)
+    samples = sample(out.points, ref.time[inside])["v"]
+    return out.points, scene.window, nrms(ref.time[inside], samples, ref.time, ref.v, scene.window)
+
+
+def test_a_creeping_shear_thinning_fluids_results_between_points_are_as_good_as_at_them():
+    """gamma = -0.863 creeps at |dv| ~ 4e-7 m/s in held steps, each ending at its mean force: with
+    the block's own end acceleration as the results' slope, the samples between points missed by
+    5e-4 of max |v| where the points were 1e-7 off (2.2e-4 nRMS at per-step tol 1e-4; the call said
+    ok, reading 0.17x its error: bench_trust.py --random 2617:12, r2617.5)."""
+    points, _, true = fluid_scene_run("fig5_newtonian", {
+        "friction.gamma": -0.863, "friction.m": 30.34, "drive.omega": 16.37, "block.M": 0.8186,
+        "block.K": 558.6}, 1e-4)
+    assert true < 1e-4
+    assert any(p.a_lag != 0.0 for p in points)  # (the point is what the test says it is)
 
 
 def test_the_grazing_check_looks_at_the_curve_the_results_deliver():
@@ -139,21 +145,9 @@ def test_the_grazing_check_looks_at_the_curve_the_results_deliver():
     there. Checked on the block's own end slopes with an allowance for their miss, that step was
     kept across the reversal, and the window's estimate read the kink inside it as a fourth
     derivative: 4.6x its true error (its slopes the motion's, its samples 8.9e-5 off)."""
-    from tribofmu.coupling.interpolation import sample
     from tribofmu.coupling.window_error import WindowError
-    from tribofmu.scene.library import resolve_scene
-    from tribofmu.scene.scenario import load_scenario
-    from tribofmu.studies.measures import nrms
-    from tribofmu.studies.reference import reference_solution
 
-    scene = load_scenario(resolve_scene("fig5_pseudoplastic"), {})
-    A, omega = scene.drive.A, scene.drive.omega
-    scales = drive_scales(omega, A)
-    out = run(fig2_system(FluidLaw(m=scene.friction.m, gamma=scene.friction.gamma), omega, A, scene.block.M,
-                          scene.block.K), AdaptiveCoupling(tol=1e-4), scene.stop_time, scales)
-    ref = reference_solution(scene)
-    inside = (ref.time >= scene.window[0]) & (ref.time <= scene.window[1])
-    true = nrms(ref.time[inside], sample(out.points, ref.time[inside])["v"], ref.time, ref.v, scene.window)
-    audit = WindowError(scene.window)
-    audit.add(out.points)
+    points, window, true = fluid_scene_run("fig5_pseudoplastic", {}, 1e-4)
+    audit = WindowError(window)
+    audit.add(points)
     assert 0.5 < audit.nrms() / true < 2.0
